@@ -1,0 +1,137 @@
+"""Dimensionless parameters of the problem and their validation (DESIGN.md section 2).
+
+Units: ``c_s = mu = rho = 1``; time unit ``t0 = D / (|g'(1)| v0)``; length unit ``c_s t0``.
+Every part of the project (analytic roots, finite elements, workflows) takes a :class:`Params`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, replace
+
+import numpy as np
+
+BETA_MAX = 1.0 / math.sqrt(2.0)
+BOUNDARY_CONDITIONS = ("velocity", "stress")
+
+
+class ParameterError(ValueError):
+    """A user-supplied parameter is outside its allowed range (one line, names the parameter)."""
+
+
+def _finite(name: str, value: float) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} = {value!r} is not a number") from None
+    if not math.isfinite(v):
+        raise ParameterError(f"{name} = {value!r} must be a finite number")
+    return v
+
+
+@dataclass(frozen=True)
+class Params:
+    """Dimensionless parameters; defaults are the paper's (f=0.3, gamma=3, beta=0.5, Delta=0.7).
+
+    Attributes:
+        f: Steady-state friction coefficient, ``f >= 0``.
+        gamma: ``mu / (c_s sigma0 d_v f)`` (radiation damping over direct effect), ``> 0``.
+        beta: ``c_s / c_d``, ``0 < beta < 1/sqrt(2)`` (Poisson ratio ``0 <= nu < 1/2``).
+        Delta: Steady-state over direct velocity dependence of friction (any finite real;
+            ``Delta < 0`` is steady-state velocity weakening).
+        H: Strip height in units of ``c_s t0``, ``> 0``; ``math.inf`` means a half-space.
+        bc: Top condition, ``"velocity"`` (``du_x = 0``) or ``"stress"`` (``dsigma_xy = 0``);
+            ``dsigma_yy = 0`` in both cases.
+        alpha_pc: Prakash-Clifton regularisation, ``>= 0`` (0: standard model).
+        alpha_ld: Linker-Dieterich coefficient, ``>= 0`` (0: standard model).
+    """
+
+    f: float = 0.3
+    gamma: float = 3.0
+    beta: float = 0.5
+    Delta: float = 0.7
+    H: float = 0.5
+    bc: str = "velocity"
+    alpha_pc: float = 0.0
+    alpha_ld: float = 0.0
+
+    def __post_init__(self) -> None:
+        f = _finite("f", self.f)
+        if f < 0:
+            raise ParameterError(f"f = {self.f!r} is outside its allowed range f >= 0")
+        gamma = _finite("gamma", self.gamma)
+        if gamma <= 0:
+            raise ParameterError(f"gamma = {self.gamma!r} is outside its allowed range gamma > 0")
+        beta = _finite("beta", self.beta)
+        if not 0.0 < beta < BETA_MAX:
+            raise ParameterError(
+                f"beta = {self.beta!r} is outside its allowed range 0 < beta < 1/sqrt(2)"
+                f" = {BETA_MAX:.6f} (beta = c_s/c_d)"
+            )
+        delta = _finite("Delta", self.Delta)
+        try:
+            h = float(self.H)
+        except (TypeError, ValueError):
+            raise ParameterError(f"H = {self.H!r} is not a number") from None
+        if math.isnan(h) or h <= 0:
+            raise ParameterError(f"H = {self.H!r} is outside its allowed range H > 0")
+        if self.bc not in BOUNDARY_CONDITIONS:
+            raise ParameterError(
+                f"bc = {self.bc!r} is not one of {', '.join(BOUNDARY_CONDITIONS)}"
+            )
+        apc = _finite("alpha_pc", self.alpha_pc)
+        ald = _finite("alpha_ld", self.alpha_ld)
+        if apc < 0:
+            raise ParameterError(f"alpha_pc = {self.alpha_pc!r} is outside its allowed range >= 0")
+        if ald < 0:
+            raise ParameterError(f"alpha_ld = {self.alpha_ld!r} is outside its allowed range >= 0")
+        for name, value in (("f", f), ("gamma", gamma), ("beta", beta), ("Delta", delta),
+                            ("H", h), ("alpha_pc", apc), ("alpha_ld", ald)):
+            object.__setattr__(self, name, value)
+
+    @property
+    def lame_lambda(self) -> float:
+        """First Lame parameter in units of mu: ``1/beta**2 - 2``."""
+        return 1.0 / self.beta**2 - 2.0
+
+    @property
+    def Gamma(self) -> float:  # noqa: N802 - the paper's name
+        """``Gamma = gamma * f``, the abscissa of the paper's phase diagram."""
+        return self.gamma * self.f
+
+    @property
+    def generalized(self) -> bool:
+        """True when a generalized friction model (``alpha_pc`` or ``alpha_ld`` > 0) is used."""
+        return self.alpha_pc > 0 or self.alpha_ld > 0
+
+    def replace(self, **changes: float | str) -> Params:
+        """Return a copy with some fields changed (validated again)."""
+        return replace(self, **changes)
+
+    def as_dict(self) -> dict[str, float | str]:
+        """Plain dict, for JSON output."""
+        return asdict(self)
+
+
+def check_k(k: float | np.ndarray, name: str = "k") -> np.ndarray:
+    """Validate wavenumbers: finite and ``> 0``.
+
+    Args:
+        k: A wavenumber or an array of them.
+        name: Name used in the error message.
+
+    Returns:
+        ``k`` as a 1D float array.
+
+    Raises:
+        ParameterError: If any value is NaN, infinite or ``<= 0``.
+    """
+    arr = np.atleast_1d(np.asarray(k, dtype=float))
+    if arr.size == 0:
+        raise ParameterError(f"{name}: no wavenumbers given")
+    bad = ~np.isfinite(arr) | (arr <= 0)
+    if bad.any():
+        raise ParameterError(
+            f"{name} = {arr[bad][0]!r} is outside its allowed range {name} > 0 (finite)"
+        )
+    return arr

@@ -28,7 +28,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from analytic.params import ParameterError, Params
-from forms.elasticity import mass_density, stiffness_density
+from forms.elasticity import mass_density, sigma, stiffness_density
 from forms.periodic import BlochMap, bloch_map, reduce_matrix
 from meshes.strip import INTERFACE, LEFT, RIGHT, TOP, StripMesh, edge_dofs
 
@@ -257,3 +257,156 @@ def solve_pep(matrices: list[PETSc.Mat], target: complex, nev: int = 4,
         out.append((complex(lam), x, pep.computeError(i, SLEPc.PEP.ErrorType.BACKWARD)))
     pep.destroy()
     return out
+
+
+# --- Post-processing of a mode: which wavenumber it carries, normalisation, interface stresses.
+def _allgather_rows(comm: MPI.Comm, rows: np.ndarray) -> np.ndarray:
+    return np.vstack(comm.allgather(rows))
+
+
+def harmonic_content(problem: StripProblem, u: dolfinx.fem.Function, m_max: int | None = None
+                     ) -> dict[int, float]:
+    """Share of ``|u|^2`` carried by each wavenumber ``k + 2 pi m / L`` (``|m| <= m_max``).
+
+    A Bloch cell of one wavelength also holds the modes of ``0, -k, 2k, ...`` (``m = -1, -2,
+    1``); this tells them apart. Along every line ``y = const`` the dofs of the structured strip
+    sit on a uniform grid in ``x`` (right edge excluded), where the discrete Fourier sums are
+    orthogonal. Collective; the same dict on every rank.
+
+    Args:
+        problem: A Bloch problem (``problem.k`` set).
+        u: A full field on ``problem.V``.
+        m_max: Largest ``|m|``; default: all that a line of ``degree * nx`` points resolves.
+
+    Returns:
+        ``{m: fraction}``, fractions summing to at most 1.
+    """
+    if problem.k is None:
+        raise ValueError("harmonic content needs a Bloch cell (k set)")
+    strip, V = problem.strip, problem.V
+    n_owned = V.dofmap.index_map.size_local
+    bs = V.dofmap.index_map_bs
+    x = V.tabulate_dof_coordinates()[:n_owned]
+    keep = np.abs(x[:, 0] - strip.length) > 1e-10 * strip.length
+    vals = u.x.array[: bs * n_owned].reshape(n_owned, bs)[keep]
+    rows = np.column_stack([x[keep, 0], x[keep, 1], vals]).astype(complex)
+    rows = _allgather_rows(problem.comm, rows)
+    if m_max is None:
+        m_max = max(1, (V.ufl_element().degree() * strip.nx - 1) // 2)
+    xs, ys, vals = rows[:, 0].real, rows[:, 1].real, rows[:, 2:]
+    keys = np.round(ys / strip.height, 9)
+    total = float(np.sum(np.abs(vals) ** 2))
+    content = {}
+    for m in range(-m_max, m_max + 1):
+        q = problem.k + 2.0 * np.pi * m / strip.length
+        energy = 0.0
+        for key in np.unique(keys):
+            on = keys == key
+            coef = (vals[on] * np.exp(1j * q * xs[on])[:, None]).sum(axis=0) / on.sum()
+            energy += on.sum() * float(np.sum(np.abs(coef) ** 2))
+        content[m] = energy / total if total > 0 else 0.0
+    return content
+
+
+def normalise(u: dolfinx.fem.Function) -> None:
+    """Scale ``u`` in place so that its largest nodal entry is ``1`` (real, positive)."""
+    n = u.function_space.dofmap.index_map.size_local * u.function_space.dofmap.index_map_bs
+    owned = u.x.array[:n]
+    i = int(np.argmax(np.abs(owned))) if n else 0
+    candidate = (float(abs(owned[i])) if n else 0.0, complex(owned[i]) if n else 0j)
+    best = max(u.function_space.mesh.comm.allgather(candidate), key=lambda c: c[0])
+    if best[0] > 0:
+        u.x.array[:] /= best[1]
+    u.x.scatter_forward()
+
+
+def _edge_values(comm: MPI.Comm, f: dolfinx.fem.Function, tol: float) -> np.ndarray:
+    """``(x, values...)`` of the owned dofs of ``f`` on ``y = 0``, gathered, averaged per x."""
+    W = f.function_space
+    n = W.dofmap.index_map.size_local
+    bs = W.dofmap.index_map_bs
+    xw = W.tabulate_dof_coordinates()[:n]
+    on = np.flatnonzero(np.abs(xw[:, 1]) < tol)
+    rows = np.column_stack([xw[on, 0], f.x.array[: bs * n].reshape(n, bs)[on]]).astype(complex)
+    rows = _allgather_rows(comm, rows)
+    xs, inverse = np.unique(np.round(rows[:, 0].real, 12), return_inverse=True)
+    counts = np.bincount(inverse)
+    out = [xs.astype(complex)]
+    for c in range(1, rows.shape[1]):
+        re = np.bincount(inverse, rows[:, c].real)
+        im = np.bincount(inverse, rows[:, c].imag)
+        out.append((re + 1j * im) / counts)
+    return np.column_stack(out)
+
+
+def interface_stresses(problem: StripProblem, u: dolfinx.fem.Function
+                       ) -> dict[str, np.ndarray]:
+    """Stress perturbations ``sxy``, ``syy`` and slip ``u_x`` along the interface ``y = 0``.
+
+    The stress comes from the finite-element field, interpolated into discontinuous Lagrange of
+    degree ``p - 1`` (exact for simplices); values of neighbouring cells at a shared point are
+    averaged. Collective; every rank gets the same arrays, sorted by ``x``.
+
+    Returns:
+        ``{"x", "sxy", "syy"}`` at the stress points and ``{"x_slip", "ux"}`` at the
+        displacement nodes (``x`` real, the rest complex).
+    """
+    V = problem.V
+    msh = V.mesh
+    degree = V.ufl_element().degree()
+    W = dolfinx.fem.FunctionSpace(msh, ufl.VectorElement("DG", msh.ufl_cell(), degree - 1))
+    s = sigma(u, problem.params.lame_lambda, 1.0)
+    t = dolfinx.fem.Function(W)
+    t.interpolate(dolfinx.fem.Expression(ufl.as_vector([s[0, 1], s[1, 1]]),
+                                         W.element.interpolation_points()))
+    tol = 1e-10 * problem.strip.height
+    st = _edge_values(problem.comm, t, tol)
+    sl = _edge_values(problem.comm, u, tol)
+    return {"x": st[:, 0].real, "sxy": st[:, 1], "syy": st[:, 2],
+            "x_slip": sl[:, 0].real, "ux": sl[:, 1]}
+
+
+@dataclass
+class StripMode:
+    """One eigenpair of a strip problem.
+
+    Attributes:
+        eigenvalue: ``Lambda``.
+        vector: Eigenvector in the operator numbering (reduced on a Bloch cell).
+        error: Backward error reported by SLEPc.
+        harmonics: :func:`harmonic_content` of the mode (Bloch cell only).
+    """
+
+    eigenvalue: complex
+    vector: PETSc.Vec
+    error: float
+    harmonics: dict[int, float] | None = None
+
+    @property
+    def harmonic(self) -> int | None:
+        """Dominant ``m`` (wavenumber ``k + 2 pi m / L``), or ``None`` on a finite block."""
+        if not self.harmonics:
+            return None
+        return max(self.harmonics, key=self.harmonics.get)
+
+
+def solve_modes(problem: StripProblem, target: complex, nev: int = 6,
+                prefix: str = "strip_") -> list[StripMode]:
+    """Eigenpairs nearest ``target``, with their harmonic content, sorted by distance.
+
+    Collective. Destroy the vectors (``mode.vector.destroy()``) when done.
+    """
+    mats = polynomial_matrices(problem)
+    try:
+        pairs = solve_pep(mats, target, nev=nev, prefix=prefix)
+    finally:
+        for A in mats:
+            A.destroy()
+    modes = []
+    for lam, x, err in pairs:
+        harmonics = None
+        if problem.k is not None:
+            harmonics = harmonic_content(problem, problem.to_function(x))
+        modes.append(StripMode(lam, x, err, harmonics))
+    modes.sort(key=lambda m: abs(m.eigenvalue - target))
+    return modes

@@ -182,7 +182,8 @@ def render_mode(grid, out_png: str, title: str, color: str, lam: complex, k: flo
             scalars, label, cmap, clim = "|u|", "displacement magnitude", "viridis", (0.0, umax)
         else:
             g.point_data["sigma_yy"] = (np.exp(1j * angle) * syy).real
-            scalars, label, cmap, clim = "sigma_yy", "normal stress sigma_yy", "RdBu_r", (-smax, smax)
+            scalars, label, cmap = "sigma_yy", "normal stress sigma_yy", "RdBu_r"
+            clim = (-smax, smax)
         warped = g.warp_by_vector("u", factor=scale).extract_surface(
             algorithm="dataset_surface", nonlinear_subdivision=3)
         plotter.add_mesh(warped, scalars=scalars, cmap=cmap, clim=clim, show_edges=False,
@@ -270,17 +271,22 @@ def versions() -> dict[str, str]:
 
 def main(comm=None, argv: list[str] | None = None) -> int:
     """Run the workflow; returns the exit code (0, or 1 if no suitable mode converged)."""
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args, petsc_args = parser.parse_known_args(argv)
+    # Left over: PETSc/SLEPc options (single dash, e.g. -strip_pep_ncv 40) and their values.
+    bad = [a for a in petsc_args if a.startswith("--")]
+    if petsc_args and not petsc_args[0].startswith("-"):
+        bad.insert(0, petsc_args[0])
+    if bad:
+        parser.error(f"unrecognized arguments: {' '.join(bad)}")
     params, branch = validate(args)
 
     import slepc4py
 
-    slepc4py.init(sys.argv[:1])
-    from mpi4py import MPI
-
+    slepc4py.init(sys.argv[:1] + petsc_args)  # PETSc/SLEPc options, e.g. -strip_pep_nev 10
     import dolfinx.fem
     import dolfinx.io
-    import ufl
+    from mpi4py import MPI
 
     from forms.elasticity import sigma
     from forms.strip import build_strip_problem, interface_stresses, normalise, solve_modes

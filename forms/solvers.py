@@ -183,3 +183,108 @@ class PolynomialSolver:
     def destroy(self) -> None:
         """Destroy the SLEPc object."""
         self.pep.destroy()
+
+
+def _make_fn(comm: MPI.Comm, fn: tuple) -> SLEPc.FN:
+    """SLEPc FN for a scalar function descriptor of :class:`~forms.friction.FrictionOperator`."""
+    f = SLEPc.FN().create(comm)
+    f.setType(SLEPc.FN.Type.RATIONAL)
+    if fn[0] == "power":
+        coeffs = [1.0] + [0.0] * fn[1]  # SLEPc wants descending coefficients
+        f.setRationalNumerator(coeffs)
+    else:
+        f.setRationalNumerator(list(reversed(fn[1])))
+        f.setRationalDenominator(list(reversed(fn[2])))
+    return f
+
+
+class SplitSolver:
+    """SLEPc NEP on the split rational form: NLEIGS in a disc around the target.
+
+    The functions are SLEPc rational FNs and the problem type is ``RATIONAL``, so NLEIGS
+    builds the rational operator exactly (no spurious roots at ``Lambda = -1``). The region is a
+    disc of radius ``radius`` around each target; ``-nep_type ciss`` with the same region gives
+    all eigenvalues in it (contour integral).
+
+    Args:
+        comm: Communicator of the matrices.
+        nev: Number of eigenpairs wanted.
+        tol: Relative tolerance.
+        max_it: Maximum iterations.
+        radius: Radius of the disc region around the target.
+        prefix: Options prefix (empty: ``-nep_*`` apply).
+    """
+
+    def __init__(self, comm: MPI.Comm, nev: int = 4, tol: float = 1e-12, max_it: int = 500,
+                 radius: float = 2.0, prefix: str = "") -> None:
+        self.comm = comm
+        self.radius = radius
+        nep = SLEPc.NEP().create(comm)
+        nep.setType(SLEPc.NEP.Type.NLEIGS)
+        nep.setProblemType(SLEPc.NEP.ProblemType.RATIONAL)
+        nep.setDimensions(nev=nev)
+        nep.setTolerances(tol=tol, maxit=max_it)
+        nep.setWhichEigenpairs(SLEPc.NEP.Which.TARGET_MAGNITUDE)
+        if prefix:
+            nep.setOptionsPrefix(prefix)
+        self.nep = nep
+        self._configured = False
+        self._fns: list[SLEPc.FN] = []
+
+    def settings(self) -> dict[str, object]:
+        """Solver settings actually in use (for summaries)."""
+        tol, max_it = self.nep.getTolerances()
+        return {
+            "eigensolver": "SLEPc NEP (split form)",
+            "type": self.nep.getType(),
+            "nev": self.nep.getDimensions()[0],
+            "tol": tol,
+            "max_it": max_it,
+            "region": f"disc of radius {self.radius} around each target",
+            "options_prefix": self.nep.getOptionsPrefix() or "",
+        }
+
+    def solve(self, op: FrictionOperator, target: complex, nev: int | None = None
+              ) -> SolveResult:
+        """Eigenpairs of the split operator nearest ``target`` inside the disc."""
+        if op.form != "split":
+            raise ValueError("SplitSolver needs the split form")
+        nep = self.nep
+        if not self._fns:
+            self._fns = [_make_fn(self.comm, fn) for fn in op.functions]
+        nep.setSplitOperator(op.matrices, self._fns, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        if nev is not None:
+            nep.setDimensions(nev=nev)
+        nep.setTarget(target)
+        rg = nep.getRG()
+        rg.setType(SLEPc.RG.Type.ELLIPSE)
+        rg.setEllipseParameters(target, self.radius, 1.0)
+        if not self._configured:
+            for ksp in nep.getNLEIGSKSPs() if nep.getType() == SLEPc.NEP.Type.NLEIGS else []:
+                ksp.setType(PETSc.KSP.Type.PREONLY)
+                ksp.getPC().setType(PETSc.PC.Type.LU)
+                ksp.getPC().setFactorSolverType("mumps")
+            nep.setFromOptions()
+            self._configured = True
+        nep.solve()
+        nconv = nep.getConverged()
+        reason = _reason_name(SLEPc.NEP.ConvergedReason, nep.getConvergedReason())
+        norms = np.array([a.norm(PETSc.NormType.FROBENIUS) for a in op.matrices])
+        pairs: list[Eigenpair] = []
+        dropped: list[complex] = []
+        for i in range(nconv):
+            v = op.matrices[0].createVecRight()
+            lam = complex(nep.getEigenpair(i, v))
+            if op.law.is_spurious(lam):
+                dropped.append(lam)
+                v.destroy()
+                continue
+            pairs.append(Eigenpair(lam, relative_residual(op, lam, v, norms), v))
+        pairs.sort(key=lambda p: abs(p.value - target))
+        return SolveResult(pairs, nconv, reason, nep.getIterationNumber(), dropped)
+
+    def destroy(self) -> None:
+        """Destroy the SLEPc objects."""
+        for f in self._fns:
+            f.destroy()
+        self.nep.destroy()

@@ -27,9 +27,8 @@ import platform
 import sys
 import time
 
-import numpy as np
-
 import _cli
+import numpy as np
 
 #: Default k grid: shows the first maximum of the n = 0 growth rate (k H ~ 0.8 at the paper's
 #: defaults) and the n = 1, 2 branches up to k H = 3.
@@ -39,9 +38,16 @@ MATCH_RTOL = 1e-6
 OUTPUT_FILES = ("spectrum.csv", "summary.json", "dispersion.png")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line (ParameterError -> exit 2 via _cli.run)."""
+
+    def error(self, message: str) -> None:  # noqa: D102
+        raise _cli.ParameterError(message)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Command-line options (PETSc/SLEPc options such as ``-pep_type`` pass through)."""
-    ap = argparse.ArgumentParser(
+    ap = _Parser(
         description="FE dispersion sweep of the waveguide branches (cross-section model).",
         epilog="PETSc/SLEPc options (single dash, e.g. -pep_type linear, "
         "-st_pc_factor_mat_solver_type superlu_dist) are passed through.",
@@ -298,7 +304,7 @@ def plot(out: str, p, blist, per_branch: dict, best: dict | None, meta: dict) ->
     lines = exact_lines(p, blist, k_fine)
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7.5, 7.5), sharex=True)
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for j, b in enumerate(blist):
+    for b in blist:
         c = colors[b.n % len(colors)]
         bl = per_branch[b.label]
         mk = "o" if b.sign < 0 else "s"
@@ -356,7 +362,10 @@ def versions() -> dict[str, str]:
 
 def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
     """Run the sweep on ``comm`` (every rank calls this)."""
-    args, _ = build_parser().parse_known_args()
+    args, extra = build_parser().parse_known_args()
+    unknown = [a for a in extra if a.startswith("--")]
+    if unknown:  # single-dash ones are PETSc/SLEPc options
+        raise _cli.ParameterError(f"unrecognized argument {unknown[0]} (see --help)")
     params, k = validate(args, comm.size)  # every rank, before any collective or file
     from forms.cross_section import CrossSectionModel
     from forms.tracking import branches

@@ -29,10 +29,14 @@ from petsc4py import PETSc
 
 from analytic.params import ParameterError, Params
 from forms.elasticity import mass_density, sigma, stiffness_density
+from forms.friction import FrictionLaw, FrictionOperator, apply_dirichlet, friction_operator
 from forms.periodic import BlochMap, bloch_map, reduce_matrix
+from forms.solvers import PolynomialSolver
 from meshes.strip import INTERFACE, LEFT, RIGHT, TOP, StripMesh, edge_dofs
 
 LATERAL_CONDITIONS = ("free", "roller", "clamped")
+#: Diagonal of the Dirichlet rows in the constant term (their eigenvalues are at infinity).
+DIRICHLET_DIAGONAL = 1.0
 
 
 @dataclass
@@ -51,6 +55,8 @@ class StripProblem:
         interface_x: Owned global rows (operator numbering) of ``u_x`` at interface nodes.
         interface_y: Owned global rows of ``u_y`` at the same nodes, in the same order.
         dirichlet: Owned global rows of the other constrained dofs (top, lateral ends).
+        timings: Wall times of the set-up steps (s).
+        last_solve: SLEPc outcome and settings of the last :func:`solve_modes`.
     """
 
     strip: StripMesh
@@ -65,6 +71,7 @@ class StripProblem:
     interface_y: np.ndarray
     dirichlet: np.ndarray
     timings: dict[str, float] = field(default_factory=dict)
+    last_solve: dict[str, object] = field(default_factory=dict)
 
     @property
     def comm(self) -> MPI.Comm:
@@ -174,89 +181,20 @@ def build_strip_problem(strip: StripMesh, params: Params, k: float | None = None
                         mats["interface_mass"], ix, iy, dirichlet_rows, timings)
 
 
-# --- Until forms.friction / forms.solvers (issue 3) land: thin stand-ins, to be replaced. ---
-def _row(A: PETSc.Mat, i: int) -> tuple[np.ndarray, np.ndarray]:
-    cols, vals = A.getRow(int(i))
-    return np.asarray(cols, dtype=PETSc.IntType), np.asarray(vals)
+def friction_operator_for(problem: StripProblem, form: str = "polynomial") -> FrictionOperator:
+    """``T(Lambda)`` of the strip: :mod:`forms.friction` rows on the (reduced) ``K, M, M_Gamma``.
 
-
-def polynomial_matrices(problem: StripProblem) -> list[PETSc.Mat]:
-    """Coefficients ``A_0 .. A_d`` of ``T(Lambda) = sum Lambda^j A_j`` with the interface rows.
-
-    Interface ``x``-rows: ``a R_x + b R_y + c (M_Gamma u)_x`` with ``R = (K + L^2 M) u`` and
-    ``a = (1 + alpha_pc L)(L + 1)``, ``b = f (L + 1) - alpha_ld L``, ``c = L (L + Delta)/gamma``.
-    Interface ``y``-rows and Dirichlet rows: ``u_i = 0`` in ``A_0`` only (their eigenvalues sit
-    at infinity, far from every finite target).
+    Interface ``x``-rows carry the friction law (consistent reactions of the reduced nodes);
+    interface ``y``-rows, the top ``x``-rows (``bc = "velocity"``) and the lateral rows of a
+    finite block read ``u_d = 0`` through :func:`forms.friction.apply_dirichlet` (diagonal 1 in
+    the constant term only: their eigenvalues sit at infinity, far from every finite target).
     """
-    p = problem.params
-    K, M, G = problem.stiffness, problem.mass, problem.interface_mass
-    apc, ald, f, g, d = p.alpha_pc, p.alpha_ld, p.f, p.gamma, p.Delta
-    # coefficient of Lambda^j: (K_x, K_y, M_x, M_y, G_x) weights
-    weights = [
-        (1.0, f, 0.0, 0.0, 0.0),
-        (1.0 + apc, f - ald, 0.0, 0.0, d / g),
-        (apc, 0.0, 1.0, f, 1.0 / g),
-        (0.0, 0.0, 1.0 + apc, f - ald, 0.0),
-        (0.0, 0.0, apc, 0.0, 0.0),
-    ]
-    degree = 4 if apc > 0 else 3
-    new_rows: list[list[tuple[int, np.ndarray, np.ndarray]]] = [[] for _ in range(degree + 1)]
-    for ix, iy in zip(problem.interface_x, problem.interface_y, strict=True):
-        parts = [_row(K, ix), _row(K, iy), _row(M, ix), _row(M, iy), _row(G, ix)]
-        for j in range(degree + 1):
-            acc: dict[int, complex] = {}
-            for wgt, (cols, vals) in zip(weights[j], parts, strict=True):
-                if wgt == 0.0:
-                    continue
-                for c, v in zip(cols, vals, strict=True):
-                    acc[int(c)] = acc.get(int(c), 0.0) + wgt * v
-            cols = np.fromiter(acc.keys(), dtype=PETSc.IntType, count=len(acc))
-            vals = np.fromiter(acc.values(), dtype=PETSc.ScalarType, count=len(acc))
-            new_rows[j].append((int(ix), cols, vals))
-    mats = []
-    for j in range(degree + 1):
-        A = K.copy() if j == 0 else M.copy() if j == 2 else K.duplicate(copy=False)
-        A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
-        constrained = np.concatenate([problem.interface_x, problem.interface_y,
-                                      problem.dirichlet]).astype(PETSc.IntType)
-        A.zeroRows(constrained, diag=1.0 if j == 0 else 0.0)
-        A.zeroRows(problem.interface_x, diag=0.0)
-        for ix, cols, vals in new_rows[j]:
-            A.setValues([ix], cols, vals, addv=PETSc.InsertMode.INSERT_VALUES)
-        A.assemble()
-        mats.append(A)
-    return mats
-
-
-def solve_pep(matrices: list[PETSc.Mat], target: complex, nev: int = 4,
-              prefix: str = "strip_") -> list[tuple[complex, PETSc.Vec, float]]:
-    """TOAR + shift-and-invert (MUMPS) near ``target``; returns ``(Lambda, x, error)``."""
-    from slepc4py import SLEPc
-
-    pep = SLEPc.PEP().create(matrices[0].getComm())
-    pep.setOptionsPrefix(prefix)
-    pep.setOperators(matrices)
-    pep.setType(SLEPc.PEP.Type.TOAR)
-    pep.setProblemType(SLEPc.PEP.ProblemType.GENERAL)
-    pep.setDimensions(nev=nev)
-    pep.setTarget(target)
-    pep.setWhichEigenpairs(SLEPc.PEP.Which.TARGET_MAGNITUDE)
-    pep.setScale(SLEPc.PEP.Scale.SCALAR)
-    st = pep.getST()
-    st.setType(SLEPc.ST.Type.SINVERT)
-    ksp = st.getKSP()
-    ksp.setType("preonly")
-    ksp.getPC().setType("lu")
-    ksp.getPC().setFactorSolverType("mumps")
-    pep.setFromOptions()
-    pep.solve()
-    out = []
-    for i in range(pep.getConverged()):
-        x = matrices[0].createVecRight()
-        lam = pep.getEigenpair(i, x)
-        out.append((complex(lam), x, pep.computeError(i, SLEPc.PEP.ErrorType.BACKWARD)))
-    pep.destroy()
-    return out
+    law = FrictionLaw.from_params(problem.params)
+    op = friction_operator(law, problem.stiffness, problem.mass, problem.interface_mass,
+                           problem.interface_x, problem.interface_y, form=form)
+    rows = np.concatenate([problem.interface_y, problem.dirichlet]).astype(np.int64)
+    apply_dirichlet(op.matrices, rows, op.constant_term, DIRICHLET_DIAGONAL)
+    return op
 
 
 # --- Post-processing of a mode: which wavenumber it carries, normalisation, interface stresses.
@@ -309,14 +247,28 @@ def harmonic_content(problem: StripProblem, u: dolfinx.fem.Function, m_max: int 
 
 
 def normalise(u: dolfinx.fem.Function) -> None:
-    """Scale ``u`` in place so that its largest nodal entry is ``1`` (real, positive)."""
-    n = u.function_space.dofmap.index_map.size_local * u.function_space.dofmap.index_map_bs
-    owned = u.x.array[:n]
-    i = int(np.argmax(np.abs(owned))) if n else 0
-    candidate = (float(abs(owned[i])) if n else 0.0, complex(owned[i]) if n else 0j)
-    best = max(u.function_space.mesh.comm.allgather(candidate), key=lambda c: c[0])
-    if best[0] > 0:
-        u.x.array[:] /= best[1]
+    """Scale ``u`` in place: largest nodal ``|u|`` equal to 1, slip ``u_x`` real at the origin.
+
+    The phase reference is the interface node at ``x = y = 0`` (if its ``u_x`` vanishes, the
+    entry of largest modulus), so modes from different models or runs look alike. Collective.
+    """
+    V = u.function_space
+    comm = V.mesh.comm
+    n = V.dofmap.index_map.size_local
+    bs = V.dofmap.index_map_bs
+    vals = u.x.array[: bs * n].reshape(n, bs)
+    x = V.tabulate_dof_coordinates()[:n]
+    at_origin = np.flatnonzero(np.hypot(x[:, 0], x[:, 1]) < 1e-12)
+    origin = complex(vals[at_origin[0], 0]) if len(at_origin) else 0j
+    origin = comm.allreduce(origin, op=MPI.SUM) if comm.size > 1 else origin
+    i = int(np.argmax(np.abs(vals[:, 0]))) if n else 0
+    largest = (float(abs(vals[i, 0])), complex(vals[i, 0])) if n else (0.0, 0j)
+    largest = max(comm.allgather(largest), key=lambda c: c[0])
+    ref = origin if abs(origin) > 1e-8 * largest[0] else largest[1]
+    amp = float(np.max(np.linalg.norm(vals, axis=1))) if n else 0.0
+    amp = comm.allreduce(amp, op=MPI.MAX)
+    if amp > 0 and ref != 0:
+        u.x.array[:] *= (abs(ref) / ref) / amp
     u.x.scatter_forward()
 
 
@@ -339,29 +291,30 @@ def _edge_values(comm: MPI.Comm, f: dolfinx.fem.Function, tol: float) -> np.ndar
     return np.column_stack(out)
 
 
-def interface_stresses(problem: StripProblem, u: dolfinx.fem.Function
+def interface_stresses(u: dolfinx.fem.Function, lame_lambda: float, height: float
                        ) -> dict[str, np.ndarray]:
     """Stress perturbations ``sxy``, ``syy`` and slip ``u_x`` along the interface ``y = 0``.
 
-    The stress comes from the finite-element field, interpolated into discontinuous Lagrange of
-    degree ``p - 1`` (exact for simplices); values of neighbouring cells at a shared point are
-    averaged. Collective; every rank gets the same arrays, sorted by ``x``.
+    The stress comes from the finite-element field ``u`` on the strip (any source: a strip
+    eigenvector, or the cross-section mode interpolated), interpolated into discontinuous
+    Lagrange of degree ``p - 1`` (exact on simplices); values of neighbouring cells at a shared
+    point are averaged. Collective; every rank gets the same arrays, sorted by ``x``.
 
     Returns:
         ``{"x", "sxy", "syy"}`` at the stress points and ``{"x_slip", "ux"}`` at the
         displacement nodes (``x`` real, the rest complex).
     """
-    V = problem.V
+    V = u.function_space
     msh = V.mesh
     degree = V.ufl_element().degree()
     W = dolfinx.fem.FunctionSpace(msh, ufl.VectorElement("DG", msh.ufl_cell(), degree - 1))
-    s = sigma(u, problem.params.lame_lambda, 1.0)
+    s = sigma(u, lame_lambda, 1.0)
     t = dolfinx.fem.Function(W)
     t.interpolate(dolfinx.fem.Expression(ufl.as_vector([s[0, 1], s[1, 1]]),
                                          W.element.interpolation_points()))
-    tol = 1e-10 * problem.strip.height
-    st = _edge_values(problem.comm, t, tol)
-    sl = _edge_values(problem.comm, u, tol)
+    tol = 1e-10 * height
+    st = _edge_values(msh.comm, t, tol)
+    sl = _edge_values(msh.comm, u, tol)
     return {"x": st[:, 0].real, "sxy": st[:, 1], "syy": st[:, 2],
             "x_slip": sl[:, 0].real, "ux": sl[:, 1]}
 
@@ -373,13 +326,13 @@ class StripMode:
     Attributes:
         eigenvalue: ``Lambda``.
         vector: Eigenvector in the operator numbering (reduced on a Bloch cell).
-        error: Backward error reported by SLEPc.
+        residual: Relative residual ``||T u|| / (sum |phi_j| ||A_j|| ||u||)``.
         harmonics: :func:`harmonic_content` of the mode (Bloch cell only).
     """
 
     eigenvalue: complex
     vector: PETSc.Vec
-    error: float
+    residual: float
     harmonics: dict[int, float] | None = None
 
     @property
@@ -392,21 +345,132 @@ class StripMode:
 
 def solve_modes(problem: StripProblem, target: complex, nev: int = 6,
                 prefix: str = "strip_") -> list[StripMode]:
-    """Eigenpairs nearest ``target``, with their harmonic content, sorted by distance.
+    """Eigenpairs nearest ``target`` (SLEPc PEP of :mod:`forms.solvers`), sorted by distance.
 
-    Collective. Destroy the vectors (``mode.vector.destroy()``) when done.
+    Each mode carries its relative residual and, on a Bloch cell, its harmonic content.
+    Collective. Destroy the vectors (``mode.vector.destroy()``) when done. SLEPc options with
+    ``prefix`` (default ``-strip_pep_*``, ``-strip_st_*``) reach the solver.
     """
-    mats = polynomial_matrices(problem)
+    op = friction_operator_for(problem)
+    solver = PolynomialSolver(problem.comm, nev=nev, prefix=prefix)
     try:
-        pairs = solve_pep(mats, target, nev=nev, prefix=prefix)
+        settings = solver.settings()
+        result = solver.solve(op, target)
     finally:
-        for A in mats:
-            A.destroy()
+        solver.destroy()
+        op.destroy()
     modes = []
-    for lam, x, err in pairs:
+    for pair in result.pairs:
         harmonics = None
         if problem.k is not None:
-            harmonics = harmonic_content(problem, problem.to_function(x))
-        modes.append(StripMode(lam, x, err, harmonics))
-    modes.sort(key=lambda m: abs(m.eigenvalue - target))
+            harmonics = harmonic_content(problem, problem.to_function(pair.vector))
+        modes.append(StripMode(pair.value, pair.vector, pair.residual, harmonics))
+    problem.last_solve = {"reason": result.reason, "converged": result.converged,
+                          "iterations": result.iterations,
+                          "dropped": [str(z) for z in result.dropped], **settings}
     return modes
+
+
+# --- The cross-section model's mode in real space (no strip solve), and its most unstable k.
+@dataclass
+class CrossSectionMode:
+    """An eigenpair of the 1D cross-section model, evaluable at any height.
+
+    Attributes:
+        eigenvalue: ``Lambda``.
+        residual: Relative residual of the 1D solve.
+        k: Wavenumber.
+        u_hat: The 1D field ``u_hat(y)`` (largest nodal entry 1, real).
+    """
+
+    eigenvalue: complex
+    residual: float
+    k: float
+    u_hat: dolfinx.fem.Function
+
+    def __call__(self, y: np.ndarray) -> np.ndarray:
+        """``u_hat(y)`` at heights ``y`` (shape ``(n,)``), as an ``(n, 2)`` complex array."""
+        import dolfinx.geometry
+
+        msh = self.u_hat.function_space.mesh
+        pts = np.zeros((len(y), 3))
+        pts[:, 0] = y
+        tree = dolfinx.geometry.BoundingBoxTree(msh, msh.topology.dim)
+        cand = dolfinx.geometry.compute_collisions(tree, pts)
+        cells = dolfinx.geometry.compute_colliding_cells(msh, cand, pts)
+        first = np.array([cells.links(i)[0] if len(cells.links(i)) else -1
+                          for i in range(len(y))], dtype=np.int32)
+        if np.any(first < 0):
+            raise ValueError("height outside the cross-section mesh")
+        return self.u_hat.eval(pts, first).reshape(len(y), 2)
+
+    def field(self, x: np.ndarray) -> np.ndarray:
+        """``u_hat(y) exp(-i k x)`` at points ``x`` (shape ``(3, n)``, dolfinx interpolation)."""
+        return (self(x[1]) * np.exp(-1j * self.k * x[0])[:, None]).T
+
+
+def cross_section_mode(params: Params, k: float, target: complex, degree: int = 3,
+                       cells: int | None = None, comm: MPI.Comm = MPI.COMM_SELF
+                       ) -> CrossSectionMode | None:
+    """Solve the cross-section model (:mod:`forms.cross_section`) near ``target`` at ``k``.
+
+    Solved on ``comm`` (default: each rank its own copy; the 1D problem is tiny and the result
+    the same everywhere). Returns ``None`` if nothing converged.
+    """
+    from forms.cross_section import CrossSectionModel
+
+    model = CrossSectionModel(comm, params, degree=degree, cells=cells, k_max=max(k, 1.0))
+    solver = PolynomialSolver(comm, nev=1, prefix="xs_")
+    try:
+        res = solver.solve(model.operator(k), target)
+        if not res.pairs:
+            return None
+        pair = res.pairs[0]
+        u = dolfinx.fem.Function(model.V)
+        u.vector.array[:] = pair.vector.array
+        u.x.scatter_forward()
+        n = model.V.dofmap.index_map.size_local * model.V.dofmap.index_map_bs
+        owned = u.x.array[:n]
+        i = int(np.argmax(np.abs(owned)))
+        cand = (float(abs(owned[i])), complex(owned[i]))
+        best = max(comm.allgather(cand), key=lambda c: c[0])
+        u.x.array[:] /= best[1]
+        out = CrossSectionMode(pair.value, pair.residual, float(k), u)
+        res.destroy()
+        return out
+    finally:
+        solver.destroy()
+        model.destroy()
+
+
+def most_unstable_k(params: Params, target_of_k, ks: np.ndarray, degree: int = 3,
+                    comm: MPI.Comm = MPI.COMM_SELF) -> tuple[float, complex]:
+    """Largest growth rate of one branch on a grid of ``k`` (cross-section model).
+
+    Args:
+        params: Physical parameters.
+        target_of_k: ``k -> target`` (e.g. :func:`forms.tracking.waveguide_lambda` of a branch).
+        ks: Wavenumbers (increasing).
+        degree: Lagrange degree of the 1D model.
+        comm: Communicator of the 1D solves.
+
+    Returns:
+        ``(k, Lambda)`` at the grid point of largest ``Re Lambda``.
+    """
+    from forms.cross_section import CrossSectionModel
+
+    model = CrossSectionModel(comm, params, degree=degree, k_max=float(np.max(ks)))
+    solver = PolynomialSolver(comm, nev=1, prefix="xs_")
+    best: tuple[float, complex] | None = None
+    try:
+        for k in ks:
+            res = solver.solve(model.operator(float(k)), target_of_k(float(k)))
+            if res.pairs and (best is None or res.pairs[0].value.real > best[1].real):
+                best = (float(k), res.pairs[0].value)
+            res.destroy()
+    finally:
+        solver.destroy()
+        model.destroy()
+    if best is None:
+        raise RuntimeError("no converged cross-section eigenvalue on the k grid")
+    return best

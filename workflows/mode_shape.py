@@ -51,12 +51,18 @@ def build_parser() -> argparse.ArgumentParser:
                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     _cli.add_param_arguments(p)
     p.add_argument("--k", type=float, default=DEFAULT_K, help="wavenumber k > 0")
+    p.add_argument("--most-unstable", action="store_true",
+                   help="instead of --k: the k of largest growth of --branch on the --k-scan grid"
+                        " (cross-section model)")
+    p.add_argument("--k-scan", default="0.05:4:80", help="k grid for --most-unstable")
     p.add_argument("--branch", default="0-",
-                   help="waveguide branch n and sign of Im Lambda_0 (e.g. 0-, 1+); used for the"
-                        " default target")
+                   help="waveguide branch n and sign of Im Lambda_0 (e.g. 0-, 1+)")
     p.add_argument("--target", type=complex, default=None,
-                   help="eigenvalue target (Python complex, e.g. 0.27-6.59j); default: from"
-                        " --branch")
+                   help="eigenvalue target (Python complex, e.g. 0.27-6.59j); default: the"
+                        " cross-section eigenvalue of --branch at k")
+    p.add_argument("--source", choices=("strip", "cross-section"), default="strip",
+                   help="strip: solve the Bloch strip; cross-section: show Re(u_hat(y) exp(-ikx))"
+                        " of the 1D model on the strip mesh, no strip solve")
     p.add_argument("--wavelengths", type=int, default=1, help="strip length in wavelengths")
     p.add_argument("--cells-per-wavelength", type=int, default=32, help="cells along x")
     p.add_argument("--ny", type=int, default=8, help="cells along y")
@@ -80,12 +86,6 @@ def parse_branch(spec: str) -> tuple[int, int]:
     raise _cli.ParameterError(f"--branch = {spec!r} is not of the form n+ or n- (n = 0, 1, ...)")
 
 
-def cutoff(params, branch: tuple[int, int]) -> complex:
-    """Waveguide cut-off ``+-i (2n+1) pi / (2 beta H)`` of DESIGN.md section 4 (k -> 0)."""
-    n, sign = branch
-    return sign * 1j * (2 * n + 1) * math.pi / (2 * params.beta * params.H)
-
-
 def validate(args: argparse.Namespace):
     """Check every option before anything collective or any file is created."""
     params = _cli.params_from_args(args)
@@ -93,6 +93,7 @@ def validate(args: argparse.Namespace):
         raise _cli.ParameterError("H = inf is outside its allowed range here (a finite strip)")
     _cli.check_k(args.k, name="k")
     branch = parse_branch(args.branch)
+    k_scan = _cli.parse_k(args.k_scan, name="--k-scan") if args.most_unstable else None
     _cli.positive_int("--wavelengths", args.wavelengths, 1, 64)
     _cli.positive_int("--cells-per-wavelength", args.cells_per_wavelength, 2)
     _cli.positive_int("--ny", args.ny, 1)
@@ -103,7 +104,7 @@ def validate(args: argparse.Namespace):
         raise _cli.ParameterError(f"--grading = {args.grading} is outside its allowed range >= 1")
     if args.target is not None and not np.isfinite(args.target):
         raise _cli.ParameterError(f"--target = {args.target} is not a finite complex number")
-    return params, branch
+    return params, branch, k_scan
 
 
 def _add_png_metadata(path: str, meta: dict[str, str]) -> None:
@@ -269,6 +270,60 @@ def versions() -> dict[str, str]:
     return out
 
 
+def _write_outputs(args, meta: dict, title: str, u, params, length: float, k: float,
+                   lam: complex) -> None:
+    """XDMF/PVD files (collective), then CSV, PNGs and JSON on rank 0."""
+    import dolfinx.fem
+    import dolfinx.io
+
+    from forms.elasticity import sigma
+    from forms.strip import interface_stresses
+
+    V = u.function_space
+    msh = V.mesh
+    comm = msh.comm
+    # ParaView: a period of phases (vertex values) and the full-degree complex mode.
+    u_phase = dolfinx.fem.Function(V, name="u")
+    period = 2 * math.pi / abs(lam.imag) if lam.imag != 0 else 1.0
+    with dolfinx.io.XDMFFile(comm, os.path.join(args.out, "mode.xdmf"), "w") as f:
+        f.write_mesh(msh)
+        for j in range(args.phases):
+            t = period * j / args.phases
+            u_phase.x.array[:] = (u.x.array * np.exp(1j * lam.imag * t)).real
+            f.write_function(u_phase, t=t)
+    with dolfinx.io.VTKFile(comm, os.path.join(args.out, "mode_p2.pvd"), "w") as f:
+        f.write_function(u, 0.0)
+
+    data = interface_stresses(u, params.lame_lambda, params.H)
+    S = dolfinx.fem.FunctionSpace(msh, ("Lagrange", V.ufl_element().degree()))
+    syy = dolfinx.fem.Function(S)
+    syy.interpolate(dolfinx.fem.Expression(sigma(u, params.lame_lambda, 1.0)[1, 1],
+                                           S.element.interpolation_points()))
+    nodal = u.x.array.reshape(-1, 2)
+    zeros = np.zeros((nodal.shape[0], 1))
+    arrays = {"u_re": np.hstack([nodal.real, zeros]), "u_im": np.hstack([nodal.imag, zeros]),
+              "syy_re": syy.x.array.real.copy(), "syy_im": syy.x.array.imag.copy()}
+    grid = None if args.no_render else _gather_grid(V, arrays, comm)
+    if comm.rank != 0:
+        return
+    with open(os.path.join(args.out, "interface.csv"), "w") as f:
+        f.write("x,re_sxy,im_sxy,re_syy,im_syy,re_ux,im_ux\n")
+        ux = np.interp(data["x"], data["x_slip"], data["ux"].real) + 1j * np.interp(
+            data["x"], data["x_slip"], data["ux"].imag)
+        for row in zip(data["x"], data["sxy"], data["syy"], ux, strict=True):
+            f.write(f"{row[0]:.12g},{row[1].real:.12g},{row[1].imag:.12g},"
+                    f"{row[2].real:.12g},{row[2].imag:.12g},{row[3].real:.12g},"
+                    f"{row[3].imag:.12g}\n")
+    png_meta = {"Title": title, "Description": json.dumps(meta)}
+    plot_interface(data, os.path.join(args.out, "interface_tractions.png"), title, meta)
+    if grid is not None:
+        for name, fractions in (("mode_shape.png", (0.0,)),
+                                ("mode_phases.png", (0.0, 0.25, 0.5, 0.75))):
+            path = os.path.join(args.out, name)
+            render_mode(grid, path, title, args.color, lam, k, params.H, length, fractions)
+            _add_png_metadata(path, png_meta)
+
+
 def main(comm=None, argv: list[str] | None = None) -> int:
     """Run the workflow; returns the exit code (0, or 1 if no suitable mode converged)."""
     parser = build_parser()
@@ -279,115 +334,127 @@ def main(comm=None, argv: list[str] | None = None) -> int:
         bad.insert(0, petsc_args[0])
     if bad:
         parser.error(f"unrecognized arguments: {' '.join(bad)}")
-    params, branch = validate(args)
+    params, branch, k_scan = validate(args)
 
     import slepc4py
 
-    slepc4py.init(sys.argv[:1] + petsc_args)  # PETSc/SLEPc options, e.g. -strip_pep_nev 10
+    slepc4py.init(sys.argv[:1] + petsc_args)  # PETSc/SLEPc options, e.g. -strip_pep_ncv 40
+    import logging
+
     import dolfinx.fem
-    import dolfinx.io
     from mpi4py import MPI
 
-    from forms.elasticity import sigma
-    from forms.strip import build_strip_problem, interface_stresses, normalise, solve_modes
+    from forms.strip import (
+        build_strip_problem,
+        cross_section_mode,
+        most_unstable_k,
+        normalise,
+        solve_modes,
+    )
+    from forms.tracking import Branch, waveguide_lambda
     from meshes.strip import strip_mesh, wavelength
 
+    logging.getLogger().setLevel(logging.WARNING)  # quiet the JIT compiler's INFO lines
     comm = comm or MPI.COMM_WORLD
     t_start = time.perf_counter()
+    b = Branch(*branch)
+
+    def wg(k: float) -> complex:
+        return waveguide_lambda(params, b, k)
+
     k = float(args.k)
+    if args.most_unstable:
+        k, lam_max = most_unstable_k(params, wg, k_scan)  # every rank alike (COMM_SELF solves)
+        k = comm.bcast(k, root=0)
+        if comm.rank == 0:
+            print(f"most unstable on the k grid (branch {b.label}): k = {k:.6g},"
+                  f" Lambda = {lam_max:.6g}", flush=True)
+    xs = cross_section_mode(params, k, args.target if args.target is not None else wg(k))
+    if xs is None and (args.source == "cross-section" or args.target is None):
+        if comm.rank == 0:
+            print("error: the cross-section solve did not converge near"
+                  f" {wg(k):.6g}; give --target", file=sys.stderr, flush=True)
+        return 1
     length = args.wavelengths * wavelength(k)
     nx = args.wavelengths * args.cells_per_wavelength
-    target = args.target if args.target is not None else cutoff(params, branch)
-
     strip = strip_mesh(comm, length, params.H, nx, args.ny, grading=args.grading)
-    problem = build_strip_problem(strip, params, k=k, degree=args.degree)
-    t0 = time.perf_counter()
-    modes = solve_modes(problem, target, nev=args.nev)
-    t_solve = time.perf_counter() - t0
-    wanted = [m for m in modes if m.harmonic == 0]
-    if comm.rank == 0:
-        print(f"k = {k}, target = {target:.6g}: {len(modes)} converged; harmonics m ="
-              f" {[m.harmonic for m in modes]}", flush=True)
-    if not wanted:
+    meta = {
+        "workflow": "mode_shape", "params": params.as_dict(), "k": k, "branch": b.label,
+        "most_unstable": bool(args.most_unstable), "length": length,
+        "wavelengths": args.wavelengths, "cells": [nx, args.ny], "grading": args.grading,
+        "degree": args.degree, "ranks": comm.size, "versions": versions(),
+        "command": " ".join(sys.argv),
+    }
+    if xs is not None:
+        meta["cross_section"] = {"eigenvalue": [xs.eigenvalue.real, xs.eigenvalue.imag],
+                                 "residual": xs.residual, "degree": 3}
+
+    if args.source == "strip":
+        target = args.target if args.target is not None else xs.eigenvalue
+        problem = build_strip_problem(strip, params, k=k, degree=args.degree)
+        t0 = time.perf_counter()
+        modes = solve_modes(problem, target, nev=args.nev)
+        t_solve = time.perf_counter() - t0
+        wanted = [m for m in modes if m.harmonic == 0]
         if comm.rank == 0:
-            print("error: no converged eigenvalue carries exp(-i k x) near the target; try"
-                  " --target or a larger --nev", file=sys.stderr, flush=True)
-        return 1
-    mode = wanted[0]
-    lam = mode.eigenvalue
+            print(f"k = {k:.6g}, target = {target:.6g}: {len(modes)} converged"
+                  f" ({problem.last_solve.get('reason')}); harmonics m ="
+                  f" {[m.harmonic for m in modes]}", flush=True)
+        if not wanted:
+            if comm.rank == 0:
+                print("error: no converged eigenvalue carries exp(-i k x) near the target; try"
+                      " --target or a larger --nev", file=sys.stderr, flush=True)
+            for m in modes:
+                m.vector.destroy()
+            problem.destroy()
+            return 1
+        mode = wanted[0]
+        lam = mode.eigenvalue
+        u = problem.to_function(mode.vector, name="u")
+        meta.update({
+            "source": "Bloch-periodic 2D strip (forms.strip), route (a): P^H A P",
+            "target": [target.real, target.imag], "eigenvalue": [lam.real, lam.imag],
+            "residual": mode.residual, "harmonic_content_m0": mode.harmonics.get(0, 0.0),
+            "solver": problem.last_solve,
+            "other_eigenvalues": [{"re": m.eigenvalue.real, "im": m.eigenvalue.imag,
+                                   "harmonic": m.harmonic, "wavenumber": k + 2 * math.pi *
+                                   (m.harmonic or 0) / length} for m in modes],
+            "phase_velocity": lam.imag / k,
+            "timings": {**problem.timings, "solve": t_solve},
+        })
+        title = (f"Bloch strip (2D FE, P{args.degree}), k = {k:.4g}, branch {b.label}:"
+                 f" Lambda = {lam.real:.6f} {lam.imag:+.6f}i")
+        for m in modes:
+            m.vector.destroy()
+        problem.destroy()
+    else:
+        import ufl
+
+        lam = xs.eigenvalue
+        V = dolfinx.fem.FunctionSpace(strip.mesh, ufl.VectorElement(
+            "Lagrange", strip.mesh.ufl_cell(), args.degree))
+        u = dolfinx.fem.Function(V, name="u")
+        u.interpolate(xs.field)
+        meta.update({
+            "source": "cross-section model (1D FE, P3) shown as Re(u_hat(y) exp(-i k x)),"
+                      " interpolated on the strip mesh; no strip solve",
+            "eigenvalue": [lam.real, lam.imag], "residual": xs.residual,
+            "phase_velocity": lam.imag / k, "timings": {},
+        })
+        title = (f"cross-section model (1D FE, P3) as Re(u_hat(y) exp(-ikx)), k = {k:.4g},"
+                 f" branch {b.label}: Lambda = {lam.real:.6f} {lam.imag:+.6f}i")
 
     if comm.rank == 0:
         os.makedirs(args.out, exist_ok=True)
     comm.barrier()
-    u = problem.to_function(mode.vector, name="u")
     normalise(u)
-    V = problem.V
-
-    # ParaView: a period of phases (vertex values) and the full-degree complex mode.
-    u_phase = dolfinx.fem.Function(V, name="u")
-    period = 2 * math.pi / abs(lam.imag) if lam.imag != 0 else 1.0
-    with dolfinx.io.XDMFFile(strip.comm, os.path.join(args.out, "mode.xdmf"), "w") as f:
-        f.write_mesh(strip.mesh)
-        for j in range(args.phases):
-            t = period * j / args.phases
-            u_phase.x.array[:] = (u.x.array * np.exp(1j * lam.imag * t)).real
-            f.write_function(u_phase, t=t)
-    with dolfinx.io.VTKFile(strip.comm, os.path.join(args.out, "mode_p2.pvd"), "w") as f:
-        f.write_function(u, 0.0)
-
-    # Interface stresses and slip, and the nodal fields for the pictures.
-    data = interface_stresses(problem, u)
-    S = dolfinx.fem.FunctionSpace(strip.mesh, ("Lagrange", args.degree))
-    syy = dolfinx.fem.Function(S)
-    syy.interpolate(dolfinx.fem.Expression(sigma(u, params.lame_lambda, 1.0)[1, 1],
-                                           S.element.interpolation_points()))
-    nodal = u.x.array.reshape(-1, 2)
-    zeros = np.zeros((nodal.shape[0], 1))
-    arrays = {"u_re": np.hstack([nodal.real, zeros]), "u_im": np.hstack([nodal.imag, zeros]),
-              "syy_re": syy.x.array.real.copy(), "syy_im": syy.x.array.imag.copy()}
-    grid = None if args.no_render else _gather_grid(V, arrays, strip.comm)
-
-    meta = {
-        "workflow": "mode_shape", "source": "Bloch-periodic 2D strip (forms.strip)",
-        "params": params.as_dict(), "k": k, "length": length, "wavelengths": args.wavelengths,
-        "cells": [nx, args.ny], "grading": args.grading, "degree": args.degree,
-        "target": [target.real, target.imag], "branch": args.branch,
-        "eigenvalue": [lam.real, lam.imag], "backward_error": mode.error,
-        "harmonic_content_m0": mode.harmonics.get(0, 0.0),
-        "other_eigenvalues": [{"re": m.eigenvalue.real, "im": m.eigenvalue.imag,
-                               "harmonic": m.harmonic, "wavenumber": k + 2 * math.pi *
-                               (m.harmonic or 0) / length} for m in modes],
-        "phase_velocity": lam.imag / k, "ranks": comm.size,
-        "timings": {**problem.timings, "solve": t_solve}, "versions": versions(),
-        "command": " ".join(sys.argv),
-    }
+    _write_outputs(args, meta, title, u, params, length, k, lam)
     if comm.rank == 0:
-        title = (f"Bloch strip (FE, P{args.degree}), k = {k:g}, branch {args.branch}: "
-                 f"Lambda = {lam.real:.6f} {lam.imag:+.6f}i")
-        with open(os.path.join(args.out, "interface.csv"), "w") as f:
-            f.write("x,re_sxy,im_sxy,re_syy,im_syy,re_ux,im_ux\n")
-            ux = np.interp(data["x"], data["x_slip"], data["ux"].real) + 1j * np.interp(
-                data["x"], data["x_slip"], data["ux"].imag)
-            for row in zip(data["x"], data["sxy"], data["syy"], ux, strict=True):
-                f.write(f"{row[0]:.12g},{row[1].real:.12g},{row[1].imag:.12g},"
-                        f"{row[2].real:.12g},{row[2].imag:.12g},{row[3].real:.12g},"
-                        f"{row[3].imag:.12g}\n")
-        png_meta = {"Title": title, "Description": json.dumps(meta)}
-        plot_interface(data, os.path.join(args.out, "interface_tractions.png"), title, meta)
-        if grid is not None:
-            for name, fractions in (("mode_shape.png", (0.0,)),
-                                    ("mode_phases.png", (0.0, 0.25, 0.5, 0.75))):
-                path = os.path.join(args.out, name)
-                render_mode(grid, path, title, args.color, lam, k, params.H, length, fractions)
-                _add_png_metadata(path, png_meta)
         meta["timings"]["total"] = time.perf_counter() - t_start
         with open(os.path.join(args.out, "mode.json"), "w") as f:
             json.dump(meta, f, indent=2)
-        print(f"Lambda = {lam:.10g} (backward error {mode.error:.1e}); wrote {args.out}/",
-              flush=True)
-    for m in modes:
-        m.vector.destroy()
-    problem.destroy()
+        print(f"{meta['source']}\nLambda = {lam:.10g} (relative residual"
+              f" {meta['residual']:.1e}); wrote {args.out}/", flush=True)
     return 0
 
 

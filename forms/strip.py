@@ -474,3 +474,120 @@ def most_unstable_k(params: Params, target_of_k, ks: np.ndarray, degree: int = 3
     if best is None:
         raise RuntimeError("no converged cross-section eigenvalue on the k grid")
     return best
+
+
+# --- Spatial roots k(Lambda) and the long-block limit (Kulikovskii's condition).
+def spatial_roots(model, lam: complex, target: complex, nev: int = 1) -> list[complex]:
+    """Wavenumbers ``k`` (complex) with ``T(lam; k) u = 0``: a quadratic eigenproblem in ``k``.
+
+    The cross-section operator is ``T(L; k) = T0(L) + k T1(L) + k^2 T2(L)`` with each ``Tj`` a
+    polynomial in ``L`` (:class:`forms.cross_section.CrossSectionModel` keeps the three parts);
+    at fixed ``lam`` this is a SLEPc PEP in ``k``, solved by shift-and-invert near ``target``.
+
+    Args:
+        model: A polynomial-form ``CrossSectionModel`` (its per-``k``-power parts are read).
+        lam: Growth rate ``Lambda``.
+        target: Shift for ``k``.
+        nev: Number of roots wanted.
+
+    Returns:
+        The converged roots sorted by distance to ``target``.
+    """
+    from slepc4py import SLEPc
+
+    same = PETSc.Mat.Structure.SAME_NONZERO_PATTERN
+    coeffs = []
+    for part in model._parts:  # T0, T1, T2: one FrictionOperator per power of k
+        A = part.matrices[0].duplicate(copy=True)
+        for i in range(1, len(part.matrices)):
+            A.axpy(lam**i, part.matrices[i], structure=same)
+        coeffs.append(A)
+    pep = SLEPc.PEP().create(model.comm)
+    pep.setOptionsPrefix("kroots_")
+    pep.setOperators(coeffs)
+    pep.setProblemType(SLEPc.PEP.ProblemType.GENERAL)
+    pep.setDimensions(nev=nev)
+    pep.setTolerances(tol=1e-12)
+    pep.setTarget(target)
+    pep.setWhichEigenpairs(SLEPc.PEP.Which.TARGET_MAGNITUDE)
+    st = pep.getST()
+    st.setType(SLEPc.ST.Type.SINVERT)
+    st.getKSP().setType("preonly")
+    st.getKSP().getPC().setType("lu")
+    st.getKSP().getPC().setFactorSolverType("mumps")
+    pep.setFromOptions()
+    pep.solve()
+    roots = [complex(pep.getEigenpair(i)) for i in range(pep.getConverged())]
+    pep.destroy()
+    for A in coeffs:
+        A.destroy()
+    return sorted(roots, key=lambda z: abs(z - target))
+
+
+def kulikovskii_growth(model, omega: float, sigma0: float, k1: complex, k2: complex,
+                       tol: float = 1e-10, max_it: int = 30) -> tuple[complex, complex, complex]:
+    """Growth rate ``sigma`` at frequency ``omega`` where ``Im k1(Lambda) = Im k2(Lambda)``.
+
+    Kulikovskii's condition: in a long finite domain, global modes built from two spatial
+    waves ``k1, k2`` (reflected into each other at the ends) accumulate, as ``L -> infinity``,
+    on the curve where both waves have the same spatial growth ``Im k``. Secant iteration on
+    ``sigma`` with ``Lambda = sigma + i omega``; ``k1``, ``k2`` are followed by
+    shift-and-invert from the previous values.
+
+    Returns:
+        ``(Lambda, k1, k2)`` at convergence.
+
+    Raises:
+        RuntimeError: If the iteration does not converge or a root is lost.
+    """
+    def gap(sigma: float) -> tuple[float, complex, complex]:
+        lam = complex(sigma, omega)
+        r1 = spatial_roots(model, lam, k1)
+        r2 = spatial_roots(model, lam, k2)
+        if not r1 or not r2:
+            raise RuntimeError(f"spatial root lost at Lambda = {lam}")
+        return r1[0].imag - r2[0].imag, r1[0], r2[0]
+
+    s0, s1 = sigma0, sigma0 + 1e-3
+    g0, k1, k2 = gap(s0)
+    for _ in range(max_it):
+        g1, k1, k2 = gap(s1)
+        if abs(g1) < tol or g1 == g0:
+            return complex(s1, omega), k1, k2
+        s0, s1, g0 = s1, s1 - g1 * (s1 - s0) / (g1 - g0), g1
+    raise RuntimeError("Kulikovskii iteration did not converge")
+
+
+def kulikovskii_limit(params: Params, lam_block: complex, span: float = 0.15, points: int = 7
+                      ) -> dict | None:
+    """Long-block limit from the cross-section model alone (Kulikovskii's condition).
+
+    At the block eigenvalue of the largest ``L``, the two spatial roots ``k1, k2`` with the
+    closest ``Im k`` are taken as the wave pair the block's global mode is made of; the curve
+    ``Im k1 = Im k2`` is then followed over ``omega`` in ``Im(lam_block) +- span`` and its
+    largest growth rate found by a parabola through the best three points. Runs on one rank.
+    """
+    from forms.cross_section import CrossSectionModel
+
+    model = CrossSectionModel(MPI.COMM_SELF, params, degree=3, k_max=8.0)
+    try:
+        roots = [r for r in spatial_roots(model, lam_block, 0.0, nev=16) if abs(r) < 10]
+        if len(roots) < 2:
+            return None
+        k1, k2 = min(((a, b) for i, a in enumerate(roots) for b in roots[i + 1:]),
+                     key=lambda ab: abs(ab[0].imag - ab[1].imag))
+        curve = []
+        for om in np.linspace(lam_block.imag - span, lam_block.imag + span, points):
+            lam, a, b = kulikovskii_growth(model, float(om), lam_block.real, k1, k2)
+            curve.append((lam, a, b))
+    finally:
+        model.destroy()
+    sig = np.array([c[0].real for c in curve])
+    om = np.array([c[0].imag for c in curve])
+    j = int(np.clip(np.argmax(sig), 1, len(sig) - 2))
+    a2, a1, a0 = np.polyfit(om[j - 1:j + 2], sig[j - 1:j + 2], 2)
+    om_max = -a1 / (2 * a2) if a2 < 0 else om[j]
+    return {"lambda": [float(np.polyval([a2, a1, a0], om_max)), float(om_max)],
+            "k1_at_block": [k1.real, k1.imag], "k2_at_block": [k2.real, k2.imag],
+            "curve": [[c[0].real, c[0].imag, c[1].real, c[1].imag, c[2].real, c[2].imag]
+                      for c in curve]}

@@ -12,7 +12,10 @@ most unstable wavenumber) are computed and the most unstable one is kept. Writte
 - ``finite_block.png``: ``Re Lambda`` of the most unstable block mode against ``L`` with the
   infinite-strip value, and ``|Lambda_block - Lambda_inf|`` on log axes;
 - ``block_mode.png``: that mode for the largest ``L``: stresses and slip along the interface;
-- ``finite_block.json``: parameters, reference, timings, versions.
+- ``finite_block.json``: parameters, reference, timings, versions, and the long-block limit
+  from the cross-section model alone (Kulikovskii's condition: the global mode of a long
+  block is made of two spatial waves ``k1, k2`` with equal spatial growth ``Im k1 = Im k2``;
+  its growth rate is the largest on that curve), drawn in ``finite_block.png`` too.
 
 Example::
 
@@ -54,6 +57,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--targets", type=int, default=5,
                    help="shift targets per L (infinite-strip Lambda at k around k_inf)")
     p.add_argument("--nev", type=int, default=6, help="eigenpairs per target")
+    p.add_argument("--no-kulikovskii", action="store_true",
+                   help="skip the long-block limit from the cross-section model")
     p.add_argument("--resume", action="store_true", help="keep the rows already in the CSV")
     p.add_argument("--out", default="finite_block", help="output directory")
     return p
@@ -92,7 +97,7 @@ def extrapolate(L: np.ndarray, values: np.ndarray, points: int = 3) -> tuple[flo
 
 
 def plot_convergence(rows: list[dict], lam_inf: complex, k_inf: float, out_png: str,
-                     title: str, meta: dict) -> None:
+                     title: str, meta: dict, kul: dict | None = None) -> None:
     """Growth rate of the most unstable block mode against L (rank 0)."""
     import matplotlib
 
@@ -113,6 +118,10 @@ def plot_convergence(rows: list[dict], lam_inf: complex, k_inf: float, out_png: 
     if np.isfinite(g_inf):
         ax.axhline(g_inf, color="tab:red", ls=":",
                    label=f"block, $L \\to \\infty$ (fit $a + b/L$): {g_inf:.4f}")
+    if kul is not None:
+        ax.axhline(kul["lambda"][0], color="tab:green", ls="-.", lw=1,
+                   label="Kulikovskii limit (1D model, Im $k_1$ = Im $k_2$):"
+                         f" {kul['lambda'][0]:.4f}")
     ax.set_xscale("log")
     ax.set_xlabel("block length $L$ (units $c_s t_0$)")
     ax.set_ylabel("growth rate Re $\\Lambda$")
@@ -124,6 +133,8 @@ def plot_convergence(rows: list[dict], lam_inf: complex, k_inf: float, out_png: 
         xx = np.linspace(0, 1.0 / L.min(), 50)
         ax.plot(xx, g_inf + c * xx, "r:", label=f"{g_inf:.4f} {c:+.3f}/L (3 largest L)")
     ax.axhline(lam_inf.real, color="k", ls="--", label="infinite strip, max over k")
+    if kul is not None:
+        ax.axhline(kul["lambda"][0], color="tab:green", ls="-.", lw=1, label="Kulikovskii limit")
     ax.set_xlabel("$1/L$")
     ax.set_ylabel("Re $\\Lambda$")
     ax.set_xlim(left=0)
@@ -152,7 +163,13 @@ def main(comm=None, argv: list[str] | None = None) -> int:
 
     from mpi4py import MPI
 
-    from forms.strip import build_strip_problem, most_unstable_k, normalise, solve_modes
+    from forms.strip import (
+        build_strip_problem,
+        kulikovskii_limit,
+        most_unstable_k,
+        normalise,
+        solve_modes,
+    )
     from forms.tracking import Branch, waveguide_lambda
     from meshes.strip import strip_mesh
 
@@ -252,9 +269,26 @@ def main(comm=None, argv: list[str] | None = None) -> int:
     if comm.rank == 0:
         rows = list(_read_done(csv_path).values())
         rows = [r for r in rows if r["re_lambda"] not in ("nan", "")]
+        kul = None
+        if rows and not args.no_kulikovskii:
+            big = max(rows, key=lambda r: float(r["L"]))
+            try:
+                kul = kulikovskii_limit(params, complex(float(big["re_lambda"]),
+                                                        float(big["im_lambda"])))
+            except RuntimeError as err:  # reported, the run goes on
+                print(f"Kulikovskii limit not computed: {err}", file=sys.stderr, flush=True)
+            if kul is not None:
+                kul["from_block_length"] = float(big["L"])
+                meta["kulikovskii"] = kul
+                print(f"Kulikovskii limit (cross-section): Lambda = {kul['lambda'][0]:.6f}"
+                      f" {kul['lambda'][1]:+.6f}i (k1 = {complex(*kul['k1_at_block']):.4f},"
+                      f" k2 = {complex(*kul['k2_at_block']):.4f})", flush=True)
         if rows:
+            L_all = np.array([float(r["L"]) for r in rows])
+            g_all = np.array([float(r["re_lambda"]) for r in rows])
+            meta["extrapolated_growth"] = extrapolate(L_all, g_all)[0]
             plot_convergence(rows, lam_inf, k_inf, os.path.join(args.out, "finite_block.png"),
-                             title, meta)
+                             title, meta, kul)
         if interface is not None:
             _, lam_b, L_b = last
             mode_shape.plot_interface(

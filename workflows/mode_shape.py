@@ -161,13 +161,19 @@ def render_mode(grid, out_png: str, title: str, color: str, lam: complex, k: flo
 
     pv.OFF_SCREEN = True
     rows = len(fractions)
-    extent = 1.8 * height  # substrate, strip, arrows and labels
-    row_px = int(np.clip(1600 * extent / length, 200, 700)) + 40
+    # World-space layout: strip (deformation drawn up to `amp`), substrate below it, a band of
+    # direction arrows under the substrate, room on top for the title and the colour bar.
+    m = 0.06 * max(height, length / 6)
+    amp = 0.2 * min(height, length / 4)
+    y_arrow = -3.2 * m
+    y_lo = y_arrow - 1.6 * m
+    y_hi = height + amp + 0.25 * (height + amp - y_lo)  # title band
+    row_px = int(np.clip(1600 * (y_hi - y_lo) / length, 220, 760))
     plotter = pv.Plotter(off_screen=True, shape=(rows, 1), window_size=(1600, row_px * rows),
                          border=False)
     umax = float(np.max(np.linalg.norm(grid.point_data["u_re"] + 1j * grid.point_data["u_im"],
                                        axis=1)))
-    scale = 0.2 * height / max(umax, 1e-300)
+    scale = amp / max(umax, 1e-300)
     omega = lam.imag
     c_phase = omega / k
     syy = grid.point_data["syy_re"] + 1j * grid.point_data["syy_im"]
@@ -189,35 +195,41 @@ def render_mode(grid, out_png: str, title: str, color: str, lam: complex, k: flo
             algorithm="dataset_surface", nonlinear_subdivision=3)
         plotter.add_mesh(warped, scalars=scalars, cmap=cmap, clim=clim, show_edges=False,
                          scalar_bar_args={"title": label, "vertical": False, "position_x": 0.76,
-                                          "position_y": 0.76, "width": 0.22, "height": 0.16,
+                                          "position_y": 0.03, "width": 0.22, "height": 0.15,
                                           "title_font_size": 14, "label_font_size": 11,
                                           "n_labels": 3, "fmt": "%.2g"})
         outline = pv.Rectangle([[0, 0, 0], [length, 0, 0], [length, height, 0]])
         plotter.add_mesh(outline.extract_feature_edges(), color="grey", line_width=1)
-        plotter.add_mesh(pv.Rectangle([[0, -0.12 * height, 0], [length, -0.12 * height, 0],
-                                       [length, 0, 0]]), color="#b0b0b0")
+        plotter.add_mesh(pv.Rectangle([[0, -m, 0], [length, -m, 0], [length, 0, 0]]),
+                         color="#b0b0b0")
         # sliding direction (+x: the body moves at v0 > 0) and phase velocity direction
-        y_arrow = 1.42 * height
-        arrow = dict(scale=0.1 * length, shaft_radius=0.025, tip_radius=0.07, tip_length=0.3)
-        plotter.add_mesh(pv.Arrow(start=(0.02 * length, y_arrow, 0), direction=(1, 0, 0),
-                                  **arrow), color="black")
+        alen = min(0.1 * length, 0.4 * max(height, length / 6))
+        arrow = dict(scale=alen, shaft_radius=0.05, tip_radius=0.14, tip_length=0.3)
+        plotter.add_mesh(pv.Arrow(start=(0.0, y_arrow, 0), direction=(1, 0, 0), **arrow),
+                         color="black")
         sgn = 1.0 if c_phase >= 0 else -1.0
-        x0 = 0.36 * length if sgn > 0 else 0.46 * length
+        x0 = 0.5 * length if sgn > 0 else 0.5 * length + alen
         plotter.add_mesh(pv.Arrow(start=(x0, y_arrow, 0), direction=(sgn, 0, 0), **arrow),
                          color="crimson")
         plotter.add_point_labels(
-            np.array([[0.125 * length, y_arrow, 0], [0.49 * length, y_arrow, 0]]),
+            np.array([[alen, y_arrow, 0], [0.5 * length + alen, y_arrow, 0]]),
             ["  sliding, v0 > 0", f"  phase velocity Im(Lambda)/k = {c_phase:+.3g}"],
             font_size=15, show_points=False, shape=None, text_color="black",
-            justification_horizontal="left", justification_vertical="center")
-        plotter.add_text(f"t = {frac:.2f} T" if rows > 1 else "t = 0", position="lower_right",
+            justification_horizontal="left", justification_vertical="center",
+            always_visible=True)
+        plotter.add_text(f"t = {frac:.2f} T" if rows > 1 else "t = 0", position="upper_right",
                          font_size=10)
         if r == 0:
             plotter.add_text(title, position="upper_left", font_size=10)
-        plotter.view_xy()
+        # camera framing exactly [0, L] x [y_lo, y_hi] (a little margin), whatever the aspect
+        cx, cy = 0.5 * length, 0.5 * (y_lo + y_hi)
+        cam = plotter.camera
+        cam.focal_point = (cx, cy, 0.0)
+        cam.position = (cx, cy, 10.0 * max(length, y_hi - y_lo))
+        cam.up = (0.0, 1.0, 0.0)
         plotter.enable_parallel_projection()
-        plotter.reset_camera(bounds=(0, length, -0.15 * height, 1.65 * height, 0, 0))
-        plotter.camera.tight(padding=0.03, adjust_render_window=False)
+        cam.parallel_scale = 0.52 * max(y_hi - y_lo, length * row_px / 1600)
+        cam.clipping_range = (1e-3 * max(length, height), 100.0 * max(length, y_hi - y_lo))
     plotter.screenshot(out_png)
     plotter.close()
 

@@ -1,25 +1,26 @@
 """Small-k waveguide asymptotics (the paper's section 4, Eq. Hspectrum, Appendix A).
 
 Near the cut-off ``Lambda_0 = sign i (2n+1) pi / (2 beta H)`` a branch is
-``Lambda(k) = Lambda_0 + c k + O(k^2)``. Expanding the spectrum (interface impedances
-``s_xy = -Z_1 u_x``, ``s_yy = i k Z_2 u_x``) around ``(Lambda_0, k = 0)`` as in Appendix A:
-``Z_1 -> Z_10`` and ``Z_2 -> -Z_10 / (beta^2 H Lambda_0^2 dLambda)``, so::
+``Lambda(k) = Lambda_0 + c k + O(k^2)``. Expanding the interface impedances
+(``s_xy = -Z_1 u_x``, ``s_yy = i k Z_2 u_x``) around ``(Lambda_0, k = 0)`` with ``dLambda ~ k``
+(Appendix A; done with sympy for both top conditions) gives ``Z_1 -> Z_10`` and
+``k Z_2 -> (k / dLambda) X / (beta^2 H)`` with, writing ``L = Lambda_0``, ``sh = sinh(H L)``,
+``ch = cosh(H L)``, ``sd = sinh(beta H L)``:
 
-    c = -i f_eff Z_10 / (beta^2 H Lambda_0^2 [(1 + alpha_pc Lambda_0) Z_10 + F_0])
+- velocity top: ``Z_10 = L ch/sh``, ``X = -ch/sh``;
+- stress top:   ``Z_10 = L sh/ch``, ``X = (-sh + 2 beta sd)/ch``.
 
-with ``F_0 = Lambda_0 (Lambda_0 + Delta) / (gamma (Lambda_0 + 1))``,
-``f_eff = f - alpha_ld Lambda_0 / (Lambda_0 + 1)`` and the shear impedance of the layer at
-``k = 0``: ``Z_10 = Lambda_0 coth(H Lambda_0)`` (velocity top, clamped shear) or
-``Z_10 = Lambda_0 tanh(H Lambda_0)`` (stress top, free shear). For the velocity top this is::
+Inserting into the friction law (DESIGN.md section 3) and clearing ``sh``, ``ch``::
 
-    c = -i f_eff / (beta^2 H [(1 + alpha_pc Lambda_0) Lambda_0 + F_0 tanh(H Lambda_0)])
+    velocity: c = -i f_eff ch / (beta^2 H [(1 + alpha_pc L) L ch + F_0 sh])
+    stress:   c = i f_eff (2 beta sd - sh) / (beta^2 H [(1 + alpha_pc L) L sh + F_0 ch])
 
-whose real part is exactly the paper's Eq. (Hspectrum) (standard model), written without the
-``1/tan(H |Lambda_0|)`` factors that make Eq. (Hspectrum) look divergent at ``beta = 1/2``
-(``tan(H |Lambda_0|) = tan((2n+1) pi) = 0`` there). At ``beta = 1/2``, ``tanh(H Lambda_0) = 0``
-and ``c = -i f / (beta^2 H Lambda_0) = -+ 4 f / ((2n+1) pi)``: the paper's
-``Re Lambda = 4 f k / ((2n+1) pi)`` for the unstable (``sign = -1``) branch. For the stress top
-at ``beta = 1/2``, ``Z_10 = 0`` and the linear term vanishes (growth is O(k^2)).
+with ``F_0 = L (L + Delta) / (gamma (L + 1))`` and ``f_eff = f - alpha_ld L / (L + 1)``. These
+forms have no apparent divergence. The real part of the velocity form is exactly the paper's
+Eq. (Hspectrum) (standard model), which carries ``1/tan(H |Lambda_0|)`` factors that are 0/0 at
+``beta = 1/2`` (``sh = 0`` there). At ``beta = 1/2``, ``c = -i f / (beta^2 H L) = -+ 4 f/((2n+1)
+pi)``: the paper's ``Re Lambda = 4 f k / ((2n+1) pi)`` for the unstable (``sign = -1``) branch.
+When ``ch = 0`` (``beta = (2n+1)/(2m+1)``, e.g. ``1/3``) the velocity-top slope vanishes.
 """
 
 from __future__ import annotations
@@ -43,16 +44,16 @@ def slope(n: int, sign: int, p: Params) -> complex:
     Returns:
         The complex slope; ``Lambda(k) ~ cutoff(n, sign, p) + slope * k``.
     """
-    L0 = cutoff(n, sign, p)
+    L = cutoff(n, sign, p)
     H = p.H
-    t = complex(np.tanh(H * L0))  # purely imaginary; exactly representable limits handled below
-    F0 = L0 * (L0 + p.Delta) / (p.gamma * (L0 + 1.0))
-    f_eff = p.f - p.alpha_ld * L0 / (L0 + 1.0)
-    a0 = 1.0 + p.alpha_pc * L0
+    sh, ch = np.sinh(H * L), np.cosh(H * L)
+    F0 = L * (L + p.Delta) / (p.gamma * (L + 1.0))
+    f_eff = p.f - p.alpha_ld * L / (L + 1.0)
+    a0 = 1.0 + p.alpha_pc * L
     if p.bc == "velocity":
-        return complex(-1j * f_eff / (p.beta**2 * H * (a0 * L0 + F0 * t)))
-    # stress: c = -i f_eff t / (beta^2 H L0 [a0 L0 t + F0])
-    return complex(-1j * f_eff * t / (p.beta**2 * H * L0 * (a0 * L0 * t + F0)))
+        return complex(-1j * f_eff * ch / (p.beta**2 * H * (a0 * L * ch + F0 * sh)))
+    sd = np.sinh(p.beta * H * L)
+    return complex(1j * f_eff * (2.0 * p.beta * sd - sh) / (p.beta**2 * H * (a0 * L * sh + F0 * ch)))
 
 
 def lambda_smallk(k: float | np.ndarray, n: int, sign: int, p: Params) -> np.ndarray:

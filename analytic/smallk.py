@@ -53,7 +53,8 @@ def slope(n: int, sign: int, p: Params) -> complex:
     if p.bc == "velocity":
         return complex(-1j * f_eff * ch / (p.beta**2 * H * (a0 * L * ch + F0 * sh)))
     sd = np.sinh(p.beta * H * L)
-    return complex(1j * f_eff * (2.0 * p.beta * sd - sh) / (p.beta**2 * H * (a0 * L * sh + F0 * ch)))
+    den = p.beta**2 * H * (a0 * L * sh + F0 * ch)
+    return complex(1j * f_eff * (2.0 * p.beta * sd - sh) / den)
 
 
 def lambda_smallk(k: float | np.ndarray, n: int, sign: int, p: Params) -> np.ndarray:

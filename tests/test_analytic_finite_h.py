@@ -13,7 +13,7 @@ from analytic.finite_h import (
     friction_coefficients,
     spectrum_S,
 )
-from analytic.params import Params, ParameterError
+from analytic.params import ParameterError, Params
 from analytic.roots import count_zeros, polish
 
 CHECK_VALUE = 0.2716852879456 - 6.5866951866228j  # DESIGN.md section 4

@@ -5,7 +5,7 @@ import pytest
 
 from analytic.branches import follow_branch
 from analytic.finite_h import cutoff
-from analytic.params import Params, ParameterError
+from analytic.params import ParameterError, Params
 from analytic.smallk import growth_rate_beta_half, growth_rate_paper, lambda_smallk, slope
 
 # Parameter sets: paper defaults (beta = 1/2), beta != 1/2, stress top, generalized model.

@@ -54,6 +54,12 @@ def test_bloch_map_pairs_edges(length, cell):
     assert len(left) == len(right) == 2 * 5 + 1
     np.testing.assert_allclose(right[:, 0].real, left[:, 0].real, atol=1e-12)
     np.testing.assert_allclose(right[:, 1:], np.exp(-1j * k * length) * left[:, 1:], atol=1e-12)
+    if COMM.size > 1:  # the partition really separates partners (measured: all 22 rows on 2 ranks)
+        lo, hi = bm.P.getOwnershipRangeColumn()
+        r0, r1 = bm.P.getOwnershipRange()
+        elsewhere = sum(int(np.any((c < lo) | (c >= hi)))
+                        for c in (bm.P.getRow(r)[0] for r in range(r0, r1)))
+        assert COMM.allreduce(elsewhere, op=MPI.SUM) > 0
     x.destroy()
     bm.destroy()
 

@@ -443,37 +443,56 @@ def cross_section_mode(params: Params, k: float, target: complex, degree: int = 
         model.destroy()
 
 
-def most_unstable_k(params: Params, target_of_k, ks: np.ndarray, degree: int = 3,
-                    comm: MPI.Comm = MPI.COMM_SELF) -> tuple[float, complex]:
-    """Largest growth rate of one branch on a grid of ``k`` (cross-section model).
+def follow_branch(params: Params, target_of_k, ks: np.ndarray, degree: int = 3,
+                  comm: MPI.Comm = MPI.COMM_SELF) -> np.ndarray:
+    """One branch of the cross-section model along ``ks``, by continuation.
 
-    Args:
-        params: Physical parameters.
-        target_of_k: ``k -> target`` (e.g. :func:`forms.tracking.waveguide_lambda` of a branch).
-        ks: Wavenumbers (increasing).
-        degree: Lagrange degree of the 1D model.
-        comm: Communicator of the 1D solves.
+    The first ``k`` is solved near ``target_of_k(k)`` (e.g. the waveguide estimate of
+    :func:`forms.tracking.waveguide_lambda`); every next one near the linear extrapolation of
+    the last two eigenvalues, so the branch is followed where a ``k``-wise target would jump to
+    another one (it does for the stress top, ``0+``, near ``k = 1.4``).
 
     Returns:
-        ``(k, Lambda)`` at the grid point of largest ``Re Lambda``.
+        ``Lambda`` per ``k`` (``nan`` where nothing converged).
     """
     from forms.cross_section import CrossSectionModel
 
+    ks = np.asarray(ks, dtype=float)
     model = CrossSectionModel(comm, params, degree=degree, k_max=float(np.max(ks)))
     solver = PolynomialSolver(comm, nev=1, prefix="xs_")
-    best: tuple[float, complex] | None = None
+    out = np.full(len(ks), complex("nan"))
     try:
-        for k in ks:
-            res = solver.solve(model.operator(float(k)), target_of_k(float(k)))
-            if res.pairs and (best is None or res.pairs[0].value.real > best[1].real):
-                best = (float(k), res.pairs[0].value)
+        for i, k in enumerate(ks):
+            if i >= 2 and np.isfinite(out[i - 1]) and np.isfinite(out[i - 2]):
+                slope = (out[i - 1] - out[i - 2]) / (ks[i - 1] - ks[i - 2])
+                target = out[i - 1] + slope * (k - ks[i - 1])
+            elif i >= 1 and np.isfinite(out[i - 1]):
+                target = out[i - 1]
+            else:
+                target = target_of_k(float(k))
+            res = solver.solve(model.operator(float(k)), target)
+            if res.pairs:
+                out[i] = res.pairs[0].value
             res.destroy()
     finally:
         solver.destroy()
         model.destroy()
-    if best is None:
+    return out
+
+
+def most_unstable_k(params: Params, target_of_k, ks: np.ndarray, degree: int = 3,
+                    comm: MPI.Comm = MPI.COMM_SELF) -> tuple[float, complex]:
+    """Largest growth rate of one branch on a grid of ``k`` (:func:`follow_branch`).
+
+    Returns:
+        ``(k, Lambda)`` at the grid point of largest ``Re Lambda``.
+    """
+    lam = follow_branch(params, target_of_k, ks, degree, comm)
+    ok = np.isfinite(lam)
+    if not ok.any():
         raise RuntimeError("no converged cross-section eigenvalue on the k grid")
-    return best
+    i = int(np.nanargmax(np.where(ok, lam.real, np.nan)))
+    return float(ks[i]), complex(lam[i])
 
 
 # --- Spatial roots k(Lambda) and the long-block limit (Kulikovskii's condition).
@@ -558,14 +577,55 @@ def kulikovskii_growth(model, omega: float, sigma0: float, k1: complex, k2: comp
     raise RuntimeError("Kulikovskii iteration did not converge")
 
 
-def kulikovskii_limit(params: Params, lam_block: complex, span: float = 0.15, points: int = 7
-                      ) -> dict | None:
-    """Long-block limit from the cross-section model alone (Kulikovskii's condition).
+def saddle_point(model, lam0: complex, k1: complex, k2: complex, tol: float = 1e-10,
+                 max_it: int = 40) -> tuple[complex, complex]:
+    """Pinch point: ``Lambda`` where two spatial roots ``k1(Lambda), k2(Lambda)`` coincide.
+
+    Near a double root ``k1 - k2 ~ sqrt(Lambda - Lambda_s)``, so ``G = (k1 - k2)^2`` is
+    analytic and simple there; secant iteration on ``G`` in the complex plane. The two roots are
+    those nearest their previous midpoint.
+
+    Returns:
+        ``(Lambda_s, k_s)``.
+
+    Raises:
+        RuntimeError: If the iteration does not converge.
+    """
+    def G(lam: complex, mid: complex) -> tuple[complex, complex]:
+        r = spatial_roots(model, lam, mid, nev=2)
+        if len(r) < 2:
+            raise RuntimeError(f"spatial roots lost at Lambda = {lam}")
+        return (r[0] - r[1]) ** 2, 0.5 * (r[0] + r[1])
+
+    mid = 0.5 * (k1 + k2)
+    z0, z1 = lam0, lam0 + 1e-3 * (1 + 1j)
+    g0, mid = G(z0, mid)
+    for _ in range(max_it):
+        g1, mid = G(z1, mid)
+        if g1 == g0:
+            break
+        z0, z1, g0 = z1, z1 - g1 * (z1 - z0) / (g1 - g0), g1
+        if abs(z1 - z0) < tol * max(abs(z1), 1.0):
+            _, mid = G(z1, mid)
+            return complex(z1), complex(mid)
+    raise RuntimeError("saddle-point iteration did not converge")
+
+
+def kulikovskii_limit(params: Params, lam_block: complex, span: float = 0.15, points: int = 7,
+                      pinch: float = 0.5) -> dict | None:
+    """Long-block limit from the cross-section model alone.
 
     At the block eigenvalue of the largest ``L``, the two spatial roots ``k1, k2`` with the
-    closest ``Im k`` are taken as the wave pair the block's global mode is made of; the curve
-    ``Im k1 = Im k2`` is then followed over ``omega`` in ``Im(lam_block) +- span`` and its
-    largest growth rate found by a parabola through the best three points. Runs on one rank.
+    closest ``Im k`` are the wave pair the block's global mode is made of. If they nearly
+    coincide (``|k1 - k2| < pinch``) they pinch: the limit is the saddle point
+    ``dLambda/dk = 0`` (absolute instability), :func:`saddle_point`. Otherwise (Kulikovskii's
+    condition) the curve ``Im k1 = Im k2`` is followed over ``omega`` in
+    ``Im(lam_block) +- span`` and its largest growth rate found by a parabola through the best
+    three points. Runs on one rank.
+
+    Returns:
+        ``{"type": "kulikovskii" | "saddle", "lambda": [re, im], "k1_at_block", "k2_at_block",
+        ...}``, or ``None`` if fewer than two roots were found.
     """
     from forms.cross_section import CrossSectionModel
 
@@ -576,6 +636,11 @@ def kulikovskii_limit(params: Params, lam_block: complex, span: float = 0.15, po
             return None
         k1, k2 = min(((a, b) for i, a in enumerate(roots) for b in roots[i + 1:]),
                      key=lambda ab: abs(ab[0].imag - ab[1].imag))
+        info = {"k1_at_block": [k1.real, k1.imag], "k2_at_block": [k2.real, k2.imag]}
+        if abs(k1 - k2) < pinch:
+            lam_s, k_s = saddle_point(model, lam_block, k1, k2)
+            return {"type": "saddle", "lambda": [lam_s.real, lam_s.imag],
+                    "k_saddle": [k_s.real, k_s.imag], **info}
         curve = []
         for om in np.linspace(lam_block.imag - span, lam_block.imag + span, points):
             lam, a, b = kulikovskii_growth(model, float(om), lam_block.real, k1, k2)
@@ -587,7 +652,7 @@ def kulikovskii_limit(params: Params, lam_block: complex, span: float = 0.15, po
     j = int(np.clip(np.argmax(sig), 1, len(sig) - 2))
     a2, a1, a0 = np.polyfit(om[j - 1:j + 2], sig[j - 1:j + 2], 2)
     om_max = -a1 / (2 * a2) if a2 < 0 else om[j]
-    return {"lambda": [float(np.polyval([a2, a1, a0], om_max)), float(om_max)],
-            "k1_at_block": [k1.real, k1.imag], "k2_at_block": [k2.real, k2.imag],
+    return {"type": "kulikovskii", "lambda": [float(np.polyval([a2, a1, a0], om_max)),
+                                              float(om_max)],
             "curve": [[c[0].real, c[0].imag, c[1].real, c[1].imag, c[2].real, c[2].imag]
-                      for c in curve]}
+                      for c in curve], **info}

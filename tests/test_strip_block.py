@@ -66,6 +66,7 @@ def test_long_block_reaches_kulikovskii_limit():
         m.vector.destroy()
     problem.destroy()
     kul = kulikovskii_limit(params, lam)
+    assert kul["type"] == "kulikovskii"
     growth = kul["lambda"][0]
     k1, k2 = complex(*kul["k1_at_block"]), complex(*kul["k2_at_block"])
     assert abs(k1 - (1.37 - 0.143j)) < 0.02 and abs(k2 - (-6.09 - 0.143j)) < 0.02
@@ -85,6 +86,32 @@ def test_long_block_reaches_kulikovskii_limit():
     misfit = np.linalg.norm(waves @ coef - ux[inner]) / np.linalg.norm(ux[inner])
     assert misfit < 0.03  # measured 0.0267 (L = 64; 0.029 at L = 32): the rest is end effects
     assert 0.5 < abs(coef[0] / coef[1]) < 2  # measured 1.20: both waves matter
+
+
+def test_long_block_stress_top_reaches_saddle_point():
+    """Stress top: the two waves pinch (absolute instability), the limit is the saddle point.
+
+    Its growth rate is within 6e-5 of the infinite strip's largest (0.232938 at k = 1.545 on
+    branch 0+): there the group velocity nearly vanishes, so the saddle sits next to the real
+    k axis.
+    """
+    params = Params(bc="stress")
+    strip = strip_mesh(MPI.COMM_WORLD, 64.0, params.H, 512, 8)
+    problem = build_strip_problem(strip, params, k=None, degree=2)
+    modes = solve_modes(problem, 0.23 - 5.6j, nev=4)
+    lam = max(modes, key=lambda m: m.eigenvalue.real).eigenvalue
+    for m in modes:
+        m.vector.destroy()
+    problem.destroy()
+    kul = kulikovskii_limit(params, lam)
+    assert kul["type"] == "saddle"
+    k_s = complex(*kul["k_saddle"])
+    # measured 2026-11-21: k_s = -1.52237 + 0.00784i (the 0+ wave at +k, seen from Im L < 0),
+    # Lambda_s = 0.232883 - 5.593161i; block (L = 64, 8 cells per unit, P2) 0.232622: the gap
+    # 2.6e-4 shrinks as L^-2.1 (0.2280, 0.2318, 0.2326 at L = 16, 32, 64).
+    assert abs(k_s.real + 1.5224) < 1e-3 and 0 < k_s.imag < 0.02
+    assert 0 < kul["lambda"][0] - lam.real < 3e-4
+    assert abs(kul["lambda"][1] - lam.imag) < 2e-3  # measured 7.9e-4
 
 
 @pytest.mark.serial

@@ -3,8 +3,9 @@
 The block ``0 < x < L``, ``0 < y < H`` has the same physics as the strip (:mod:`forms.strip`,
 ``k = None``: no Bloch map), with lateral ends ``--lateral free`` (traction-free, default),
 ``roller`` (``u_x = 0``) or ``clamped`` (``u = 0``). For every ``L`` of ``--lengths`` the
-eigenvalues near the infinite strip's branch (cross-section model at several ``k`` around its
-most unstable wavenumber) are computed and the most unstable one is kept. Written to ``--out``:
+eigenvalues near the infinite strip's branches (``--branches``, cross-section model at several
+``k`` around each one's most unstable wavenumber) are computed and the most unstable one is
+kept. Written to ``--out``:
 
 - ``finite_block.csv``: ``L, re_lambda, im_lambda, residual, candidates`` plus the infinite-strip
   reference ``re_lambda_inf, im_lambda_inf, k_inf`` (rows appended as each L finishes;
@@ -13,9 +14,11 @@ most unstable wavenumber) are computed and the most unstable one is kept. Writte
   infinite-strip value, and ``|Lambda_block - Lambda_inf|`` on log axes;
 - ``block_mode.png``: that mode for the largest ``L``: stresses and slip along the interface;
 - ``finite_block.json``: parameters, reference, timings, versions, and the long-block limit
-  from the cross-section model alone (Kulikovskii's condition: the global mode of a long
-  block is made of two spatial waves ``k1, k2`` with equal spatial growth ``Im k1 = Im k2``;
-  its growth rate is the largest on that curve), drawn in ``finite_block.png`` too.
+  from the cross-section model alone (:func:`forms.strip.kulikovskii_limit`: the global mode
+  of a long block is made of two spatial waves ``k1, k2``; either they have equal spatial
+  growth ``Im k1 = Im k2`` (Kulikovskii's condition, convective instability with reflections)
+  or they pinch, ``k1 = k2`` (saddle point, absolute instability)), drawn in
+  ``finite_block.png`` too.
 
 Example::
 
@@ -48,13 +51,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--lengths", default="2,4,8,16,32,64,128", help="block lengths L (comma list)")
     p.add_argument("--lateral", choices=("free", "roller", "clamped"), default="free",
                    help="lateral ends")
-    p.add_argument("--branch", default="0-", help="infinite-strip branch used as reference")
+    p.add_argument("--branches", default="0-,0+",
+                   help="infinite-strip branches whose most unstable growth is the reference and"
+                        " whose eigenvalues seed the shift targets")
     p.add_argument("--k-scan", default="0.05:4:80",
                    help="k grid for the infinite strip's most unstable k")
     p.add_argument("--cells-per-unit", type=int, default=8, help="cells per unit length in x")
     p.add_argument("--ny", type=int, default=8, help="cells along y")
     p.add_argument("--degree", type=int, default=2, help="Lagrange degree")
-    p.add_argument("--targets", type=int, default=5,
+    p.add_argument("--targets", type=int, default=3,
                    help="shift targets per L (infinite-strip Lambda at k around k_inf)")
     p.add_argument("--nev", type=int, default=6, help="eigenpairs per target")
     p.add_argument("--no-kulikovskii", action="store_true",
@@ -70,14 +75,16 @@ def validate(args: argparse.Namespace):
     if math.isinf(params.H):
         raise _cli.ParameterError("H = inf is outside its allowed range here (a finite block)")
     lengths = _cli.parse_k(args.lengths, name="--lengths")
-    branch = mode_shape.parse_branch(args.branch)
+    branches = [mode_shape.parse_branch(b) for b in args.branches.split(",") if b.strip()]
+    if not branches:
+        raise _cli.ParameterError("--branches is empty (give e.g. 0-,0+)")
     k_scan = _cli.parse_k(args.k_scan, name="--k-scan")
     _cli.positive_int("--cells-per-unit", args.cells_per_unit, 1)
     _cli.positive_int("--ny", args.ny, 1)
     _cli.positive_int("--degree", args.degree, 1, 5)
     _cli.positive_int("--targets", args.targets, 1, 50)
     _cli.positive_int("--nev", args.nev, 1, 200)
-    return params, np.unique(lengths), branch, k_scan
+    return params, np.unique(lengths), branches, k_scan
 
 
 def _read_done(path: str) -> dict[float, dict]:
@@ -87,13 +94,25 @@ def _read_done(path: str) -> dict[float, dict]:
         return {float(r["L"]): r for r in csv.DictReader(f)}
 
 
-def extrapolate(L: np.ndarray, values: np.ndarray, points: int = 3) -> tuple[float, float]:
-    """Fit ``v = v_inf + c / L`` to the ``points`` largest lengths; returns ``(v_inf, c)``."""
-    order = np.argsort(L)[-points:]
-    if len(order) < 2:
+def extrapolate(L: np.ndarray, values: np.ndarray) -> tuple[float, float]:
+    """Limit ``L -> infinity`` from the three largest lengths (Richardson, observed order).
+
+    With ``L`` in a geometric ratio ``r`` and monotone differences, the order ``p`` comes from
+    ``(v2 - v1)/(v3 - v2) = r^p`` and the limit is ``v3 + (v3 - v2)/(r^p - 1)``; otherwise a
+    least-squares ``a + b/L``. Returns ``(limit, p)``.
+    """
+    order = np.argsort(L)
+    L, v = np.asarray(L)[order], np.asarray(values)[order]
+    if len(L) < 3:
         return float("nan"), float("nan")
-    c, v_inf = np.polyfit(1.0 / L[order], values[order], 1)
-    return float(v_inf), float(c)
+    (l1, l2, l3), (v1, v2, v3) = L[-3:], v[-3:]
+    r = l2 / l1
+    d1, d2 = v2 - v1, v3 - v2
+    if abs(l3 / l2 - r) < 1e-9 * r and d1 * d2 > 0 and abs(d1) > abs(d2):
+        p = float(np.log(d1 / d2) / np.log(r))
+        return float(v3 + d2 / (r**p - 1.0)), p
+    b, a = np.polyfit(1.0 / L[-3:], v[-3:], 1)
+    return float(a), 1.0
 
 
 def plot_convergence(rows: list[dict], lam_inf: complex, k_inf: float, out_png: str,
@@ -108,38 +127,37 @@ def plot_convergence(rows: list[dict], lam_inf: complex, k_inf: float, out_png: 
     lam = np.array([complex(float(r["re_lambda"]), float(r["im_lambda"])) for r in rows])
     order = np.argsort(L)
     L, lam = L[order], lam[order]
-    g_inf, c = extrapolate(L, lam.real)
+    g_inf, order_p = extrapolate(L, lam.real)
     fig, axes = plt.subplots(1, 2, figsize=(11.5, 4.3))
     ax = axes[0]
     ax.plot(L, lam.real, "o-", label="finite block: most unstable Re $\\Lambda$")
     ax.axhline(lam_inf.real, color="k", ls="--",
-               label=f"infinite strip: max over k of Re $\\Lambda$ = {lam_inf.real:.4f}"
-                     f" (k = {k_inf:.3g})")
+               label=f"infinite strip ({meta.get('reference_branch', '')}): max over k of"
+                     f" Re $\\Lambda$ = {lam_inf.real:.5f} (k = {k_inf:.4g})")
     if np.isfinite(g_inf):
         ax.axhline(g_inf, color="tab:red", ls=":",
-                   label=f"block, $L \\to \\infty$ (fit $a + b/L$): {g_inf:.4f}")
+                   label=f"block, $L \\to \\infty$ (Richardson, order {order_p:.2f}):"
+                         f" {g_inf:.5f}")
     if kul is not None:
+        what = ("Kulikovskii limit (1D model, Im $k_1$ = Im $k_2$)" if kul["type"] ==
+                "kulikovskii" else "saddle point (1D model, $k_1 = k_2$)")
         ax.axhline(kul["lambda"][0], color="tab:green", ls="-.", lw=1,
-                   label="Kulikovskii limit (1D model, Im $k_1$ = Im $k_2$):"
-                         f" {kul['lambda'][0]:.4f}")
+                   label=f"{what}: {kul['lambda'][0]:.5f}")
     ax.set_xscale("log")
     ax.set_xlabel("block length $L$ (units $c_s t_0$)")
     ax.set_ylabel("growth rate Re $\\Lambda$")
     ax.legend(fontsize=8, loc="lower right")
     ax.set_title(title, fontsize=9)
     ax = axes[1]
-    ax.plot(1.0 / L, lam.real, "o", label="finite block")
-    if np.isfinite(g_inf):
-        xx = np.linspace(0, 1.0 / L.min(), 50)
-        ax.plot(xx, g_inf + c * xx, "r:", label=f"{g_inf:.4f} {c:+.3f}/L (3 largest L)")
-    ax.axhline(lam_inf.real, color="k", ls="--", label="infinite strip, max over k")
-    if kul is not None:
-        ax.axhline(kul["lambda"][0], color="tab:green", ls="-.", lw=1, label="Kulikovskii limit")
-    ax.set_xlabel("$1/L$")
-    ax.set_ylabel("Re $\\Lambda$")
-    ax.set_xlim(left=0)
+    gap = np.abs(lam.real - (g_inf if np.isfinite(g_inf) else lam_inf.real))
+    ax.loglog(L, gap, "o-", label="|Re $\\Lambda_L$ - limit|")
+    if len(L) >= 2 and np.isfinite(order_p):
+        ax.loglog(L, gap[-1] * (L / L[-1]) ** -order_p, "k:", lw=1,
+                  label=f"$\\propto L^{{-{order_p:.2f}}}$")
+    ax.set_xlabel("block length $L$")
+    ax.set_ylabel("distance to the extrapolated limit")
     ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
+    ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
     fig.savefig(out_png, dpi=130, metadata={"Title": title, "Description": json.dumps(meta)})
     plt.close(fig)
@@ -154,7 +172,7 @@ def main(comm=None, argv: list[str] | None = None) -> int:
         bad.insert(0, petsc_args[0])
     if bad:
         parser.error(f"unrecognized arguments: {' '.join(bad)}")
-    params, lengths, branch, k_scan = validate(args)
+    params, lengths, branches, k_scan = validate(args)
 
     import slepc4py
 
@@ -165,6 +183,7 @@ def main(comm=None, argv: list[str] | None = None) -> int:
 
     from forms.strip import (
         build_strip_problem,
+        follow_branch,
         kulikovskii_limit,
         most_unstable_k,
         normalise,
@@ -176,26 +195,42 @@ def main(comm=None, argv: list[str] | None = None) -> int:
     logging.getLogger().setLevel(logging.WARNING)
     comm = comm or MPI.COMM_WORLD
     t_start = time.perf_counter()
-    b = Branch(*branch)
-
-    def wg(k: float) -> complex:
-        return waveguide_lambda(params, b, k)
-
-    # Infinite strip: most unstable k of the branch on the grid, refined on a finer grid.
-    k0, _ = most_unstable_k(params, wg, k_scan)
+    # Infinite strip, per branch: most unstable k on the grid, refined on a finer grid; the
+    # reference is the most unstable branch. The block's operators are real, so its spectrum is
+    # symmetric under conjugation: every target is taken in Im Lambda < 0.
     dk = (k_scan[-1] - k_scan[0]) / max(len(k_scan) - 1, 1)
-    fine = np.linspace(max(k0 - dk, 1e-3), k0 + dk, 21)
-    k_inf, lam_inf = most_unstable_k(params, wg, fine)
-    k_inf, lam_inf = comm.bcast((k_inf, lam_inf), root=0)
-    ks = np.linspace(0.5 * k_inf, 1.5 * k_inf, args.targets) if args.targets > 1 else [k_inf]
-    from forms.strip import cross_section_mode
-
+    per_branch = []
     targets = []
-    for kt in ks:
-        xs = cross_section_mode(params, float(kt), wg(float(kt)))
-        if xs is not None:
-            targets.append(xs.eigenvalue)
-    targets = comm.bcast(targets, root=0)
+    for nb in branches:
+        b = Branch(*nb)
+
+        def wg(k: float, b: Branch = b) -> complex:
+            return waveguide_lambda(params, b, k)
+
+        k0, lam0 = most_unstable_k(params, wg, k_scan)
+        fine = np.linspace(k0, k0 + dk, 11)
+        kb, lb = most_unstable_k(params, lambda k, z=lam0: z, fine)
+        fine = np.linspace(k0, max(k0 - dk, 1e-3), 11)
+        kb2, lb2 = most_unstable_k(params, lambda k, z=lam0: z, fine)
+        if lb2.real > lb.real:
+            kb, lb = kb2, lb2
+        per_branch.append((b.label, kb, lb))
+        if lb.real <= 0 and len(branches) > 1:
+            continue  # a stable branch seeds no targets
+        # shift targets: the branch itself on both sides of its most unstable k
+        for ks in (np.linspace(kb, 1.5 * kb, args.targets), np.linspace(kb, 0.5 * kb,
+                                                                       args.targets)):
+            for z in follow_branch(params, lambda k, z=lb: z, ks):
+                if np.isfinite(z):
+                    targets.append(z if z.imag <= 0 else z.conjugate())
+    # distinct targets only
+    uniq: list[complex] = []
+    for z in targets:
+        if all(abs(z - w) > 1e-6 * abs(z) for w in uniq):
+            uniq.append(z)
+    targets = uniq
+    label, k_inf, lam_inf = max(per_branch, key=lambda t: t[2].real)
+    label, k_inf, lam_inf, targets = comm.bcast((label, k_inf, lam_inf, targets), root=0)
 
     csv_path = os.path.join(args.out, "finite_block.csv")
     done = _read_done(csv_path) if (args.resume and comm.rank == 0) else {}
@@ -205,8 +240,9 @@ def main(comm=None, argv: list[str] | None = None) -> int:
         if not done:
             with open(csv_path, "w", newline="") as f:
                 csv.writer(f).writerow(COLUMNS)
-        print(f"infinite strip, branch {b.label}: max Re Lambda = {lam_inf:.8g} at k ="
-              f" {k_inf:.6g}", flush=True)
+        for lb_, kb_, zb_ in per_branch:
+            print(f"infinite strip, branch {lb_}: max Re Lambda = {zb_:.8g} at k = {kb_:.6g}",
+                  flush=True)
     todo = [L for L in lengths if float(L) not in done]
     bar = None
     if comm.rank == 0:
@@ -255,7 +291,9 @@ def main(comm=None, argv: list[str] | None = None) -> int:
         bar.close()
 
     meta = {"workflow": "finite_block", "params": params.as_dict(), "lateral": args.lateral,
-            "branch": b.label, "k_inf": k_inf, "lambda_inf": [lam_inf.real, lam_inf.imag],
+            "branches": [t[0] for t in per_branch], "reference_branch": label,
+            "per_branch": [[t[0], t[1], t[2].real, t[2].imag] for t in per_branch],
+            "k_inf": k_inf, "lambda_inf": [lam_inf.real, lam_inf.imag],
             "targets": [[t.real, t.imag] for t in targets], "cells_per_unit": args.cells_per_unit,
             "ny": args.ny, "degree": args.degree, "ranks": comm.size, "timings": timings,
             "versions": mode_shape.versions(), "command": " ".join(sys.argv)}
@@ -280,13 +318,14 @@ def main(comm=None, argv: list[str] | None = None) -> int:
             if kul is not None:
                 kul["from_block_length"] = float(big["L"])
                 meta["kulikovskii"] = kul
-                print(f"Kulikovskii limit (cross-section): Lambda = {kul['lambda'][0]:.6f}"
-                      f" {kul['lambda'][1]:+.6f}i (k1 = {complex(*kul['k1_at_block']):.4f},"
-                      f" k2 = {complex(*kul['k2_at_block']):.4f})", flush=True)
+                print(f"long-block limit ({kul['type']}, cross-section): Lambda ="
+                      f" {kul['lambda'][0]:.6f} {kul['lambda'][1]:+.6f}i (k1 ="
+                      f" {complex(*kul['k1_at_block']):.4f}, k2 ="
+                      f" {complex(*kul['k2_at_block']):.4f})", flush=True)
         if rows:
             L_all = np.array([float(r["L"]) for r in rows])
             g_all = np.array([float(r["re_lambda"]) for r in rows])
-            meta["extrapolated_growth"] = extrapolate(L_all, g_all)[0]
+            meta["extrapolated_growth"], meta["extrapolation_order"] = extrapolate(L_all, g_all)
             plot_convergence(rows, lam_inf, k_inf, os.path.join(args.out, "finite_block.png"),
                              title, meta, kul)
         if interface is not None:

@@ -359,6 +359,7 @@ def main(comm=None, argv: list[str] | None = None) -> int:
     from forms.strip import (
         build_strip_problem,
         cross_section_mode,
+        follow_branch,
         most_unstable_k,
         normalise,
         solve_modes,
@@ -374,18 +375,26 @@ def main(comm=None, argv: list[str] | None = None) -> int:
     def wg(k: float) -> complex:
         return waveguide_lambda(params, b, k)
 
+    # The branch is followed from small k (continuation, forms.strip.follow_branch): a k-wise
+    # waveguide target can land on another branch. Every rank alike (COMM_SELF solves).
     k = float(args.k)
     if args.most_unstable:
-        k, lam_max = most_unstable_k(params, wg, k_scan)  # every rank alike (COMM_SELF solves)
-        k = comm.bcast(k, root=0)
+        k, lam_branch = most_unstable_k(params, wg, k_scan)
+        k, lam_branch = comm.bcast((k, lam_branch), root=0)
         if comm.rank == 0:
             print(f"most unstable on the k grid (branch {b.label}): k = {k:.6g},"
-                  f" Lambda = {lam_max:.6g}", flush=True)
-    xs = cross_section_mode(params, k, args.target if args.target is not None else wg(k))
+                  f" Lambda = {lam_branch:.6g}", flush=True)
+    else:
+        ks = np.linspace(min(0.05, k), k, int(np.clip(k / 0.05, 2, 400)) + 1)
+        lam_branch = comm.bcast(complex(follow_branch(params, wg, ks)[-1]), root=0)
+    xs = None
+    if np.isfinite(lam_branch) or args.target is not None:
+        xs = cross_section_mode(params, k, args.target if args.target is not None
+                                else lam_branch)
     if xs is None and (args.source == "cross-section" or args.target is None):
         if comm.rank == 0:
-            print("error: the cross-section solve did not converge near"
-                  f" {wg(k):.6g}; give --target", file=sys.stderr, flush=True)
+            print(f"error: branch {b.label} not followed to k = {k:.6g} by the cross-section"
+                  " model; give --target", file=sys.stderr, flush=True)
         return 1
     length = args.wavelengths * wavelength(k)
     nx = args.wavelengths * args.cells_per_wavelength

@@ -80,3 +80,21 @@ def test_mode_shape_bad_input(tmp_path, bad):
     assert res.returncode == 2
     assert len(res.stderr.strip().splitlines()) == 1 and "error" in res.stderr
     assert not out.exists()
+
+
+@pytest.mark.serial
+def test_mode_shape_from_cross_section(tmp_path):
+    """--source cross-section: no strip solve; the picture says where it came from."""
+    from PIL import Image
+
+    out = tmp_path / "xs"
+    res = _run([sys.executable, SCRIPT, "--out", str(out), "--source", "cross-section",
+                "--color", "stress", *TINY])
+    assert res.returncode == 0, res.stderr[-3000:]
+    meta = json.loads((out / "mode.json").read_text())
+    assert meta["source"].startswith("cross-section model")
+    lam = complex(*meta["eigenvalue"])
+    # the 1D model at its default mesh for k = 1 (P3): measured 7.6e-11 from the exact root
+    assert abs(lam - CHECK_VALUE) / abs(CHECK_VALUE) < 1e-10
+    with Image.open(out / "mode_shape.png") as im:
+        assert im.info["Title"].startswith("cross-section model")

@@ -397,11 +397,27 @@ def count_roots(q: float, p: Params, box: tuple[float, float, float, float], *,
 # --------------------------------------------------------------------------------------------
 # Largest growth rate over q, and thresholds located numerically
 # --------------------------------------------------------------------------------------------
-DEFAULT_QGRID = {
-    "dilatational": (-6.0, 3.0, 91),
-    "shear": (-3.0, 3.0, 121),
-    "quasistatic": (-3.0, 4.0, 71),
-}
+QS_MAX_ABS_Z = 0.5  # a "quasi-static" root has |z| = |Lambda| / (c_s q) well below 1
+SHEAR_MAX_DIST = 0.25  # a "shear" root has |z + 1| below this (else it is no longer shear-like)
+
+
+def default_qgrid(family: str, p: Params) -> np.ndarray:
+    """Log-spaced ``q`` grid for :func:`max_growth`, scaled with ``gamma`` where it matters.
+
+    - dilatational: ``1e-6 min(1, gamma) .. 1e3`` (10/decade): the unstable interval
+      ``(0, q_c)`` shrinks to zero at threshold, and ``Re kappa_d ~ q / gamma``;
+    - shear: ``1e-3 min(1, gamma) .. 1e3`` (20/decade): ``q_c^(s) = gamma sqrt(1-beta^2) /
+      (1 - Gamma)`` is small for small ``gamma``;
+    - quasi-static: ``1e-3 .. 1e5`` (10/decade): ``q_c^(qs) ~ f^2 beta^4 / gamma``.
+    """
+    g = min(1.0, p.gamma)
+    if family == "dilatational":
+        lo, hi, per = math.log10(1e-6 * g), 3.0, 10
+    elif family == "shear":
+        lo, hi, per = math.log10(1e-3 * g), 3.0, 20
+    else:
+        lo, hi, per = -3.0, 5.0, 10
+    return np.logspace(lo, hi, int(round((hi - lo) * per)) + 1)
 
 
 def unstable_margin(r: HalfSpaceRoot) -> float:
@@ -413,8 +429,10 @@ def unstable_margin(r: HalfSpaceRoot) -> float:
 
     - dilatational (``"unstable"`` function): ``min(Re kappa_d, -Im kappa_d)`` (physical needs
       ``Re kappa_d > 0``, unstable ``Im kappa_d < 0``);
-    - shear: ``min(Re kappa_s, Im kappa_s)``;
-    - quasi-static: ``Im z`` (the root near ``z = 0`` is on the physical sheet).
+    - shear: ``min(Re kappa_s, Im kappa_s)``, ``-inf`` if ``|z + 1| > SHEAR_MAX_DIST`` (at
+      large ``q`` the continued shear root turns into the quasi-static one near ``z = 0``);
+    - quasi-static: ``Im z`` (the root near ``z = 0`` is on the physical sheet); ``-inf`` if
+      Newton left the neighbourhood ``|z| <= QS_MAX_ABS_Z``.
 
     A root that did not converge gets ``-inf``.
     """
@@ -425,8 +443,31 @@ def unstable_margin(r: HalfSpaceRoot) -> float:
             return -math.inf
         return min(r.kappa.real, -r.kappa.imag)
     if r.family == "shear":
+        if abs(r.z + 1.0) > SHEAR_MAX_DIST:
+            return -math.inf  # continued away from z = -1 (e.g. into the quasi-static root)
         return min(r.kappa.real, r.kappa.imag)
-    return r.z.imag if r.sheet == "physical" else -math.inf
+    if r.sheet != "physical" or abs(r.z) > QS_MAX_ABS_Z:
+        return -math.inf  # not (or no longer) the slow quasi-static root
+    return r.z.imag
+
+
+def in_family(r: HalfSpaceRoot) -> bool:
+    """Whether a converged root still belongs to its family (by location in the z-plane).
+
+    dilatational: the ``"unstable"`` ``kappa_d`` function; shear: ``|z + 1| <=
+    SHEAR_MAX_DIST``; quasi-static: ``|z| <= QS_MAX_ABS_Z``.
+    """
+    if not r.converged:
+        return False
+    if r.family == "shear":
+        return abs(r.z + 1.0) <= SHEAR_MAX_DIST
+    if r.family == "quasistatic":
+        return abs(r.z) <= QS_MAX_ABS_Z
+    return r.branch == "unstable"
+
+
+def _family_growth(r: HalfSpaceRoot) -> float:
+    return r.growth if (in_family(r) and r.physical) else -math.inf
 
 
 @dataclass(frozen=True)
@@ -476,67 +517,76 @@ def max_growth(family: str, p: Params, qs: Sequence[float] | np.ndarray | None =
                *, refine: bool = True) -> MaxGrowth:
     """Largest growth rate of one family over ``q`` (physical roots only).
 
-    The root is continued over a log-spaced ``q`` grid (:data:`DEFAULT_QGRID`, from
-    ``q = 1e-6`` for the dilatational family, whose unstable interval ``(0, q_c)`` shrinks to
-    zero at threshold), then the maximum of :func:`unstable_margin` and of the growth rate is
-    refined between grid neighbours with a bounded Brent search.
+    The roots of the family are computed on a log-spaced ``q`` grid (:func:`default_qgrid`),
+    by continuation and (shear, quasi-static) from the family's own starting point at each
+    ``q``; then the maxima of :func:`unstable_margin` and of the growth rate (roots in the
+    family, :func:`in_family`, on the physical sheet) are refined between grid neighbours
+    with a bounded Brent search.
 
     Args:
         family: ``"dilatational"``, ``"shear"`` or ``"quasistatic"``.
         p: Parameters.
-        qs: Increasing wavenumbers (default: :data:`DEFAULT_QGRID`).
+        qs: Increasing wavenumbers (default: :func:`default_qgrid`).
         refine: Refine the maxima (otherwise grid values).
     """
     if family not in FAMILIES:
         raise ParameterError(f"family = {family!r} is not one of {', '.join(FAMILIES)}")
-    if qs is None:
-        a, b, n = DEFAULT_QGRID[family]
-        qs = np.logspace(a, b, int(n))
-    qs = np.asarray(qs, dtype=float)
-    if family == "quasistatic":  # each q from its own quasi-static guess (no continuation)
-        roots = [quasistatic_root(float(q), p) for q in qs]
-    else:
-        roots = follow(family, qs, p, branch="unstable")
+    qs = default_qgrid(family, p) if qs is None else np.asarray(qs, dtype=float)
+    # Tracks: the root continued in q and, for the shear and quasi-static families, the root
+    # Newton finds at each q from the family's own starting point (branch point z = -1, resp.
+    # the quasi-static root): continuation from small q need not follow the root that crosses
+    # the branch point at q_c (seen for gamma << 1).
+    tracks: list[tuple[list[HalfSpaceRoot], Callable[[float, int], HalfSpaceRoot]]] = []
+    if family != "quasistatic":
+        cont = follow(family, qs, p, branch="unstable")
+        guesses = [r.kappa for r in cont]
+        tracks.append((cont, lambda q, i: find_root(family, q, p, branch="unstable",
+                                                     guess=guesses[i])))
+    if family != "dilatational":
+        fresh = [find_root(family, float(q), p) for q in qs]
+        tracks.append((fresh, lambda q, i: find_root(family, q, p)))
+    n_failed = min(sum(not r.converged for r in roots) for roots, _ in tracks)
+    q_m, m, q_g, g = math.nan, -math.inf, math.nan, -math.inf
+    for roots, solve in tracks:
+        q_t, m_t, q_gt, g_t = _track_maxima(roots, solve, qs, refine)
+        if m_t > m:
+            q_m, m = q_t, m_t
+        if g_t > g:
+            q_g, g = q_gt, g_t
+    if not math.isfinite(g):
+        q_g, g = math.nan, math.nan
+    return MaxGrowth(family=family, unstable=m > 0, margin=m, q_margin=q_m, growth=g,
+                     q_growth=q_g, n_failed=n_failed)
+
+
+def _track_maxima(roots: list[HalfSpaceRoot], solve: Callable[[float, int], HalfSpaceRoot],
+                  qs: np.ndarray, refine: bool) -> tuple[float, float, float, float]:
+    """Maxima over ``q`` of the margin and of the physical growth along one track of roots."""
     margins = np.array([unstable_margin(r) for r in roots])
-    growths = np.array([r.growth if (r.converged and r.physical) else -np.inf for r in roots])
-    n_failed = int(sum(not r.converged for r in roots))
-    guesses = [r.kappa for r in roots]
-
-    def solve(q: float, i: int) -> HalfSpaceRoot:
-        if family == "quasistatic":
-            return quasistatic_root(q, p)
-        return find_root(family, q, p, branch="unstable", guess=guesses[i])
-
+    growths = np.array([_family_growth(r) for r in roots])
     # Refine around every local maximum of the grid margin (the unstable interval near a
     # threshold is a narrow peak that need not be the largest grid value), keep the best.
     q_m, m, i_m = math.nan, -math.inf, 0
-    finite = np.where(np.isfinite(margins), margins, -np.inf)
     last = len(qs) - 1
-    peaks = [i for i in range(len(qs)) if np.isfinite(finite[i])
-             and finite[i] >= finite[max(i - 1, 0)] and finite[i] >= finite[min(i + 1, last)]]
-    peaks = sorted(peaks, key=lambda i: -finite[i])[:6]
+    peaks = [i for i in range(len(qs)) if np.isfinite(margins[i])
+             and margins[i] >= margins[max(i - 1, 0)] and margins[i] >= margins[min(i + 1, last)]]
+    peaks = sorted(peaks, key=lambda i: -margins[i])[:6]
     for i in peaks:
         if refine:
             q_i, m_i = _refine_max(lambda q, i=i: unstable_margin(solve(q, i)), qs, i)
         else:
-            q_i, m_i = float(qs[i]), float(finite[i])
+            q_i, m_i = float(qs[i]), float(margins[i])
         if m_i > m:
             q_m, m, i_m = q_i, m_i, i
+    q_g, g = math.nan, -math.inf
     if np.isfinite(growths).any():
         i_g = int(np.argmax(growths))
         q_g, g = float(qs[i_g]), float(growths[i_g])
         if refine:
-            def grow(q: float) -> float:
-                r = solve(q, i_g)
-                return r.growth if (r.converged and r.physical) else -math.inf
-            q_g, g = _refine_max(grow, qs, i_g)
-        if m > 0 and g <= 0:  # the margin found an interval the growth grid missed
-            r = solve(q_m, i_m)
-            q_g, g = q_m, r.growth
-    else:
-        q_g, g = math.nan, math.nan
-    return MaxGrowth(family=family, unstable=m > 0, margin=m, q_margin=q_m, growth=g,
-                     q_growth=q_g, n_failed=n_failed)
+            q_g, g = _refine_max(lambda q: _family_growth(solve(q, i_g)), qs, i_g)
+    if m > 0 and g <= 0:  # the margin found an interval the growth grid missed
+        q_g, g = q_m, solve(q_m, i_m).growth
+    return q_m, m, q_g, g
 
 
 def threshold_delta(family: str, gamma_f: float, f: float, beta: float,
@@ -549,7 +599,9 @@ def threshold_delta(family: str, gamma_f: float, f: float, beta: float,
     largest growth rate of the family) by Brent's method on ``bracket``; ``gamma = Gamma/f``.
 
     Returns:
-        The threshold, or NaN if the margin has the same sign at both ends of ``bracket``.
+        The threshold, or NaN unless the family is unstable at ``bracket[0]`` and stable at
+        ``bracket[1]``. (Where the stable side has no root of the family at all, the margin
+        is ``-inf``: plain bisection on the sign first, then Brent.)
     """
     from scipy.optimize import brentq
 
@@ -562,6 +614,17 @@ def threshold_delta(family: str, gamma_f: float, f: float, beta: float,
 
     lo, hi = bracket
     m_lo, m_hi = margin(lo), margin(hi)
-    if not (math.isfinite(m_lo) and math.isfinite(m_hi)) or m_lo * m_hi > 0:
+    if not m_lo > 0 or m_hi > 0 or math.isnan(m_hi):
+        return math.nan
+    for _ in range(60):  # bisect on the sign until the stable end has a finite margin
+        if math.isfinite(m_hi):
+            break
+        mid = 0.5 * (lo + hi)
+        m_mid = margin(mid)
+        if m_mid > 0:
+            lo, m_lo = mid, m_mid
+        else:
+            hi, m_hi = mid, m_mid
+    if not math.isfinite(m_hi):
         return math.nan
     return float(brentq(margin, lo, hi, xtol=xtol, rtol=4 * np.finfo(float).eps))

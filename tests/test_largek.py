@@ -151,7 +151,8 @@ def test_shear_generalized_limit():
     assert abs(a / b - 1) < 1e-6
 
 
-@pytest.mark.parametrize("beta, gamma_f", [(0.45, 0.02), (0.45, 0.075), (0.6, 0.05)])
+@pytest.mark.parametrize("beta, gamma_f", [(0.45, 0.02), (0.45, 0.075), (0.6, 0.05), (0.6, 1e-4),
+                                           (0.45, 1e-5)])
 def test_numerical_shear_threshold(beta, gamma_f):
     """Bisection on the largest shear growth rate over q = Eq. (full_shear_inst).
 
@@ -159,7 +160,7 @@ def test_numerical_shear_threshold(beta, gamma_f):
     narrow unstable q interval).
     """
     exact = float(lk.delta_s(gamma_f, 0.3, beta))
-    num = hs.threshold_delta("shear", gamma_f, 0.3, beta, (0.0, 0.1))
+    num = hs.threshold_delta("shear", gamma_f, 0.3, beta, (0.0, 2 * exact))
     assert abs(num / exact - 1) < 5e-7
 
 

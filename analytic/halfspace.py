@@ -59,8 +59,11 @@ def _sqrt(x: Number) -> Number:
 
 
 def _elementwise(fun: Callable[[complex], complex]) -> Callable[[np.ndarray], np.ndarray]:
-    """Vectorise a scalar function for :mod:`analytic.roots` (which calls with 1- or 4-point
-    arrays): a Python loop over ``cmath`` scalars is several times faster than numpy there."""
+    """Vectorise a scalar function for :mod:`analytic.roots`.
+
+    :mod:`analytic.roots` calls with 1- or 4-point arrays, where a Python loop over ``cmath``
+    scalars is several times faster than numpy.
+    """
     def vec(x: np.ndarray) -> np.ndarray:
         return np.array([fun(complex(v)) for v in np.ravel(x)], dtype=complex).reshape(
             np.shape(x))

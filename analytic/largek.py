@@ -214,7 +214,9 @@ def stability_boundaries(gamma_f: ArrayLike, f: float, beta: float) -> dict[str,
     ``Delta_s`` is NaN for ``Gamma >= 1`` (it diverges to ``-inf`` at ``Gamma = 1``).
     """
     g = np.atleast_1d(np.asarray(gamma_f, dtype=float))
-    ds = np.where(g < 1.0, delta_s(np.minimum(g, 1.0 - 1e-300), f, beta), np.nan)
+    ds = np.full_like(g, np.nan)
+    ok = g < 1.0
+    ds[ok] = delta_s(g[ok], f, beta)
     return {"dilatational": delta_d(g, beta), "shear": ds,
             "quasistatic": np.full_like(g, delta_qs(f, beta))}
 

@@ -117,6 +117,21 @@ def closed_form(family: str, gamma_f: float, f: float, beta: float) -> float:
     return lk.delta_qs(f, beta)
 
 
+def boundary_records(f: float, beta: float, family: str, gamma_f: float,
+                     delta_cap: float) -> list[dict]:
+    """CSV rows (closed form and numerical, where they exist) for one task."""
+    out = []
+    closed = closed_form(family, gamma_f, f, beta)
+    if math.isfinite(closed):
+        out.append({"boundary": family, "source": "closed_form", "f": f, "beta": beta,
+                    "Gamma": gamma_f, "Delta": closed})
+    num = bracket_and_threshold(family, gamma_f, f, beta, delta_cap)
+    if math.isfinite(num):
+        out.append({"boundary": family, "source": "numerical", "f": f, "beta": beta,
+                    "Gamma": gamma_f, "Delta": num})
+    return out
+
+
 def gamma_grid(gmin: float, gmax: float, n: int) -> np.ndarray:
     """Log-spaced points for the log panels plus linear ones for the linear panels."""
     g = np.concatenate([np.logspace(math.log10(gmin), math.log10(gmax), n),
@@ -127,7 +142,16 @@ def gamma_grid(gmin: float, gmax: float, n: int) -> np.ndarray:
 # ------------------------------------------------------------------------------------ output
 def plot(rows: list[tuple[float, float]], records: list[dict], opts: argparse.Namespace,
          path: str, parameters: dict) -> None:
-    """Two columns (linear, log) per ``(f, beta)`` row, as in the paper."""
+    """Draw (:func:`draw`) and save the phase diagram with its metadata."""
+    import matplotlib.pyplot as plt
+
+    fig = draw(rows, records, opts)
+    save_png(fig, path, parameters)
+    plt.close(fig)
+
+
+def draw(rows: list[tuple[float, float]], records: list[dict], opts: argparse.Namespace):  # noqa: ANN201
+    """Two columns (linear, log) per ``(f, beta)`` row, as in the paper; returns the figure."""
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(len(rows), 2, figsize=(12, 4.6 * len(rows)), squeeze=False)
@@ -176,8 +200,7 @@ def plot(rows: list[tuple[float, float]], records: list[dict], opts: argparse.Na
     fig.suptitle("Stability phase diagram, kH -> infinity: unstable below each line "
                  "(shaded: where each instability exists)")
     fig.tight_layout()
-    save_png(fig, path, parameters)
-    plt.close(fig)
+    return fig
 
 
 def measured_differences(records: list[dict], rows: list[tuple[float, float]]) -> dict:
@@ -286,16 +309,7 @@ def main(comm: MPI.Comm = MPI.COMM_WORLD, argv: list[str] | None = None) -> int:
             iterator = tqdm(mine, desc="phase diagram (rank 0 share)", file=sys.stderr)
         except ImportError:
             pass
-    local = []
-    for f, b, fam, g in iterator:
-        closed = closed_form(fam, g, f, b)
-        if math.isfinite(closed):
-            local.append({"boundary": fam, "source": "closed_form", "f": f, "beta": b,
-                          "Gamma": g, "Delta": closed})
-        num = bracket_and_threshold(fam, g, f, b, cap)
-        if math.isfinite(num):
-            local.append({"boundary": fam, "source": "numerical", "f": f, "beta": b,
-                          "Gamma": g, "Delta": num})
+    local = [r for f, b, fam, g in iterator for r in boundary_records(f, b, fam, g, cap)]
     gathered = comm.gather(local, root=0)
     elapsed = comm.reduce(time.perf_counter() - t0, op=MPI.MAX, root=0)
     if comm.rank != 0:

@@ -206,6 +206,8 @@ class HalfSpaceRoot:
         cond: Condition estimate of the root (from :func:`analytic.roots.polish`).
         converged: Newton converged.
         reason: Why it stopped.
+        ks: ``k_s / q`` used at the root (``A``; principal on the physical sheet).
+        kd: ``k_d / q`` used at the root (``B``).
     """
 
     q: float
@@ -220,6 +222,26 @@ class HalfSpaceRoot:
     cond: float
     converged: bool
     reason: str
+    ks: complex = complex("nan")
+    kd: complex = complex("nan")
+
+    @property
+    def decay_length_s(self) -> float:
+        """``1 / Re k_s``: e-folding depth of the shear partial wave into the solid.
+
+        ``inf`` if it does not decay; negative if it grows (the ``s~`` sheet).
+        """
+        re = self.q * self.ks.real
+        return math.inf if re == 0 else 1.0 / re
+
+    @property
+    def decay_length_d(self) -> float:
+        """``1 / Re k_d``: e-folding depth of the dilatational partial wave into the solid.
+
+        Diverges at the dilatational threshold, where ``kappa_d -> 0``.
+        """
+        re = self.q * self.kd.real
+        return math.inf if re == 0 else 1.0 / re
 
     @property
     def growth(self) -> float:
@@ -254,7 +276,8 @@ def _make_root(q: float, p: Params, family: str, branch: str, r: Root, A: comple
     return HalfSpaceRoot(q=float(q), z=complex(z), Lambda=complex(-1j * q * z), family=family,
                          branch=branch, kappa=complex(r.value), sheet=sheet,
                          residual=float(r.residual) / scale, residual_s=res_s / scale,
-                         cond=float(r.cond), converged=bool(r.converged), reason=str(r.reason))
+                         cond=float(r.cond), converged=bool(r.converged), reason=str(r.reason),
+                         ks=complex(A), kd=complex(B))
 
 
 def dilatational_root(q: float, p: Params, *, branch: str = "unstable",

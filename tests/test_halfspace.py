@@ -133,6 +133,13 @@ def test_dilatational_roots_and_gap_closure():
         assert all(sh == sheets[-1] for sh in sheets[first_change:])  # one change only
     unstable = hs.follow("dilatational", qs, p, branch="unstable")
     assert unstable[0].physical and unstable[0].growth > 0
+    # decay depths: k_d = q kappa_d, k_s = q A (DESIGN.md section 5, "Half-space")
+    r = unstable[0]
+    assert abs(r.decay_length_d - 1 / (r.q * r.kappa.real)) < 1e-9 * r.decay_length_d
+    # near z = 1/beta both partial waves barely decay: q L_d = 1.5e4 and L_s / L_d = 15
+    # (measured at q = 1e-3; the shear wave radiates: z > 1)
+    assert r.decay_length_d * r.q > 1e3
+    assert r.decay_length_s > 10 * r.decay_length_d
     assert unstable[-1].sheet == "s_tilde"
     # z stays next to 1/beta for every q
     assert max(abs(r.z - 1 / p.beta) for r in unstable) < 1e-3
@@ -148,12 +155,12 @@ def test_argument_principle_counts():
     r = hs.dilatational_root(q, p)
     assert r.physical and r.growth > 0
     box = (1e-9, 0.5, -0.5, -1e-9)  # Re kappa_d > 0, Im kappa_d < 0: physical and unstable
-    n = count_zeros(lambda k: complex(hs.s_dilatational(k, q, p, "unstable")), box)
+    n = count_zeros(lambda k: hs.s_dilatational(k, q, p, "unstable"), box)
     assert n == 1
     ps = Params(gamma=0.25, Delta=0.0)
     rs = hs.shear_root(0.24, ps)
     assert rs.physical and rs.growth > 0
-    n = count_zeros(lambda k: complex(hs.s_shear(k, 0.24, ps)), (1e-9, 0.5, 1e-9, 0.5))
+    n = count_zeros(lambda k: hs.s_shear(k, 0.24, ps), (1e-9, 0.5, 1e-9, 0.5))
     assert n == 1
     assert hs.count_roots(1.0, Params(), (-5.0, 5.0, 0.05, 5.0)) == 0
     with pytest.raises(ParameterError, match="cut"):

@@ -83,3 +83,19 @@ def test_gap_tracks_are_continuous_and_switch_sheet():
     # no jump along a track: the largest step halves with the grid spacing (a jump would not)
     for branch in ("unstable", "stable"):
         assert steps[160, branch] < 0.6 * steps[80, branch]
+
+
+@pytest.mark.serial
+def test_finite_h_figure_written_or_skipped_with_reason(tmp_path):
+    """stress_top needs helper A's analytic.branches: written when present, else a stated skip."""
+    import importlib.util
+
+    out = tmp_path / "fig"
+    res = run(["--out", str(out), "--only", "stress_top", "--n-q", "24"])
+    assert res.returncode == 0, res.stderr
+    entry = json.loads((out / "figures.json").read_text())["figures"]["stress_top"]
+    if importlib.util.find_spec("analytic.branches") is None:
+        assert entry["status"] == "skipped" and "analytic.branches" in entry["reason"]
+    else:
+        assert entry["status"] == "written"
+        assert (out / "stress_top.png").stat().st_size > 10_000

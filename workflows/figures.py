@@ -239,22 +239,95 @@ def fig_phase_diagram(opts: argparse.Namespace):  # noqa: ANN201
                  "closed_form_vs_numerical": phase_diagram.measured_differences(records, rows)}
 
 
-def fig_finiteH(opts: argparse.Namespace):  # noqa: ANN201, N802
-    """Fig. finiteH (needs helper A's finite-H continuation)."""
+def _finite_h_tools():  # noqa: ANN202
+    """Helper A's finite-H continuation and small-k slope (Skipped if not available)."""
     try:
-        from analytic.branches import follow_branch  # noqa: F401
+        from analytic.branches import follow_branch
+        from analytic.smallk import lambda_smallk
     except ImportError as err:
-        raise Skipped(f"needs analytic.branches.follow_branch (helper A): {err}") from None
-    raise Skipped("analytic.branches present but this figure is not wired yet")
+        raise Skipped(f"needs analytic.branches / analytic.smallk (helper A): {err}") from None
+    return follow_branch, lambda_smallk
+
+
+def _unstable_branch(follow_branch, p: Params, n: int, hk: np.ndarray):  # noqa: ANN001, ANN202
+    """``H Re Lambda`` on the partner of cut-off ``n`` that grows at small ``k``."""
+    best = None
+    for sign in (-1, 1):
+        res = follow_branch(p, n, sign, hk / p.H)
+        g = np.where(res.ok, res.Lambda.real, np.nan) * p.H
+        if best is None or np.nanmax(np.r_[g[:3], -np.inf]) > np.nanmax(np.r_[best[0][:3],
+                                                                              -np.inf]):
+            best = (g, sign, res)
+    return best
+
+
+def fig_finiteH(opts: argparse.Namespace):  # noqa: ANN201, N802
+    """Fig. finiteH: H Re Lambda vs Hk; left: gamma f and n (H = 0.5), right: H (n = 0)."""
+    import matplotlib.pyplot as plt
+
+    follow_branch, lambda_smallk = _finite_h_tools()
+    hk = np.linspace(0.02, 3.0, max(opts.n_q // 4, 12))
+    base = Params(f=0.3, beta=0.5, Delta=0.7, H=0.5)
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.6))
+    gfs = (0.3, 0.6, 0.9, 1.2)
+    signs = {}
+    for i, gf in enumerate(gfs):
+        p = base.replace(gamma=gf / base.f)
+        g, sign, _ = _unstable_branch(follow_branch, p, 0, hk)
+        signs[f"gf={gf}"] = sign
+        a1.plot(hk, g, "-", color=f"C{i}", lw=1.6, label=f"gamma f = {gf:g}, n = 0")
+        a1.plot(hk[hk < 0.8], p.H * lambda_smallk(hk[hk < 0.8] / p.H, 0, sign, p).real, "--",
+                color="k", lw=0.8)
+    p = base.replace(gamma=0.9 / base.f)
+    for n, ls in ((1, "--"), (2, ":")):
+        g, sign, _ = _unstable_branch(follow_branch, p, n, hk)
+        a1.plot(hk, g, ls, color="C2", lw=1.6, label=f"gamma f = 0.9, n = {n}")
+        a1.plot(hk[hk < 0.8], p.H * lambda_smallk(hk[hk < 0.8] / p.H, n, sign, p).real, "--",
+                color="k", lw=0.8)
+    a1.plot([], [], "--", color="k", lw=0.8, label="Eq. Hspectrum (small k)")
+    hs_ = (0.5, 1.0, 2.0, 5.0, 10.0)
+    for i, h in enumerate(hs_):
+        p = base.replace(H=h, gamma=3.0)
+        g, _, _ = _unstable_branch(follow_branch, p, 0, hk)
+        a2.plot(hk, g, "-", color=f"C{i}", lw=1.6, label=f"H = {h:g}")
+    for ax, title in ((a1, "H = 0.5: several gamma f (n = 0) and n (gamma f = 0.9)"),
+                      (a2, "n = 0, gamma = 3: several H (saturation at large H)")):
+        ax.axhline(0, color="k", lw=0.6)
+        ax.set(xlabel="H k", ylabel=r"H Re $\Lambda$  (units of $c_s/H$)")
+        ax.set_title(title, fontsize=10)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    overlay(a1, "finiteH", opts, 0)
+    overlay(a2, "finiteH", opts, 1)
+    fig.suptitle("waveguide branches from the cut-offs, velocity top (f = 0.3, beta = 0.5, "
+                 "Delta = 0.7)")
+    fig.tight_layout()
+    return fig, {**base.as_dict(), "gamma_f": gfs, "n": [0, 1, 2], "H_right": hs_,
+                 "gamma_right": 3.0, "Hk": [hk[0], hk[-1], len(hk)], "signs": signs}
 
 
 def fig_stress_top(opts: argparse.Namespace):  # noqa: ANN201
-    """Appendix B figure (needs helper A's finite-H continuation with bc = stress)."""
-    try:
-        from analytic.branches import follow_branch  # noqa: F401
-    except ImportError as err:
-        raise Skipped(f"needs analytic.branches.follow_branch (helper A): {err}") from None
-    raise Skipped("analytic.branches present but this figure is not wired yet")
+    """Appendix B figure: velocity vs stress top, gamma f = 0.9, n = 0, H = 0.5."""
+    import matplotlib.pyplot as plt
+
+    follow_branch, _ = _finite_h_tools()
+    hk = np.linspace(0.02, 2.0, max(opts.n_q // 4, 12))
+    fig, ax = plt.subplots(figsize=(7.5, 4.8))
+    params = {}
+    for bc, c in (("velocity", "tab:red"), ("stress", "tab:green")):
+        p = Params(f=0.3, beta=0.5, Delta=0.7, H=0.5, gamma=3.0, bc=bc)
+        g, sign, _ = _unstable_branch(follow_branch, p, 0, hk)
+        ax.plot(hk, g, "-", color=c, lw=1.8,
+                label=f"{bc} controlled top (branch 0{'+-'[sign < 0]})")
+        params[bc] = p.as_dict()
+    overlay(ax, "stress_top", opts)
+    ax.axhline(0, color="k", lw=0.6)
+    ax.set(xlabel="H k", ylabel=r"H Re $\Lambda$")
+    ax.set_title("gamma f = 0.9, n = 0, H = 0.5: velocity vs stress top condition", fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig, {"cases": params, "Hk": [hk[0], hk[-1], len(hk)]}
 
 
 MAKERS: dict[str, Callable] = {

@@ -474,7 +474,7 @@ def unstable_margin(r: HalfSpaceRoot) -> float:
     if not r.converged or not math.isfinite(abs(r.kappa)):
         return -math.inf
     if r.family == "dilatational":
-        if r.branch != "unstable":
+        if not in_family(r):
             return -math.inf
         return min(r.kappa.real, -r.kappa.imag)
     if r.family == "shear":
@@ -489,8 +489,10 @@ def unstable_margin(r: HalfSpaceRoot) -> float:
 def in_family(r: HalfSpaceRoot) -> bool:
     """Whether a converged root still belongs to its family (by location in the z-plane).
 
-    dilatational: the ``"unstable"`` ``kappa_d`` function; shear: ``|z + 1| <=
-    SHEAR_MAX_DIST``; quasi-static: ``|z| <= QS_MAX_ABS_Z``.
+    dilatational: a root of the ``"unstable"`` ``kappa_d`` function inside its disc of
+    analyticity ``|kappa_d| < sqrt(1 - beta^2)`` (Newton from far away can land on a root of
+    the continued function elsewhere, e.g. near the imaginary ``z`` axis); shear:
+    ``|z + 1| <= SHEAR_MAX_DIST``; quasi-static: ``|z| <= QS_MAX_ABS_Z``.
     """
     if not r.converged:
         return False
@@ -498,7 +500,8 @@ def in_family(r: HalfSpaceRoot) -> bool:
         return abs(r.z + 1.0) <= SHEAR_MAX_DIST
     if r.family == "quasistatic":
         return abs(r.z) <= QS_MAX_ABS_Z
-    return r.branch == "unstable"
+    beta = abs(cmath.sqrt(1.0 - r.kappa * r.kappa) / r.z)  # z = sqrt(1 - kappa^2) / beta
+    return r.branch == "unstable" and abs(r.kappa) < math.sqrt(1.0 - beta * beta)
 
 
 def _family_growth(r: HalfSpaceRoot) -> float:

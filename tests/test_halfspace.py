@@ -179,11 +179,18 @@ def test_shear_and_quasistatic_roots():
     assert rq.physical and abs(rq.z) < 0.05 and rq.residual_s < 1e-13  # |z| measured 0.018
 
 
-def test_follow_reports_failure_not_wrong_number():
-    # kappa_d outside the disc of analyticity: Newton from far away does not converge
+def test_failures_are_reported_not_hidden():
     p = Params()
-    r = hs.dilatational_root(1.0, p, guess=5.0 + 5.0j)
-    assert (not r.converged) or r.residual < 1e-12
+    # Newton stagnates on the branch cut of w = sqrt(1 - beta^2 - kappa^2): reported, with why
+    r = hs.dilatational_root(1.0, p, guess=0.95)
+    assert not r.converged and "stagnation" in r.reason
+    assert hs.unstable_margin(r) == -math.inf
+    # from far away Newton lands on a genuine root of s~ near the imaginary z axis, outside the
+    # disc where the kappa_d function describes the dilatational family: flagged as such
+    r = hs.dilatational_root(1.0, p, guess=5 + 5j)
+    assert r.converged and r.residual_s < 1e-14 and abs(r.kappa) > 1
+    assert not hs.in_family(r) and hs.unstable_margin(r) == -math.inf
+    assert hs.in_family(hs.dilatational_root(1.0, p))
 
 
 def test_bad_input():

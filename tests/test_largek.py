@@ -275,3 +275,27 @@ def test_boundaries_and_truncation():
     g_x = lk.qs_truncation_gamma(f, 0.6)
     assert abs(lk.delta_s(g_x, f, 0.6) - lk.delta_qs(f, 0.6)) < 1e-15
     assert abs(g_x / (f**2 * 0.6**4 / 4) - 1 - 0.0217) < 2e-4
+
+
+@pytest.mark.parametrize("apc, ald", [(1.0, 0.0), (0.0, 0.2), (0.5, 0.1)])
+def test_generalized_dilatational_threshold_unchanged(apc, ald):
+    """Section 6: Eq. (threshold) holds for any alpha_pc, alpha_ld (they multiply q).
+
+    Measured numerical / closed form - 1 <= 9.2e-11.
+    """
+    for beta, gamma_f in ((0.5, 0.5), (0.45, 0.1)):
+        exact = float(lk.delta_d(gamma_f, beta))
+        num = hs.threshold_delta("dilatational", gamma_f, 0.3, beta, (0.5 * exact, 1.5 * exact),
+                                 alpha_pc=apc, alpha_ld=ald)
+        assert abs(num / exact - 1) < 1e-8
+
+
+@pytest.mark.parametrize("gamma, apc, ald", [(0.2, 0.1, 0.0), (0.2, 0.0, 0.05),
+                                             (0.25, 0.2, 0.05)])
+def test_generalized_shear_threshold_numerical(gamma, apc, ald):
+    """Eqs. (full_shear_inst1/2) located in the spectrum: measured <= 7.4e-8 relative."""
+    f, beta = 0.3, 0.5
+    exact = lk.delta_s_gamma(gamma, f, beta, apc, ald)
+    num = hs.threshold_delta("shear", gamma * f, f, beta, (0.0, 2 * exact), alpha_pc=apc,
+                             alpha_ld=ald)
+    assert abs(num / exact - 1) < 5e-7

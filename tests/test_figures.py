@@ -20,7 +20,10 @@ def run(args, nproc=1):
         if mpirun is None:
             pytest.skip("mpirun not available")
         cmd = [mpirun, "-n", str(nproc), sys.executable, "-m", "mpi4py", SCRIPT, *args]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=300, cwd=ROOT)
+    # os.environ is the start-up environment: a singleton MPI_Init in this process (any test
+    # that imports mpi4py) adds PMIX_/OMPI_ variables at C level that would confuse mpirun.
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("PMIX_", "OMPI_COMM_"))}
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=300, cwd=ROOT, env=env)
 
 
 @pytest.mark.serial

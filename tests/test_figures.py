@@ -54,6 +54,7 @@ def test_figures_smoke(tmp_path, nproc):
     (["--only", "nosuchfigure"], "--only"),
     (["--n-q", "3"], "--n-q"),
     (["--overlay", "/nonexistent/folder"], "--overlay"),
+    (["--out", "/etc/hostname"], "--out"),
 ])
 def test_figures_bad_input(tmp_path, args, word):
     out = tmp_path / "never"

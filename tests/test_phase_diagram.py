@@ -76,10 +76,11 @@ def test_phase_diagram_smoke_serial_and_mpi(tmp_path):
     (["--gamma-min", "1", "--gamma-max", "0.5"], "gamma-min"),
     (["--n-gamma", "1"], "n-gamma"),
     (["--delta-max", "nan"], "delta-max"),
+    (["--out", "/etc/hostname"], "--out"),
 ])
 def test_bad_input_exit_2(tmp_path, args, word):
     out = tmp_path / "never"
-    res = run([*args, "--out", str(out)])
+    res = run(["--out", str(out), *args])
     assert res.returncode == 2
     lines = [ln for ln in res.stderr.strip().splitlines() if ln.strip()]
     assert len(lines) == 1 and word in lines[0]

@@ -360,6 +360,8 @@ def check(opts: argparse.Namespace) -> list[str]:
                              f" allowed: {', '.join(FIGURES)}")
     _cli.positive_int("--n-q", opts.n_q, minimum=10, maximum=100000)
     _cli.positive_int("--n-gamma", opts.n_gamma, minimum=2, maximum=2000)
+    if os.path.exists(opts.out) and not os.path.isdir(opts.out):
+        raise ParameterError(f"--out = {opts.out!r} exists and is not a folder")
     if opts.overlay is not None and not os.path.isdir(opts.overlay):
         raise ParameterError(f"--overlay = {opts.overlay!r} is not a folder")
     return names

@@ -288,6 +288,8 @@ def check(opts: argparse.Namespace) -> list[tuple[float, float]]:
     if opts.delta_min >= opts.delta_max:
         raise ParameterError(f"--delta-min = {opts.delta_min} must be < --delta-max = "
                              f"{opts.delta_max}")
+    if os.path.exists(opts.out) and not os.path.isdir(opts.out):
+        raise ParameterError(f"--out = {opts.out!r} exists and is not a folder")
     _cli.positive_int("--n-gamma", opts.n_gamma, minimum=2, maximum=2000)
     return rows
 

@@ -234,3 +234,20 @@ def test_finite_h_roots_tend_to_half_space_roots(bc, case):
     if case != "quasistatic":  # the quasi-static root decays over 0.6: already exact at H = 3
         near = polish_root(p.replace(H=5 * depth, bc=bc), q, r.Lambda)
         assert abs(near.value - r.Lambda) > 1e-9 * abs(r.Lambda)
+
+
+def test_family_edge_thresholds_are_flagged():
+    """A 'threshold' where the most unstable root sits on the edge of its family's region is
+    where the root leaves the region, not a stability change: MaxGrowth.interior says so.
+
+    Measured (f 0.3, beta 0.45): quasi-static at Gamma = 1e-4 interior (room 0.96); at
+    Gamma = 0.0067 the margin is maximal at |z| = 0.5 exactly (room 1e-8).
+    """
+    f, beta = 0.3, 0.45
+    for gamma_f, interior in ((1e-4, True), (0.0067, False)):
+        d = hs.threshold_delta("quasistatic", gamma_f, f, beta, (1e-9, 0.1))
+        below = hs.max_growth("quasistatic", Params(f=f, beta=beta, gamma=gamma_f / f,
+                                                    Delta=d * (1 - 1e-6)))
+        assert below.unstable
+        assert below.interior == interior
+        assert (hs.family_room(below.root_margin) < 1e-3) == (not interior)

@@ -233,7 +233,8 @@ def fig_phase_diagram(opts: argparse.Namespace):  # noqa: ANN201
     rows = phase_diagram.check(args)
     grid = phase_diagram.gamma_grid(args.gamma_min, args.gamma_max, args.n_gamma)
     records = [r for f, b in rows for fam in phase_diagram.FAMILIES for g in grid
-               for r in phase_diagram.boundary_records(f, b, fam, float(g), args.delta_max)]
+               for r in phase_diagram.boundary_records(f, b, fam, float(g), args.delta_max)
+               if "dropped" not in r]
     fig = phase_diagram.draw(rows, records, args)
     return fig, {"rows": rows, "n_gamma": args.n_gamma,
                  "closed_form_vs_numerical": phase_diagram.measured_differences(records, rows)}

@@ -251,3 +251,18 @@ def test_family_edge_thresholds_are_flagged():
         assert below.unstable
         assert below.interior == interior
         assert (hs.family_room(below.root_margin) < 1e-3) == (not interior)
+
+
+def test_gap_interval_fig_gaps():
+    """gamma f = 0.96: the unstable root leaves the physical sheet at q = 1.2376 and the stable
+    one enters it at q = 1.3529 (measured); in between no physical root near z = 1/beta."""
+    from scipy.optimize import brentq
+
+    p = Params(gamma=0.96 / 0.3)
+    q_u = brentq(lambda q: hs.dilatational_root(q, p).growth, 0.5, 2.0, xtol=1e-14)
+    q_s = brentq(lambda q: hs.dilatational_root(q, p, branch="stable").growth, 0.5, 2.0,
+                 xtol=1e-14)
+    assert abs(q_u - 1.2376) < 1e-4 and abs(q_s - 1.3529) < 1e-4
+    for q in np.linspace(q_u, q_s, 7)[1:-1]:
+        assert not hs.dilatational_root(q, p).physical
+        assert not hs.dilatational_root(q, p, branch="stable").physical

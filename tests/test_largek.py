@@ -299,3 +299,13 @@ def test_generalized_shear_threshold_numerical(gamma, apc, ald):
     num = hs.threshold_delta("shear", gamma * f, f, beta, (0.0, 2 * exact), alpha_pc=apc,
                              alpha_ld=ald)
     assert abs(num / exact - 1) < 5e-7
+
+
+def test_analytic_spectrum_stable_branch_far_below_threshold():
+    """Eq. (analytic_spectrum), stable sign, gamma f = 0.6 (below threshold), q = 100: the
+    closed form gives -0.0325, the exact physical root -0.0604 (measured): a factor ~2."""
+    p = Params(gamma=2.0)
+    r = hs.dilatational_root(100.0, p, branch="stable")
+    assert r.physical
+    assert abs(r.growth - (-0.06035)) < 1e-4
+    assert abs(float(lk.growth_rate_dilatational(100.0, p, "stable")) - (-0.03250)) < 1e-4

@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from analytic.params import Params, ParameterError, check_k
+from analytic.params import ParameterError, Params, check_k
 
 
 @pytest.mark.parametrize(

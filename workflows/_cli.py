@@ -18,7 +18,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from analytic.params import Params, ParameterError, check_k  # noqa: E402
+from analytic.params import ParameterError, Params, check_k  # noqa: E402
 
 EXIT_USAGE = 2
 

@@ -1,0 +1,326 @@
+"""Friction at the interface as a row operation, without a Lagrange multiplier (DESIGN.md 3, 5).
+
+With ``u_y = 0`` imposed strongly at ``y = 0``, the discrete reaction ``R = (K + L^2 M) u`` of an
+interface node is the traction the substrate applies on the body: ``R_x = -sxy``,
+``R_y = -syy``. The linearised friction law (DESIGN.md section 3)::
+
+    (1 + apc L) sxy + (f - ald L/(L+1)) syy - (1/gamma) L (L + Delta)/(L + 1) ux = 0
+
+becomes, in the x-row of every interface node (``B`` is the interface "mass" of ``u_x``: the
+nodal value in the 1D cross-section model, the consistent boundary mass ``int_G u_x w_x ds``
+in the 2D strip)::
+
+    rx(L)/d(L) R_x + ry(L)/d(L) R_y + ux(L)/d(L) (B u)_x = 0,
+    rx = (1 + apc L)(L + 1),  ry = f (L + 1) - ald L,  ux = L (L + Delta)/gamma,  d = L + 1,
+
+and the y-row of the interface node keeps ``u_y = 0``. All other rows are ``(K + L^2 M) u = 0``.
+
+Two equivalent matrix forms of ``T(L) u = 0`` are produced by :func:`friction_operator`:
+
+- ``"polynomial"``: multiply the x-rows by ``d(L)``: ``T(L) = sum_j L^j A_j`` with degree 3
+  (4 with ``alpha_pc > 0``), for a SLEPc PEP. Clearing the denominator can add the spurious
+  roots in :attr:`FrictionLaw.spurious` (``Lambda = -1``, ``-1/alpha_pc``): solvers drop them.
+- ``"split"``: keep the rational functions: ``T(L) = sum_j L^j P_j + Q / d(L)`` (partial
+  fractions, ``d`` is linear), for a SLEPc NEP in split form, without spurious roots.
+
+Typical use (any model; the matrices may already be reduced, e.g. ``P^H A P``)::
+
+    law = FrictionLaw.from_params(params)
+    op = friction_operator(law, K, M, B, x_dofs, y_dofs, form="polynomial")
+    apply_dirichlet(op.matrices, dirichlet_dofs, op.constant_term)
+    ... solve with forms.solvers ...;  op.destroy()
+
+``x_dofs[i]`` and ``y_dofs[i]`` are the global PETSc row indices of the ``u_x`` and ``u_y`` of
+interface node ``i``; each rank passes the pairs whose rows it owns (both rows of a pair must
+be owned by the same rank; dolfinx blocked dofmaps guarantee this). Dirichlet rows (``u_y = 0``
+at the interface and any other strong condition) are applied afterwards by
+:func:`apply_dirichlet`: 1 on the diagonal of the constant term only, so that these rows read
+``u_d = 0`` for every ``Lambda``; the spurious eigenvalues they add are at infinity (``theta = 0``
+under shift-and-invert), far from every finite target.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from petsc4py import PETSc
+
+from analytic.params import Params
+
+Poly = tuple[float, ...]
+
+
+def _polymul(a: Poly, b: Poly) -> Poly:
+    """Product of two polynomials with ascending coefficients."""
+    return tuple(float(c) for c in np.polynomial.polynomial.polymul(a, b))
+
+
+def _shift(a: Poly, power: int) -> Poly:
+    """``L**power * a(L)`` (ascending coefficients)."""
+    return (0.0,) * power + tuple(a)
+
+
+@dataclass(frozen=True)
+class FrictionLaw:
+    """Scalar multipliers of the interface x-row, as polynomials over a common denominator.
+
+    All tuples hold ascending coefficients in ``Lambda``: ``(c0, c1, ...)`` means
+    ``c0 + c1 L + ...``. The x-row reads ``(rx R_x + ry R_y + ux (B u)_x) / den = 0``.
+
+    Attributes:
+        rx: Numerator multiplying the shear reaction ``R_x = -sxy``.
+        ry: Numerator multiplying the normal reaction ``R_y = -syy``.
+        ux: Numerator multiplying the interface "mass" of ``u_x``.
+        den: Common denominator (``L + 1``); must be linear.
+        spurious: Roots that clearing the denominator may add (dropped by the solvers).
+    """
+
+    rx: Poly
+    ry: Poly
+    ux: Poly
+    den: Poly = (1.0, 1.0)
+    spurious: tuple[complex, ...] = field(default=(-1.0 + 0j,))
+
+    @classmethod
+    def from_params(cls, p: Params) -> FrictionLaw:
+        """The law of DESIGN.md section 3 for parameters ``p`` (standard or generalized)."""
+        rx = _polymul((1.0, p.alpha_pc), (1.0, 1.0))
+        ry = (p.f, p.f - p.alpha_ld)
+        ux = (0.0, p.Delta / p.gamma, 1.0 / p.gamma)
+        spurious = [-1.0 + 0j]
+        if p.alpha_pc > 0:
+            spurious.append(-1.0 / p.alpha_pc + 0j)
+        return cls(rx=rx, ry=ry, ux=ux, den=(1.0, 1.0), spurious=tuple(spurious))
+
+    def x_row_numerators(self) -> dict[str, Poly]:
+        """Numerator (in ``L``) multiplying each source row in the interface x-row.
+
+        Keys: ``"Kx"``, ``"Mx"`` (rows of ``K``, ``M`` at ``u_x``), ``"Ky"``, ``"My"`` (rows at
+        ``u_y``, unconstrained), ``"Bx"`` (interface mass row at ``u_x``). ``R = K u + L^2 M u``
+        gives the ``L^2`` shift of the mass rows.
+        """
+        return {
+            "Kx": self.rx,
+            "Mx": _shift(self.rx, 2),
+            "Ky": self.ry,
+            "My": _shift(self.ry, 2),
+            "Bx": self.ux,
+        }
+
+    @property
+    def degree(self) -> int:
+        """Degree in ``Lambda`` of the polynomial form (3, or 4 with ``alpha_pc > 0``)."""
+        nums = self.x_row_numerators().values()
+        return max(2, max(_degree(c) for c in nums))
+
+    def polynomial_coefficients(self) -> dict[str, list[float]]:
+        """x-row: coefficient of each source in ``A_j`` (``j = 0..degree``)."""
+        n = self.degree + 1
+        return {key: _padded(c, n) for key, c in self.x_row_numerators().items()}
+
+    def split_coefficients(self) -> tuple[dict[str, list[float]], dict[str, float]]:
+        """x-row in partial fractions: ``num/den = q(L) + r/den``.
+
+        Returns:
+            ``(poly, rational)``: ``poly[key][j]`` multiplies ``L^j`` (``j = 0..degree-1``),
+            ``rational[key]`` multiplies ``1/den(L)``.
+        """
+        if _degree(self.den) != 1:
+            raise ValueError("split form implemented for a linear denominator only")
+        n = self.degree  # quotient degree <= degree - 1
+        poly: dict[str, list[float]] = {}
+        rational: dict[str, float] = {}
+        for key, num in self.x_row_numerators().items():
+            q, r = np.polynomial.polynomial.polydiv(np.asarray(num, float), np.asarray(self.den))
+            poly[key] = _padded(tuple(q), n)
+            rational[key] = float(r[0]) if len(r) else 0.0
+        return poly, rational
+
+    def multipliers(self, lam: complex) -> dict[str, complex]:
+        """Rational values ``num(L)/den(L)`` per source (for checks against traction laws)."""
+        d = np.polynomial.polynomial.polyval(lam, self.den)
+        return {
+            key: np.polynomial.polynomial.polyval(lam, num) / d
+            for key, num in self.x_row_numerators().items()
+        }
+
+    def is_spurious(self, lam: complex, rtol: float = 1e-6) -> bool:
+        """True if ``lam`` is within ``rtol * max(1, |s|)`` of a spurious root ``s``."""
+        return any(abs(lam - s) <= rtol * max(1.0, abs(s)) for s in self.spurious)
+
+
+def _degree(c: Poly) -> int:
+    nz = [i for i, v in enumerate(c) if v != 0.0]
+    return nz[-1] if nz else 0
+
+
+def _padded(c: Poly, n: int) -> list[float]:
+    out = [0.0] * n
+    for i, v in enumerate(c):
+        if v != 0.0:
+            if i >= n:
+                raise ValueError("polynomial longer than the requested length")
+            out[i] = float(v)
+    return out
+
+
+@dataclass
+class FrictionOperator:
+    """``T(L) = sum_i phi_i(L) matrices[i]`` with the scalar functions described by ``functions``.
+
+    Attributes:
+        matrices: PETSc matrices (owned: call :meth:`destroy`).
+        functions: Per matrix, ``("power", j)`` for ``L^j`` or ``("rational", num, den)`` for
+            ``num(L)/den(L)`` (ascending coefficients).
+        form: ``"polynomial"`` or ``"split"``.
+        constant_term: Index of the ``L^0`` matrix (where Dirichlet rows get their diagonal).
+        law: The friction law used.
+    """
+
+    matrices: list[PETSc.Mat]
+    functions: list[tuple]
+    form: str
+    constant_term: int
+    law: FrictionLaw
+
+    def scalars(self, lam: complex) -> np.ndarray:
+        """Values ``phi_i(lam)`` of the scalar functions."""
+        return np.array([_eval_function(fn, lam) for fn in self.functions], dtype=complex)
+
+    def destroy(self) -> None:
+        """Destroy the PETSc matrices."""
+        for a in self.matrices:
+            a.destroy()
+        self.matrices = []
+
+
+def _eval_function(fn: tuple, lam: complex) -> complex:
+    if fn[0] == "power":
+        return complex(lam) ** fn[1]
+    num, den = fn[1], fn[2]
+    pv = np.polynomial.polynomial.polyval
+    return complex(pv(lam, num) / pv(lam, den))
+
+
+def _local_rows(mat: PETSc.Mat | None, row: int) -> dict[int, complex]:
+    if mat is None:
+        return {}
+    cols, vals = mat.getRow(row)
+    return dict(zip(cols.tolist(), vals.tolist(), strict=True))
+
+
+def friction_operator(
+    law: FrictionLaw,
+    stiffness: PETSc.Mat,
+    mass: PETSc.Mat | None,
+    interface_mass: PETSc.Mat | None,
+    x_dofs: np.ndarray,
+    y_dofs: np.ndarray,
+    form: str = "polynomial",
+) -> FrictionOperator:
+    """Build ``T(L)`` from assembled (unconstrained) ``K``, ``M`` and interface mass ``B``.
+
+    The operator is linear in ``(K, M, B)``: the cross-section model calls it once per power of
+    ``k`` (``K0`` with ``M`` and ``B``; ``K1`` and ``K2`` alone with ``mass=None``,
+    ``interface_mass=None``) and adds the results.
+
+    Args:
+        law: Friction law (:meth:`FrictionLaw.from_params`).
+        stiffness: Assembled ``K`` (no Dirichlet rows applied; the interface y-rows must be the
+            unconstrained ones: they give ``R_y``). Its nonzero pattern is used for every
+            output matrix, and must contain those of ``mass`` and ``interface_mass``.
+        mass: Assembled ``M`` or ``None``.
+        interface_mass: Assembled ``B`` (nonzero only in interface x-rows/columns) or ``None``.
+        x_dofs: Global row indices (owned by this rank) of the interface ``u_x``.
+        y_dofs: Global row indices of the matching ``u_y`` (same order, same owner).
+        form: ``"polynomial"`` (PEP) or ``"split"`` (NEP).
+
+    Returns:
+        The :class:`FrictionOperator`; apply Dirichlet rows with :func:`apply_dirichlet`.
+    """
+    x_dofs = np.asarray(x_dofs, dtype=np.int64)
+    y_dofs = np.asarray(y_dofs, dtype=np.int64)
+    if x_dofs.shape != y_dofs.shape:
+        raise ValueError("x_dofs and y_dofs must pair up")
+    deg = law.degree
+    if form == "polynomial":
+        xcoef = law.polynomial_coefficients()
+        n_poly = deg + 1
+        functions: list[tuple] = [("power", j) for j in range(n_poly)]
+        x_terms = [{key: xcoef[key][j] for key in xcoef} for j in range(n_poly)]
+    elif form == "split":
+        pcoef, rcoef = law.split_coefficients()
+        n_poly = max(deg, 3)  # interior rows need L^2; quotient degree <= deg - 1
+        functions = [("power", j) for j in range(n_poly)]
+        functions.append(("rational", (1.0,), tuple(law.den)))
+        x_terms = [
+            {key: (pcoef[key][j] if j < len(pcoef[key]) else 0.0) for key in pcoef}
+            for j in range(n_poly)
+        ]
+        x_terms.append(dict(rcoef))
+    else:
+        raise ValueError(f"form = {form!r} is not 'polynomial' or 'split'")
+    # Interior rows: K in L^0, M in L^2 (not multiplied by the denominator).
+    interior = [(1.0 if j == 0 else 0.0, 1.0 if j == 2 else 0.0) for j in range(n_poly)]
+    if form == "split":
+        interior.append((0.0, 0.0))
+
+    for m in (stiffness, mass, interface_mass):
+        if m is not None:
+            m.assemble()
+    # Rows needed for the x-row replacement (read before anything is modified).
+    rows = []
+    for ix, iy in zip(x_dofs.tolist(), y_dofs.tolist(), strict=True):
+        rows.append(
+            {
+                "Kx": _local_rows(stiffness, ix),
+                "Mx": _local_rows(mass, ix),
+                "Ky": _local_rows(stiffness, iy),
+                "My": _local_rows(mass, iy),
+                "Bx": _local_rows(interface_mass, ix),
+            }
+        )
+    matrices = []
+    for t, (ck, cm) in enumerate(interior):
+        a = stiffness.duplicate(copy=False)
+        a.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+        if ck != 0.0:
+            a.axpy(ck, stiffness, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        if cm != 0.0 and mass is not None:
+            a.axpy(cm, mass, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        coef = x_terms[t]
+        for ix, src in zip(x_dofs.tolist(), rows, strict=True):
+            new: dict[int, complex] = {c: 0.0 for c in src["Kx"]}
+            for key, row in src.items():
+                c = coef.get(key, 0.0)
+                if c == 0.0:
+                    continue
+                for col, v in row.items():
+                    new[col] = new.get(col, 0.0) + c * v
+            if new:
+                cols = np.fromiter(new.keys(), dtype=PETSc.IntType, count=len(new))
+                vals = np.fromiter(new.values(), dtype=PETSc.ScalarType, count=len(new))
+                a.setValues([ix], cols, vals, addv=PETSc.InsertMode.INSERT_VALUES)
+        a.assemble()
+        matrices.append(a)
+    return FrictionOperator(
+        matrices=matrices, functions=functions, form=form, constant_term=0, law=law
+    )
+
+
+def apply_dirichlet(
+    matrices: list[PETSc.Mat], dofs: np.ndarray, constant_term: int = 0, diagonal: float = 1.0
+) -> None:
+    """Impose ``u_d = 0`` on the global rows ``dofs`` (rows and columns zeroed, pattern kept).
+
+    ``diagonal`` goes on the diagonal of ``matrices[constant_term]`` only (0 in the others), so
+    each constrained row reads ``diagonal * u_d = 0`` for every ``Lambda``: no finite spurious
+    eigenvalue; the spurious ones are at infinity (``theta = 0`` under shift-and-invert), far
+    from every finite target. Pass the owned rows of each rank (collective call).
+    """
+    rows = np.asarray(dofs, dtype=PETSc.IntType)
+    for i, a in enumerate(matrices):
+        a.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+        a.zeroRowsColumns(rows, diag=diagonal if i == constant_term else 0.0)

@@ -1,0 +1,290 @@
+"""SLEPc eigen-solvers for ``T(Lambda) u = 0`` built by :mod:`forms.friction`.
+
+- :class:`PolynomialSolver`: SLEPc PEP (TOAR, shift-and-invert, MUMPS LU) on the polynomial
+  form ``sum_j L^j A_j``.
+- :class:`SplitSolver`: SLEPc NEP on the split rational form ``sum_i phi_i(L) E_i`` (NLEIGS by
+  default; ``-nep_type ciss`` with a region for "all eigenvalues in a box").
+
+Both take their defaults from setters and call ``setFromOptions()`` last, so the PETSc options
+database (command line) wins: with the default empty prefix ``-pep_type``, ``-st_type``,
+``-st_pc_factor_mat_solver_type``, ``-nep_type`` ... apply; pass ``prefix`` to give an object
+its own. Every returned eigenvalue carries its relative residual
+``||T(L) u|| / (sum_i |phi_i(L)| ||E_i||_F ||u||)`` (backward error), spurious roots of the
+cleared denominators (:attr:`forms.friction.FrictionLaw.spurious`) are dropped, and the
+Dirichlet rows have no finite eigenvalues (see :func:`forms.friction.apply_dirichlet`).
+
+Entry points must call ``slepc4py.init(sys.argv)`` before this module is imported for
+command-line options to reach SLEPc.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mpi4py import MPI
+from petsc4py import PETSc
+from slepc4py import SLEPc
+
+from forms.friction import FrictionOperator
+
+
+@dataclass
+class Eigenpair:
+    """One eigenpair: ``value`` (Lambda), relative ``residual`` and the PETSc ``vector``."""
+
+    value: complex
+    residual: float
+    vector: PETSc.Vec
+
+
+@dataclass
+class SolveResult:
+    """Outcome of one solve.
+
+    Attributes:
+        pairs: Converged, non-spurious eigenpairs sorted by distance to the target. The vectors
+            are owned by the caller (call :meth:`destroy`).
+        converged: Number of converged pairs SLEPc reported (before filtering).
+        reason: SLEPc's converged reason as text (``"CONVERGED_TOL"``, ``"DIVERGED_ITS"`` ...).
+        iterations: Outer iterations.
+        dropped: Eigenvalues dropped as spurious.
+    """
+
+    pairs: list[Eigenpair]
+    converged: int
+    reason: str
+    iterations: int
+    dropped: list[complex] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        """True if SLEPc converged (positive reason)."""
+        return self.reason.startswith("CONVERGED")
+
+    def destroy(self) -> None:
+        """Destroy the eigenvectors."""
+        for p in self.pairs:
+            p.vector.destroy()
+        self.pairs = []
+
+
+def _reason_name(cls: type, value: int) -> str:
+    for name in dir(cls):
+        if not name.startswith("_") and getattr(cls, name) == value:
+            return name
+    return str(value)
+
+
+def relative_residual(op: FrictionOperator, lam: complex, vec: PETSc.Vec,
+                      norms: np.ndarray | None = None) -> float:
+    """``||T(lam) u|| / (sum_i |phi_i(lam)| ||E_i||_F ||u||)`` (2-norm of vectors)."""
+    if norms is None:
+        norms = np.array([a.norm(PETSc.NormType.FROBENIUS) for a in op.matrices])
+    phi = op.scalars(lam)
+    r = vec.duplicate()
+    tmp = vec.duplicate()
+    r.set(0.0)
+    for c, a in zip(phi, op.matrices, strict=True):
+        if c != 0:
+            a.mult(vec, tmp)
+            r.axpy(c, tmp)
+    num = r.norm()
+    den = float(np.sum(np.abs(phi) * norms)) * vec.norm()
+    r.destroy()
+    tmp.destroy()
+    return float(num / den) if den > 0 else float("inf")
+
+
+class PolynomialSolver:
+    """SLEPc PEP: TOAR + shift-and-invert around a target, LU by MUMPS.
+
+    Args:
+        comm: Communicator of the matrices.
+        nev: Number of eigenpairs nearest the target.
+        tol: Relative convergence tolerance of SLEPc.
+        max_it: Maximum number of restarts.
+        prefix: Options prefix (empty: ``-pep_*``, ``-st_*`` apply).
+    """
+
+    def __init__(self, comm: MPI.Comm, nev: int = 4, tol: float = 1e-13, max_it: int = 200,
+                 prefix: str = "") -> None:
+        self.comm = comm
+        pep = SLEPc.PEP().create(comm)
+        pep.setType(SLEPc.PEP.Type.TOAR)
+        pep.setProblemType(SLEPc.PEP.ProblemType.GENERAL)
+        pep.setDimensions(nev=nev)
+        pep.setTolerances(tol=tol, max_it=max_it)
+        pep.setWhichEigenpairs(SLEPc.PEP.Which.TARGET_MAGNITUDE)
+        st = pep.getST()
+        st.setType(SLEPc.ST.Type.SINVERT)
+        st.setMatStructure(PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        ksp = st.getKSP()
+        ksp.setType(PETSc.KSP.Type.PREONLY)
+        pc = ksp.getPC()
+        pc.setType(PETSc.PC.Type.LU)
+        pc.setFactorSolverType("mumps")
+        if prefix:
+            pep.setOptionsPrefix(prefix)
+        pep.setFromOptions()
+        self.pep = pep
+
+    def settings(self) -> dict[str, object]:
+        """Solver settings actually in use (for summaries)."""
+        pep = self.pep
+        st = pep.getST()
+        tol, max_it = pep.getTolerances()
+        return {
+            "eigensolver": "SLEPc PEP",
+            "type": pep.getType(),
+            "st": st.getType(),
+            "pc": st.getKSP().getPC().getType(),
+            "factor_solver": st.getKSP().getPC().getFactorSolverType(),
+            "nev": pep.getDimensions()[0],
+            "tol": tol,
+            "max_it": max_it,
+            "options_prefix": pep.getOptionsPrefix() or "",
+        }
+
+    def solve(self, op: FrictionOperator, target: complex, nev: int | None = None
+              ) -> SolveResult:
+        """Eigenpairs of the polynomial operator nearest ``target``.
+
+        Args:
+            op: A ``"polynomial"`` :class:`~forms.friction.FrictionOperator`.
+            target: Shift (complex Lambda).
+            nev: Override the number of wanted pairs.
+        """
+        if op.form != "polynomial":
+            raise ValueError("PolynomialSolver needs the polynomial form")
+        pep = self.pep
+        pep.setOperators(op.matrices)
+        if nev is not None:
+            pep.setDimensions(nev=nev)
+        pep.setTarget(target)
+        pep.solve()
+        nconv = pep.getConverged()
+        reason = _reason_name(SLEPc.PEP.ConvergedReason, pep.getConvergedReason())
+        norms = np.array([a.norm(PETSc.NormType.FROBENIUS) for a in op.matrices])
+        pairs: list[Eigenpair] = []
+        dropped: list[complex] = []
+        for i in range(nconv):
+            v = op.matrices[0].createVecRight()
+            lam = complex(pep.getEigenpair(i, v))
+            if op.law.is_spurious(lam):
+                dropped.append(lam)
+                v.destroy()
+                continue
+            pairs.append(Eigenpair(lam, relative_residual(op, lam, v, norms), v))
+        pairs.sort(key=lambda p: abs(p.value - target))
+        return SolveResult(pairs, nconv, reason, pep.getIterationNumber(), dropped)
+
+    def destroy(self) -> None:
+        """Destroy the SLEPc object."""
+        self.pep.destroy()
+
+
+def _make_fn(comm: MPI.Comm, fn: tuple) -> SLEPc.FN:
+    """SLEPc FN for a scalar function descriptor of :class:`~forms.friction.FrictionOperator`."""
+    f = SLEPc.FN().create(comm)
+    f.setType(SLEPc.FN.Type.RATIONAL)
+    if fn[0] == "power":
+        coeffs = [1.0] + [0.0] * fn[1]  # SLEPc wants descending coefficients
+        f.setRationalNumerator(coeffs)
+    else:
+        f.setRationalNumerator(list(reversed(fn[1])))
+        f.setRationalDenominator(list(reversed(fn[2])))
+    return f
+
+
+class SplitSolver:
+    """SLEPc NEP on the split rational form: NLEIGS in a disc around the target.
+
+    The functions are SLEPc rational FNs and the problem type is ``RATIONAL``, so NLEIGS
+    builds the rational operator exactly (no spurious roots at ``Lambda = -1``). The region is a
+    disc of radius ``radius`` around each target; ``-nep_type ciss`` with the same region gives
+    all eigenvalues in it (contour integral).
+
+    Args:
+        comm: Communicator of the matrices.
+        nev: Number of eigenpairs wanted.
+        tol: Relative tolerance.
+        max_it: Maximum iterations.
+        radius: Radius of the disc region around the target.
+        prefix: Options prefix (empty: ``-nep_*`` apply).
+    """
+
+    def __init__(self, comm: MPI.Comm, nev: int = 4, tol: float = 1e-12, max_it: int = 500,
+                 radius: float = 2.0, prefix: str = "") -> None:
+        self.comm = comm
+        self.radius = radius
+        nep = SLEPc.NEP().create(comm)
+        nep.setType(SLEPc.NEP.Type.NLEIGS)
+        nep.setProblemType(SLEPc.NEP.ProblemType.RATIONAL)
+        nep.setDimensions(nev=nev)
+        nep.setTolerances(tol=tol, maxit=max_it)
+        nep.setWhichEigenpairs(SLEPc.NEP.Which.TARGET_MAGNITUDE)
+        if prefix:
+            nep.setOptionsPrefix(prefix)
+        self.nep = nep
+        self._configured = False
+        self._fns: list[SLEPc.FN] = []
+
+    def settings(self) -> dict[str, object]:
+        """Solver settings actually in use (for summaries)."""
+        tol, max_it = self.nep.getTolerances()
+        return {
+            "eigensolver": "SLEPc NEP (split form)",
+            "type": self.nep.getType(),
+            "nev": self.nep.getDimensions()[0],
+            "tol": tol,
+            "max_it": max_it,
+            "region": f"disc of radius {self.radius} around each target",
+            "options_prefix": self.nep.getOptionsPrefix() or "",
+        }
+
+    def solve(self, op: FrictionOperator, target: complex, nev: int | None = None
+              ) -> SolveResult:
+        """Eigenpairs of the split operator nearest ``target`` inside the disc."""
+        if op.form != "split":
+            raise ValueError("SplitSolver needs the split form")
+        nep = self.nep
+        if not self._fns:
+            self._fns = [_make_fn(self.comm, fn) for fn in op.functions]
+        nep.setSplitOperator(op.matrices, self._fns, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        if nev is not None:
+            nep.setDimensions(nev=nev)
+        nep.setTarget(target)
+        rg = nep.getRG()
+        rg.setType(SLEPc.RG.Type.ELLIPSE)
+        rg.setEllipseParameters(target, self.radius, 1.0)
+        if not self._configured:
+            for ksp in nep.getNLEIGSKSPs() if nep.getType() == SLEPc.NEP.Type.NLEIGS else []:
+                ksp.setType(PETSc.KSP.Type.PREONLY)
+                ksp.getPC().setType(PETSc.PC.Type.LU)
+                ksp.getPC().setFactorSolverType("mumps")
+            nep.setFromOptions()
+            self._configured = True
+        nep.solve()
+        nconv = nep.getConverged()
+        reason = _reason_name(SLEPc.NEP.ConvergedReason, nep.getConvergedReason())
+        norms = np.array([a.norm(PETSc.NormType.FROBENIUS) for a in op.matrices])
+        pairs: list[Eigenpair] = []
+        dropped: list[complex] = []
+        for i in range(nconv):
+            v = op.matrices[0].createVecRight()
+            lam = complex(nep.getEigenpair(i, v))
+            if op.law.is_spurious(lam):
+                dropped.append(lam)
+                v.destroy()
+                continue
+            pairs.append(Eigenpair(lam, relative_residual(op, lam, v, norms), v))
+        pairs.sort(key=lambda p: abs(p.value - target))
+        return SolveResult(pairs, nconv, reason, nep.getIterationNumber(), dropped)
+
+    def destroy(self) -> None:
+        """Destroy the SLEPc objects."""
+        for f in self._fns:
+            f.destroy()
+        self.nep.destroy()

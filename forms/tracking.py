@@ -1,0 +1,133 @@
+"""Waveguide branches: labels, k-independent targets and tracking by eigenvector overlap.
+
+A branch ``(n, sign)`` starts at the dilatational waveguide cut-off
+``Lambda_0 = sign * i (2n+1) pi / (2 beta H)`` as ``k -> 0`` (DESIGN.md section 4); its label is
+``f"{n}{'+' if sign > 0 else '-'}"`` (``"0-"`` is the unstable partner of ``n = 0`` for the
+paper's defaults). Each ``k`` is solved near the frictionless waveguide dispersion
+``Lambda_wg = sign * i sqrt(((2n+1) pi/(2H))**2 + k**2) / beta`` (:func:`waveguide_lambda`),
+which does not depend on the previous ``k``: solves are independent and deterministic, so a
+sweep gives the same numbers on any number of ranks. The branch is then followed through the
+candidates of all ``k`` afterwards (:func:`track_branch`): at the first ``k`` the candidate
+nearest ``Lambda_wg``, then at each ``k`` the candidate whose eigenvector overlaps most with
+the last accepted one; below :data:`MIN_OVERLAP` the branch is reported as lost at that ``k``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from analytic.params import Params
+
+#: Smallest |<u_prev, u>| (unit vectors) accepted as the same branch at the next k.
+MIN_OVERLAP = 0.7
+
+
+@dataclass(frozen=True)
+class Branch:
+    """A waveguide branch: ``n >= 0`` and the sign of ``Im Lambda_0`` (``+1`` or ``-1``)."""
+
+    n: int
+    sign: int
+
+    @property
+    def label(self) -> str:
+        """``"0-"``, ``"0+"``, ``"1-"`` ..."""
+        return f"{self.n}{'+' if self.sign > 0 else '-'}"
+
+    @classmethod
+    def parse(cls, label: str) -> Branch:
+        """Inverse of :attr:`label`."""
+        return cls(int(label[:-1]), 1 if label[-1] == "+" else -1)
+
+
+def branches(count: int) -> list[Branch]:
+    """Branches ``n = 0 .. count-1``, both partners: ``0-, 0+, 1-, 1+, ...``."""
+    return [Branch(n, s) for n in range(count) for s in (-1, 1)]
+
+
+def cutoff(p: Params, b: Branch) -> complex:
+    """Waveguide cut-off ``Lambda_0 = sign i (2n+1) pi / (2 beta H)``."""
+    return complex(0.0, b.sign * (2 * b.n + 1) * math.pi / (2.0 * p.beta * p.H))
+
+
+def waveguide_lambda(p: Params, b: Branch, k: float) -> complex:
+    """Frictionless dilatational waveguide dispersion ``sign i sqrt(ky**2 + k**2) / beta``."""
+    ky = (2 * b.n + 1) * math.pi / (2.0 * p.H)
+    return complex(0.0, b.sign * math.hypot(ky, k) / p.beta)
+
+
+def normalized(vec: np.ndarray) -> np.ndarray:
+    """Unit 2-norm vector with its largest entry real and positive (deterministic phase)."""
+    v = np.asarray(vec, dtype=complex).ravel()
+    nrm = np.linalg.norm(v)
+    if nrm == 0:
+        return v
+    i = int(np.argmax(np.abs(v)))
+    return v * (abs(v[i]) / v[i]) / nrm
+
+
+@dataclass
+class Tracked:
+    """Result of :func:`track_branch` for one branch.
+
+    Attributes:
+        choice: Per k, the index of the chosen candidate, or -1.
+        status: Per k, ``"ok"`` or the reason why no eigenvalue is reported.
+        overlap: Per k, overlap with the previous accepted eigenvector (1 at the start).
+    """
+
+    choice: list[int]
+    status: list[str]
+    overlap: list[float]
+
+
+def track_branch(
+    values: list[np.ndarray],
+    vectors: list[np.ndarray],
+    start_target: complex,
+    min_overlap: float = MIN_OVERLAP,
+) -> Tracked:
+    """Follow one branch through per-k candidates (sorted by increasing k).
+
+    Args:
+        values: Per k, the candidate eigenvalues (possibly empty: failed solve).
+        vectors: Per k, the candidate eigenvectors, shape ``(n_candidates, n)``, already
+            :func:`normalized` (same discretisation for every k).
+        start_target: Where the branch is at the first k (e.g. :func:`waveguide_lambda`).
+        min_overlap: Smallest overlap accepted as the continuation.
+
+    Returns:
+        The :class:`Tracked` choices.
+    """
+    choice: list[int] = []
+    status: list[str] = []
+    overlap: list[float] = []
+    ref: np.ndarray | None = None
+    for vals, vecs in zip(values, vectors, strict=True):
+        if len(vals) == 0:
+            choice.append(-1)
+            status.append("no converged eigenvalue near the target")
+            overlap.append(float("nan"))
+            continue
+        if ref is None:
+            i = int(np.argmin(np.abs(np.asarray(vals) - start_target)))
+            choice.append(i)
+            status.append("ok")
+            overlap.append(1.0)
+            ref = vecs[i]
+            continue
+        ov = np.abs(np.asarray(vecs).conj() @ ref)
+        i = int(np.argmax(ov))
+        if ov[i] < min_overlap:
+            choice.append(-1)
+            status.append(f"lost: best eigenvector overlap {ov[i]:.2f} < {min_overlap}")
+            overlap.append(float(ov[i]))
+            continue
+        choice.append(i)
+        status.append("ok")
+        overlap.append(float(ov[i]))
+        ref = vecs[i]
+    return Tracked(choice, status, overlap)

@@ -1,0 +1,98 @@
+"""Smoke tests of workflows/sweep_k.py: serial, mpirun -n 2, rank independence, bad input,
+--resume. Launched once (serial pass); the MPI runs are subprocesses."""
+
+import csv
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SCRIPT = os.path.join(ROOT, "workflows", "sweep_k.py")
+CHECK_VALUE = 0.2716852879456 - 6.5866951866228j  # DESIGN.md section 4 (k = 1, branch 0-)
+TINY = ["--k", "0.5,1.0,1.5", "--branches", "1", "--quiet", "--no-plot"]
+
+pytestmark = pytest.mark.serial
+
+
+def _run(args, out, n=1, check=True):
+    cmd = [sys.executable, SCRIPT, *args, "--out", str(out)]
+    if n > 1:
+        cmd = ["mpirun", "-n", str(n), *cmd]
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
+    if check:
+        assert proc.returncode == 0, proc.stderr[-2000:]
+    return proc
+
+
+def _table(out):
+    with open(os.path.join(out, "spectrum.csv")) as fh:
+        return list(csv.DictReader(fh))
+
+
+def _values(rows):
+    return np.array([[float(r["k"]), float(r["re_lambda"]), float(r["im_lambda"])] for r in rows])
+
+
+def test_serial_run_writes_outputs_and_check_value(tmp_path):
+    out = tmp_path / "s"
+    _run(["--k", "0.5,1.0", "--branches", "1", "--quiet"], out)
+    rows = _table(out)
+    assert [r["branch"] for r in rows] == ["0-", "0+", "0-", "0+"]
+    assert all(r["status"] == "ok" for r in rows)
+    row = next(r for r in rows if r["branch"] == "0-" and float(r["k"]) == 1.0)
+    lam = complex(float(row["re_lambda"]), float(row["im_lambda"]))
+    # default discretisation (P3, chosen cells): measured relative error 1e-12, 2026-11-21.
+    assert abs(lam - CHECK_VALUE) / abs(CHECK_VALUE) < 1e-10
+    assert float(row["residual"]) < 1e-13
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["parameters"]["f"] == 0.3 and summary["mpi"]["ranks"] == 1
+    assert summary["failures"] == [] and "petsc" in summary["versions"]
+    assert summary["most_unstable"]["branch"] == "0-"
+    assert (out / "dispersion.png").stat().st_size > 10000
+
+
+@pytest.mark.parametrize("group_size", [1, 2])
+def test_mpi_run_equals_serial_run(tmp_path, group_size):
+    _run(TINY, tmp_path / "n1")
+    _run([*TINY, "--group-size", str(group_size)], tmp_path / "n2", n=2)
+    a, b = _table(tmp_path / "n1"), _table(tmp_path / "n2")
+    assert [r["branch"] for r in a] == [r["branch"] for r in b]
+    va, vb = _values(a), _values(b)
+    assert np.abs(va - vb).max() < 1e-10
+    summary = json.loads((tmp_path / "n2" / "summary.json").read_text())
+    assert summary["mpi"] == {"ranks": 2, "group_size": group_size, "groups": 2 // group_size}
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [["--beta", "0.9"], ["--k=-1,2"], ["--k", "1:0:5"], ["--degree", "0"], ["--nope", "1"],
+     ["--H", "inf"], ["--group-size", "3"], ["--gamma", "nan"]],
+)
+def test_bad_input_exit_2_nothing_written(tmp_path, bad):
+    out = tmp_path / "bad"
+    proc = _run([*TINY, *bad], out, check=False)
+    assert proc.returncode == 2
+    assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert not out.exists()
+
+
+def test_resume_recomputes_only_missing_k(tmp_path):
+    out = tmp_path / "r"
+    _run(TINY, out)
+    full = _values(_table(out))
+    os.remove(out / "raw" / "k00001.npz")
+    os.remove(out / "spectrum.csv")
+    _run([*TINY, "--resume"], out)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["computed_this_run"] == 1 and summary["resumed"]
+    assert np.abs(_values(_table(out)) - full).max() < 1e-12
+    # resuming with other settings is refused and leaves the files alone
+    before = (out / "spectrum.csv").read_text()
+    proc = _run([*TINY, "--resume", "--f", "0.4"], out, check=False)
+    assert proc.returncode == 2 and "different settings" in proc.stderr
+    assert (out / "spectrum.csv").read_text() == before

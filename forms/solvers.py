@@ -215,7 +215,7 @@ class SplitSolver:
         prefix: Options prefix (empty: ``-nep_*`` apply).
     """
 
-    def __init__(self, comm: MPI.Comm, nev: int = 4, tol: float = 1e-12, max_it: int = 500,
+    def __init__(self, comm: MPI.Comm, nev: int = 4, tol: float = 1e-12, max_it: int = 30,
                  radius: float = 2.0, prefix: str = "") -> None:
         self.comm = comm
         self.radius = radius

@@ -302,7 +302,7 @@ def plot(out: str, p, blist, per_branch: dict, best: dict | None, meta: dict) ->
     kmax = max(float(np.max(bl["k"])) for bl in per_branch.values())
     k_fine = np.linspace(kmin, kmax, 400)
     lines = exact_lines(p, blist, k_fine)
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7.5, 7.5), sharex=True)
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9.5, 7.5), sharex=True)
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for b in blist:
         c = colors[b.n % len(colors)]
@@ -316,14 +316,14 @@ def plot(out: str, p, blist, per_branch: dict, best: dict | None, meta: dict) ->
         ax2.plot(bl["k"], bl["fe"].imag, mk, ms=3, mfc="none", color=c)
     if best is not None:
         ax1.plot([best["k"]], [best["re_lambda"]], "*", ms=16, color="crimson",
-                 label=f"most unstable: {best['branch']}, k = {best['k']:.3g}, "
+                 label=f"most unstable:\n{best['branch']}, k = {best['k']:.3g},\n"
                  f"Re = {best['re_lambda']:.4g}")
         ax2.plot([best["k"]], [best["im_lambda"]], "*", ms=16, color="crimson")
     ax1.axhline(0.0, color="k", lw=0.6)
     ax1.set_ylabel(r"growth rate Re $\Lambda$")
     ax2.set_ylabel(r"frequency Im $\Lambda$")
     ax2.set_xlabel("k")
-    ax1.legend(fontsize=7, ncol=2, loc="best")
+    ax1.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     title = (f"f={p.f:g}, gamma={p.gamma:g}, beta={p.beta:g}, Delta={p.Delta:g}, H={p.H:g}, "
              f"bc={p.bc}")
     if p.generalized:

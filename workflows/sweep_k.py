@@ -465,7 +465,10 @@ def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
             "computed_this_run": len(todo),
             "wall_time_s": wall,
             "per_k_time_s": {"mean": float(np.mean(times)), "min": float(np.min(times)),
-                             "max": float(np.max(times)), "note": "one group, all branches"}
+                             "max": float(np.max(times)),
+                             "note": "one group, all branches; 'values' in k order",
+                             "values": [float(done[i]["seconds"]) if i in done else None
+                                        for i in range(len(k))]}
             if times else None,
             "failures": post["failures"],
             "lost": post["lost"],

@@ -1,0 +1,98 @@
+import numpy as np
+import pytest
+
+from analytic.roots import ContourError, count_zeros, polish, winding_number, zeros_in_box
+
+ROOTS = np.array([0.3 + 0.2j, -0.7 + 0.1j, 0.25 - 0.6j, 1.5 + 1.5j, 0.31 + 0.21j])
+
+
+def poly(z):
+    z = np.asarray(z, dtype=complex)
+    out = np.ones_like(z)
+    for r in ROOTS:
+        out = out * (z - r)
+    return out
+
+
+@pytest.mark.parametrize(
+    "box,expected",
+    [
+        ((-1, 1, -1, 1), 4),  # all but 1.5+1.5j
+        ((-2, 2, -2, 2), 5),
+        ((0.0, 0.5, 0.0, 0.5), 2),  # the close pair
+        ((-0.5, 0.0, -0.5, 0.0), 0),
+    ],
+)
+def test_count_polynomial(box, expected):
+    assert count_zeros(poly, box) == expected
+
+
+def test_zeros_in_box_finds_all_polynomial_roots():
+    roots = zeros_in_box(poly, (-1, 1, -1, 1), scale=1.0)
+    found = np.array(sorted((r.value for r in roots), key=lambda z: (z.real, z.imag)))
+    expected = np.array(sorted(ROOTS[np.abs(ROOTS.real) < 1], key=lambda z: (z.real, z.imag)))
+    assert len(found) == 4
+    # Simple roots of a degree-5 polynomial: Newton reaches rounding level (measured ~1e-16).
+    np.testing.assert_allclose(found, expected, rtol=0, atol=1e-13)
+    assert all(r.converged for r in roots)
+
+
+def test_meromorphic_counts_zeros_minus_poles():
+    def g(z):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return (z - 0.1) * (z + 0.2j) * (z - 0.4 + 0.3j) / ((z - 0.5j) * (z + 0.3) ** 2)
+
+    box = (-1, 1, -1, 1)
+    assert winding_number(g, box) == 3 - 3
+    assert count_zeros(g, box, poles=[0.5j, (-0.3, 2)]) == 3
+    roots = zeros_in_box(g, box, poles=[0.5j, (-0.3, 2)])
+    np.testing.assert_allclose(
+        sorted((r.value for r in roots), key=lambda z: (z.real, z.imag)),
+        [-0.2j, 0.1, 0.4 - 0.3j],
+        atol=1e-13,
+    )
+
+
+def test_transcendental_many_roots():
+    # sin(pi z) has zeros at the integers: 7 of them in (-3.5, 3.5)
+    def f(z):
+        return np.sin(np.pi * z)
+
+    roots = zeros_in_box(f, (-3.5, 3.5, -0.3, 0.4))
+    assert len(roots) == 7
+    np.testing.assert_allclose([r.value for r in roots], np.arange(-3, 4), atol=1e-14)
+
+
+def test_zero_on_contour_is_an_error():
+    with pytest.raises(ContourError, match="contour"):
+        count_zeros(poly, (0.3, 1.0, -1.0, 1.0))  # edge Re z = 0.3 passes through 0.3+0.2j
+
+
+def test_pole_on_contour_is_an_error():
+    def g(z):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return 1.0 / (z - 0.5)
+
+    with pytest.raises(ContourError):
+        count_zeros(g, (0.5, 1.0, -1.0, 1.0))
+    with pytest.raises(ContourError, match="pole"):
+        count_zeros(g, (0.5, 1.0, -1.0, 1.0), poles=[0.5])
+
+
+def test_polish_reports_failure_without_raising():
+    r = polish(lambda z: np.exp(z), 0.0, maxiter=5)  # no zeros at all
+    assert not r.converged
+    assert r.reason
+
+
+def test_polish_quality_fields():
+    r = polish(poly, 0.24 - 0.55j)
+    assert r.converged
+    assert abs(r.value - ROOTS[2]) < 1e-14
+    assert r.residual < 1e-14
+    assert np.isfinite(r.cond) and r.cond > 0
+
+
+def test_double_root_is_reported_as_cluster():
+    roots = zeros_in_box(lambda z: (z - 0.2) ** 2 * (z + 0.5), (-1, 1, -1, 1))
+    assert sum(2 if "cluster of 2" in r.reason else 1 for r in roots) == 3

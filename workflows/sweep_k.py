@@ -149,6 +149,56 @@ def solve_one_k(model, solver, blist, p, k: float, nev: int) -> dict:
     }
 
 
+class Repairer:
+    """Re-solves a lost branch point near an extrapolated target, on one process (rank 0).
+
+    Built lazily (only if a branch is lost) on ``MPI.COMM_SELF`` with the sweep's discretisation,
+    so the repaired values do not depend on the number of ranks either.
+    """
+
+    def __init__(self, params, model_kwargs: dict, solver: str, nev: int) -> None:
+        self.params, self.model_kwargs, self.solver_kind, self.nev = (params, model_kwargs,
+                                                                      solver, nev)
+        self.model = None
+        self.solver = None
+        self.calls = 0
+
+    def __call__(self, k: float, target: complex) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Candidates ``(values, normalized canonical vectors, residuals)`` near ``target``."""
+        from mpi4py import MPI
+
+        from forms.cross_section import CrossSectionModel
+        from forms.tracking import normalized
+
+        if self.model is None:
+            self.model = CrossSectionModel(MPI.COMM_SELF, self.params, **self.model_kwargs)
+            if self.solver_kind == "pep":
+                from forms.solvers import PolynomialSolver
+
+                self.solver = PolynomialSolver(MPI.COMM_SELF, nev=self.nev)
+            else:
+                from forms.solvers import SplitSolver
+
+                self.solver = SplitSolver(MPI.COMM_SELF, nev=self.nev)
+        self.calls += 1
+        try:
+            out = self.solver.solve(self.model.operator(k), target, nev=self.nev)
+        except Exception:  # noqa: BLE001 - the point then stays lost
+            return np.zeros(0, complex), np.zeros((0, self.model.size), complex), np.zeros(0)
+        vals = np.array([p.value for p in out.pairs], dtype=complex)
+        vecs = np.array([normalized(self.model.canonical(p.vector)[:, 1:]) for p in out.pairs],
+                        dtype=complex).reshape(len(vals), self.model.size)
+        res = np.array([p.residual for p in out.pairs], dtype=float)
+        out.destroy()
+        return vals, vecs, res
+
+    def destroy(self) -> None:
+        """Destroy the PETSc/SLEPc objects."""
+        if self.solver is not None:
+            self.solver.destroy()
+            self.model.destroy()
+
+
 def save_raw(out: str, index: int, k: float, seconds: float, data: dict) -> None:
     """Write one k atomically (tmp file + rename)."""
     path = _raw_path(out, index)
@@ -208,8 +258,9 @@ def exact_lines(p, blist, k_fine: np.ndarray) -> dict[str, np.ndarray] | None:
     return lines
 
 
-def postprocess(out: str, p, k: np.ndarray, blist, done: dict[int, dict]) -> dict:
-    """Track branches, match exact roots, write spectrum.csv; return a summary dict."""
+def postprocess(out: str, p, k: np.ndarray, blist, done: dict[int, dict],
+                repairer: Repairer | None = None) -> dict:
+    """Track branches (repairing lost points), match exact roots, write spectrum.csv."""
     from forms.tracking import track_branch, waveguide_lambda
 
     order = np.argsort(k, kind="stable")
@@ -230,7 +281,15 @@ def postprocess(out: str, p, k: np.ndarray, blist, done: dict[int, dict]) -> dic
             vecs.append(d["vectors"][sel])
             ress.append(d["residuals"][sel])
             reasons.append(str(d["reasons"][j]) if j < len(d["reasons"]) else "missing")
-        tr = track_branch(vals, vecs, waveguide_lambda(p, b, float(k[order[0]])))
+        ks = k[order]
+
+        def resolve(m: int, target: complex, ress=ress, ks=ks) -> tuple[np.ndarray, np.ndarray]:
+            v, w, r = repairer(float(ks[m]), target)
+            ress[m] = np.concatenate([np.asarray(ress[m], dtype=float), r])
+            return v, w
+
+        tr = track_branch(vals, vecs, waveguide_lambda(p, b, float(ks[0])), k=ks,
+                          resolve=resolve if repairer is not None else None)
         fe = np.full(len(order), np.nan + 1j * np.nan)
         res = np.full(len(order), np.nan)
         status = list(tr.status)
@@ -450,7 +509,11 @@ def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
     code = 0
     if comm.rank == 0:
         done = load_raw(out, len(k))
-        post = postprocess(out, params, k, blist, done)
+        repairer = Repairer(params, {"degree": args.degree, "cells": cells, "k_max": k_max,
+                                     "n_max": args.branches - 1, "ratio": ratio,
+                                     "form": model.form}, args.solver, args.nev)
+        post = postprocess(out, params, k, blist, done, repairer)
+        repairer.destroy()
         times = [float(d["seconds"]) for d in done.values()]
         summary = {
             "parameters": params.as_dict(),
@@ -472,6 +535,7 @@ def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
             if times else None,
             "failures": post["failures"],
             "lost": post["lost"],
+            "repair_solves": repairer.calls,
             "exact": {"source": post["exact_note"], "matched": post["matched_exact"],
                       "max_relative_error": post["max_relative_error"]},
             "most_unstable": post["most_unstable"],

@@ -155,3 +155,13 @@ def test_relative_residual_detects_a_wrong_eigenvalue():
     assert isinstance(good.vector, PETSc.Vec)
     res.destroy()
     model.destroy()
+
+
+def test_spurious_root_of_cleared_denominator_is_dropped():
+    """Delta = 1 makes the x-row vanish at Lambda = -1: the PEP finds -1, the solver drops it."""
+    model = CrossSectionModel(MPI.COMM_SELF, Params(Delta=1.0), degree=2, cells=8)
+    res = _solve(model, 1.0, -1.0 + 0.01j, nev=3)
+    assert len(res.dropped) == 1 and abs(res.dropped[0] + 1.0) < 1e-10
+    assert all(abs(p.value + 1.0) > 1e-3 for p in res.pairs)
+    res.destroy()
+    model.destroy()

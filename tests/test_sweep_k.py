@@ -68,6 +68,18 @@ def test_mpi_run_equals_serial_run(tmp_path, group_size):
     assert summary["mpi"] == {"ranks": 2, "group_size": group_size, "groups": 2 // group_size}
 
 
+def test_failed_solves_are_recorded_and_sweep_goes_on(tmp_path):
+    # a PETSc option that makes every PEP set-up fail (no shift-and-invert with LU on T(sigma))
+    out = tmp_path / "fail"
+    proc = _run([*TINY, "-st_type", "shift"], out, check=False)
+    assert proc.returncode == 1
+    rows = _table(out)
+    assert len(rows) == 6 and all(r["status"].startswith("failed") for r in rows)
+    assert all(r["re_lambda"] == "" for r in rows)
+    summary = json.loads((out / "summary.json").read_text())
+    assert len(summary["failures"]) == 6
+
+
 def test_nep_solver_matches_pep(tmp_path):
     _run(TINY, tmp_path / "pep")
     _run([*TINY, "--solver", "nep"], tmp_path / "nep")

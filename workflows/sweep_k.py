@@ -110,16 +110,39 @@ def _raw_path(out: str, index: int) -> str:
     return os.path.join(out, "raw", f"k{index:05d}.npz")
 
 
+def make_solver(kind: str, comm, nev: int):
+    """A fresh PEP or NEP solver (options from the PETSc database)."""
+    if kind == "pep":
+        from forms.solvers import PolynomialSolver
+
+        return PolynomialSolver(comm, nev=nev)
+    from forms.solvers import SplitSolver
+
+    return SplitSolver(comm, nev=nev)
+
+
+def destroy_quietly(obj) -> None:
+    """Destroy a solver that may be in an error state (a failed solve) without raising."""
+    from petsc4py import PETSc
+
+    try:
+        obj.destroy()
+    except PETSc.Error:
+        pass
+
+
 def solve_one_k(model, solver, blist, p, k: float, nev: int) -> dict:
     """Solve all branch targets at one k on the model's communicator (collective).
 
     Returns (meaningful on the group's rank 0): candidate values, residuals, normalized
-    canonical vectors, the branch index of each candidate and SLEPc's reason per branch.
+    canonical vectors, the branch index of each candidate and SLEPc's reason per branch;
+    ``"broken"`` is True if a solve raised (the caller then replaces the solver).
     """
     from forms.tracking import normalized, waveguide_lambda
 
     op = model.operator(k)
     vals, res, vecs, owner, reasons, nconv = [], [], [], [], [], []
+    broken = False
     for j, b in enumerate(blist):
         target = waveguide_lambda(p, b, k)
         try:
@@ -127,7 +150,11 @@ def solve_one_k(model, solver, blist, p, k: float, nev: int) -> dict:
         except Exception as err:  # a PETSc error in one solve must not stop the sweep
             reasons.append(f"error: {type(err).__name__}: {err}".replace("\n", " "))
             nconv.append(0)
-            continue
+            broken = True
+            reasons.extend(["skipped: solver error at an earlier branch of this k"]
+                           * (len(blist) - j - 1))
+            nconv.extend([0] * (len(blist) - j - 1))
+            break
         reasons.append(out.reason)
         nconv.append(out.converged)
         for pair in out.pairs[:nev]:
@@ -146,6 +173,7 @@ def solve_one_k(model, solver, blist, p, k: float, nev: int) -> dict:
         "owner": np.asarray(owner, dtype=np.int64),
         "reasons": np.asarray(reasons, dtype=str),
         "nconv": np.asarray(nconv, dtype=np.int64),
+        "broken": broken,
     }
 
 
@@ -172,14 +200,7 @@ class Repairer:
 
         if self.model is None:
             self.model = CrossSectionModel(MPI.COMM_SELF, self.params, **self.model_kwargs)
-            if self.solver_kind == "pep":
-                from forms.solvers import PolynomialSolver
-
-                self.solver = PolynomialSolver(MPI.COMM_SELF, nev=self.nev)
-            else:
-                from forms.solvers import SplitSolver
-
-                self.solver = SplitSolver(MPI.COMM_SELF, nev=self.nev)
+            self.solver = make_solver(self.solver_kind, MPI.COMM_SELF, self.nev)
         self.calls += 1
         try:
             out = self.solver.solve(self.model.operator(k), target, nev=self.nev)
@@ -195,7 +216,7 @@ class Repairer:
     def destroy(self) -> None:
         """Destroy the PETSc/SLEPc objects."""
         if self.solver is not None:
-            self.solver.destroy()
+            destroy_quietly(self.solver)
             self.model.destroy()
 
 
@@ -474,14 +495,7 @@ def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
     model = CrossSectionModel(gcomm, params, degree=args.degree, cells=cells, k_max=k_max,
                               n_max=args.branches - 1, ratio=ratio,
                               form="polynomial" if args.solver == "pep" else "split")
-    if args.solver == "pep":
-        from forms.solvers import PolynomialSolver
-
-        solver = PolynomialSolver(gcomm, nev=args.nev)
-    else:
-        from forms.solvers import SplitSolver
-
-        solver = SplitSolver(gcomm, nev=args.nev)
+    solver = make_solver(args.solver, gcomm, args.nev)
     settings = solver.settings()
 
     bar = None
@@ -493,6 +507,9 @@ def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
     for i in mine:
         t0 = time.perf_counter()
         data = solve_one_k(model, solver, blist, params, float(k[i]), args.nev)
+        if data.pop("broken"):
+            destroy_quietly(solver)
+            solver = make_solver(args.solver, gcomm, args.nev)
         seconds = time.perf_counter() - t0
         if gcomm.rank == 0:
             save_raw(out, i, float(k[i]), seconds, data)
@@ -500,7 +517,7 @@ def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
             bar.update(1)
     if bar is not None:
         bar.close()
-    solver.destroy()
+    destroy_quietly(solver)
     model.destroy()
     gcomm.Free()
     comm.Barrier()

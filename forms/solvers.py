@@ -159,6 +159,12 @@ class PolynomialSolver:
         if op.form != "polynomial":
             raise ValueError("PolynomialSolver needs the polynomial form")
         pep = self.pep
+        shape = (len(op.matrices), op.matrices[0].getSize())
+        if getattr(self, "_shape", shape) != shape:
+            # SLEPc 3.18 keeps work arrays sized for the previous polynomial degree/size:
+            # reusing them for another degree segfaults, so start afresh.
+            pep.reset()
+        self._shape = shape
         pep.setOperators(op.matrices)
         if nev is not None:
             pep.setDimensions(nev=nev)
@@ -250,6 +256,13 @@ class SplitSolver:
         if op.form != "split":
             raise ValueError("SplitSolver needs the split form")
         nep = self.nep
+        shape = (len(op.matrices), op.matrices[0].getSize())
+        if getattr(self, "_shape", shape) != shape:
+            nep.reset()  # see PolynomialSolver.solve
+            for f in self._fns:
+                f.destroy()
+            self._fns = []
+        self._shape = shape
         if not self._fns:
             self._fns = [_make_fn(self.comm, fn) for fn in op.functions]
         nep.setSplitOperator(op.matrices, self._fns, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)

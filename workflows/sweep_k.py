@@ -394,6 +394,8 @@ def plot(out: str, p, blist, per_branch: dict, best: dict | None, meta: dict) ->
             ax2.plot(k_fine, lam.imag, "-", color=c, lw=1.0, alpha=0.7)
         ax1.plot(bl["k"], bl["fe"].real, mk, ms=3, mfc="none", color=c, label=f"FE {b.label}")
         ax2.plot(bl["k"], bl["fe"].imag, mk, ms=3, mfc="none", color=c)
+    if lines:
+        ax1.plot([], [], "-", color="0.3", lw=1.0, label="exact (analytic)")
     if best is not None:
         ax1.plot([best["k"]], [best["re_lambda"]], "*", ms=16, color="crimson",
                  label=f"most unstable:\n{best['branch']}, k = {best['k']:.3g},\n"

@@ -134,11 +134,15 @@ def mpi_speedup(n_k: int) -> dict:
                 continue
             with open(os.path.join(tmp, "summary.json")) as fh:
                 s = json.load(fh)
-            res[f"n{n}"] = {"sweep_wall_s": s["wall_time_s"], "process_wall_s": total}
+            res[f"n{n}"] = {"sweep_wall_s": s["wall_time_s"], "process_wall_s": total,
+                            "cpu_time_s_per_rank": s["cpu_time_s_per_rank"]}
     res["load_average_after"] = os.getloadavg()
     if "sweep_wall_s" in res.get("n1", {}) and "sweep_wall_s" in res.get("n2", {}):
         res["speedup_sweep"] = res["n1"]["sweep_wall_s"] / res["n2"]["sweep_wall_s"]
         res["speedup_process"] = res["n1"]["process_wall_s"] / res["n2"]["process_wall_s"]
+        # load-independent: serial CPU time over the busiest rank's CPU time
+        res["speedup_cpu"] = (res["n1"]["cpu_time_s_per_rank"][0]
+                              / max(res["n2"]["cpu_time_s_per_rank"]))
     return res
 
 

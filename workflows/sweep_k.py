@@ -472,6 +472,7 @@ def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
             )
     comm.Barrier()
     t_start = time.perf_counter()
+    cpu_start = time.process_time()
     if comm.rank == 0:
         os.makedirs(os.path.join(out, "raw"), exist_ok=True)
         if not args.resume:
@@ -524,6 +525,7 @@ def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
     gcomm.Free()
     comm.Barrier()
     wall = time.perf_counter() - t_start
+    cpu = comm.gather(time.process_time() - cpu_start, root=0)
 
     code = 0
     if comm.rank == 0:
@@ -543,6 +545,7 @@ def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
                                "unknowns": int(2 * (args.degree * cells + 1))},
             "solver": settings | {"form": model.form, "nev_per_branch": args.nev},
             "mpi": {"ranks": comm.size, "group_size": group_size, "groups": n_groups},
+            "cpu_time_s_per_rank": cpu,
             "resumed": bool(args.resume),
             "computed_this_run": len(todo),
             "wall_time_s": wall,

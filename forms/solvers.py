@@ -273,11 +273,15 @@ class SplitSolver:
         rg.setType(SLEPc.RG.Type.ELLIPSE)
         rg.setEllipseParameters(target, self.radius, 1.0)
         if not self._configured:
-            for ksp in nep.getNLEIGSKSPs() if nep.getType() == SLEPc.NEP.Type.NLEIGS else []:
-                ksp.setType(PETSc.KSP.Type.PREONLY)
-                ksp.getPC().setType(PETSc.PC.Type.LU)
-                ksp.getPC().setFactorSolverType("mumps")
+            if nep.getType() == SLEPc.NEP.Type.NLEIGS:
+                for ksp in nep.getNLEIGSKSPs():
+                    ksp.setType(PETSc.KSP.Type.PREONLY)
+                    ksp.getPC().setType(PETSc.PC.Type.LU)
+                    ksp.getPC().setFactorSolverType("mumps")
             nep.setFromOptions()
+            if nep.getType() == SLEPc.NEP.Type.CISS:
+                # contour integral: every eigenvalue inside the region
+                nep.setWhichEigenpairs(SLEPc.NEP.Which.ALL)
             self._configured = True
         nep.solve()
         nconv = nep.getConverged()

@@ -1,0 +1,148 @@
+import math
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+from analytic.branches import follow_branch, polish_root, roots_in_box
+from analytic.finite_h import (
+    cutoff,
+    det_M,
+    det_M_even,
+    det_M_waves,
+    friction_coefficients,
+    spectrum_S,
+)
+from analytic.params import ParameterError, Params
+from analytic.roots import count_zeros, polish
+
+CHECK_VALUE = 0.2716852879456 - 6.5866951866228j  # DESIGN.md section 4
+
+
+def test_design_check_value_by_continuation_from_cutoff():
+    b = follow_branch(Params(), 0, -1, [1.0])
+    assert b.label == "0-"
+    assert b.k_path[0] == 0.0 and b.Lambda_path[0] == cutoff(0, -1, Params())
+    assert b.ok[0], b.note
+    # measured 3.5e-15 on 2026-11-21
+    assert abs(b.Lambda[0] - CHECK_VALUE) / abs(CHECK_VALUE) < 1e-12
+    assert b.residual[0] < 1e-13
+
+
+PARAM_SETS = [
+    dict(),
+    dict(H=2.0, beta=0.4),
+    dict(f=0.6, gamma=1.0, Delta=0.2, beta=0.3, H=1.0),
+    dict(Delta=-0.5, gamma=10.0, H=0.3),
+    dict(alpha_pc=0.3, alpha_ld=0.5, beta=0.45),
+]
+BOXES = [(-1.0, 1.0, -12.0, -3.0), (-1.0, 1.0, 2.0, 9.0)]
+
+
+def _roots(p, k, box):
+    return [r.value for r in roots_in_box(p, k, box)]
+
+
+@pytest.mark.parametrize("box", BOXES)
+@pytest.mark.parametrize("kw", PARAM_SETS)
+def test_det_M_zeros_are_the_closed_form_zeros(kw, box):
+    """All roots of det_M in a box are roots of the paper's S, and of the two other bases."""
+    p = Params(**kw)
+    k = 0.8
+    roots = _roots(p, k, box)
+    assert roots, "no roots in the box: the test would be empty"
+    for z in roots:
+        for other in (spectrum_S, det_M_even, det_M_waves):
+            r = polish(lambda L, f=other: f(L, k, p), z)
+            assert r.converged, (other.__name__, r.reason)
+            # measured <= 3.5e-16 on 2026-11-21 (32 roots: 5 parameter sets, both boxes)
+            assert abs(r.value - z) / abs(z) < 1e-12, other.__name__
+
+
+def _propagator_det(L, k, p):
+    """Independent formulation: first-order ODE w' = A w for w = (u_x, u_y, s_xy, s_yy)."""
+    lam = p.lame_lambda
+    ik = 1j * k
+    A = np.array([
+        [0, ik, 1, 0],
+        [ik * lam / (lam + 2), 0, 0, 1 / (lam + 2)],
+        [L * L + k * k * (lam + 2) - k * k * lam * lam / (lam + 2), 0, 0, ik * lam / (lam + 2)],
+        [0, L * L, ik, 0],
+    ], dtype=complex)
+    T = scipy.linalg.expm(-A * p.H)  # w(0) = T w(H)
+    free = [1, 2] if p.bc == "velocity" else [0, 1]  # velocity: u_x = s_yy = 0 on top
+    a, b, c = friction_coefficients(np.array(L), p)
+    bottom = np.array([[0, 1, 0, 0], [complex(c), 0, complex(a), complex(b)]])
+    return np.linalg.det(bottom @ T[:, free])
+
+
+@pytest.mark.parametrize("bc", ["velocity", "stress"])
+@pytest.mark.parametrize("kw", [dict(), dict(H=1.3, beta=0.35, alpha_pc=0.2, alpha_ld=0.1)])
+def test_det_M_against_independent_propagator(bc, kw):
+    p = Params(bc=bc, **kw)
+    k = 1.1
+    roots = _roots(p, k, (-1.5, 1.5, -15.0, -1.0))
+    assert len(roots) >= 2
+    for z in roots:
+        r = polish(np.vectorize(lambda L: _propagator_det(L, k, p)), z, scale=1.0)
+        # measured <= 4.1e-16 on 2026-11-21 (24 roots; scipy expm, H <= 1.3)
+        assert abs(r.value - z) / abs(z) < 1e-11
+
+
+def test_no_overflow_at_large_kH():
+    p = Params(H=0.5)
+    k = 400.0  # kH = 200
+    vals = det_M(np.array([0.3 - 800j, 5 + 5j, -3 - 100j]), k, p)
+    assert np.all(np.isfinite(vals)) and np.all(np.abs(vals) > 0)
+    roots = _roots(p, k, (-3.0, 3.0, -805.0, -795.0))
+    assert roots
+    for z in roots:
+        r = polish(lambda L: spectrum_S(L, k, p), z)
+        # measured 1.4e-16 on 2026-11-21
+        assert abs(r.value - z) / abs(z) < 1e-12
+
+
+def test_det_M_is_single_valued_across_the_cuts():
+    p = Params()
+    for y in (3.0, -5.0, 7.5):  # imaginary axis beyond +-ik: the cut of the principal sqrt
+        a = det_M(1e-10 + 1j * y, 1.0, p)
+        b = det_M(-1e-10 + 1j * y, 1.0, p)
+        # continuous: differs by O(1e-10 * derivative); measured 5e-10
+        assert abs(a - b) < 1e-7 * abs(a)
+    w1 = det_M_waves(1e-10 + 3j, 1.0, p)
+    w2 = det_M_waves(-1e-10 + 3j, 1.0, p)
+    assert abs(w1 - w2) > 0.1 * abs(w1)  # the literal partial-wave determinant jumps
+
+
+@pytest.mark.parametrize("bc", ["velocity", "stress"])
+def test_cutoff_is_a_simple_zero_at_small_k(bc):
+    p = Params(bc=bc, beta=0.37, H=0.8)
+    k = 1e-6
+    for n in (0, 1):
+        for sign in (1, -1):
+            L0 = cutoff(n, sign, p)
+            r = 1e-3 * abs(L0)
+            assert count_zeros(lambda L, k=k: det_M(L, k, p),
+                               (L0.real - r, L0.real + r, L0.imag - r, L0.imag + r)) == 1
+
+
+def test_polish_root_from_rough_guess():
+    r = polish_root(Params(), 1.0, 0.2 - 6.4j)
+    assert r.converged
+    assert abs(r.value - CHECK_VALUE) < 1e-12
+
+
+@pytest.mark.parametrize(
+    "call,needle",
+    [
+        (lambda: det_M(1j, 1.0, Params(H=math.inf)), "H"),
+        (lambda: cutoff(-1, 1, Params()), "n"),
+        (lambda: cutoff(0, 2, Params()), "sign"),
+        (lambda: follow_branch(Params(), 0, -1, [1.0, 0.0]), "k"),
+        (lambda: follow_branch(Params(), 0, -1, [math.nan]), "k"),
+        (lambda: spectrum_S(1j, 1.0, Params(bc="stress")), "bc"),
+    ],
+)
+def test_bad_input_is_named(call, needle):
+    with pytest.raises(ParameterError, match=needle):
+        call()

@@ -4,8 +4,10 @@
 import csv
 import json
 import os
+import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -122,3 +124,28 @@ def test_resume_recomputes_only_missing_k(tmp_path):
     proc = _run([*TINY, "--resume", "--f", "0.4"], out, check=False)
     assert proc.returncode == 2 and "different settings" in proc.stderr
     assert (out / "spectrum.csv").read_text() == before
+
+
+def test_interrupted_sweep_keeps_finished_k_and_resumes(tmp_path):
+    out = tmp_path / "int"
+    args = ["--k", "0.05:3:300", "--branches", "1", "--quiet", "--no-plot"]
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.Popen([sys.executable, SCRIPT, *args, "--out", str(out)], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    raw = out / "raw"
+    deadline = time.time() + 120
+    while time.time() < deadline and (not raw.exists() or len(list(raw.glob("k*.npz"))) < 5):
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)  # Ctrl-C
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130 and b"--resume" in err
+    finished = sorted(p.name for p in raw.glob("k*.npz"))
+    assert 5 <= len(finished) < 300
+    assert not (out / "spectrum.csv").exists()
+    before = {name: (raw / name).stat().st_mtime_ns for name in finished}
+    _run([*args, "--resume"], out)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["computed_this_run"] == 300 - len(finished)
+    assert all((raw / name).stat().st_mtime_ns == t for name, t in before.items())
+    rows = _table(out)
+    assert len(rows) == 600 and all(r["status"] == "ok" for r in rows)

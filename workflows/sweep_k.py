@@ -442,6 +442,69 @@ def versions() -> dict[str, str]:
     return v
 
 
+def finish(comm, args, out: str, params, k: np.ndarray, blist, cells: int, ratio: float,
+           form: str, settings: dict, todo: list, wall: float, cpu: list) -> int:
+    """Rank 0: track, match, write spectrum.csv, summary.json, dispersion.png; exit code."""
+    k_max = float(np.max(k))
+    group_size = args.group_size
+    n_groups = comm.size // group_size
+    code = 0
+    done = load_raw(out, len(k))
+    repairer = Repairer(params, {"degree": args.degree, "cells": cells, "k_max": k_max,
+                                 "n_max": args.branches - 1, "ratio": ratio,
+                                 "form": form}, args.solver, args.nev)
+    post = postprocess(out, params, k, blist, done, repairer)
+    repairer.destroy()
+    times = [float(d["seconds"]) for d in done.values()]
+    summary = {
+        "parameters": params.as_dict(),
+        "k": {"spec": args.k, "count": len(k), "min": float(np.min(k)), "max": k_max},
+        "branches": [b.label for b in blist],
+        "discretisation": {"model": "cross-section (1D in y)", "degree": args.degree,
+                           "cells": cells, "grading_ratio": ratio,
+                           "unknowns": int(2 * (args.degree * cells + 1))},
+        "solver": settings | {"form": form, "nev_per_branch": args.nev},
+        "mpi": {"ranks": comm.size, "group_size": group_size, "groups": n_groups},
+        "cpu_time_s_per_rank": cpu,
+        "resumed": bool(args.resume),
+        "computed_this_run": len(todo),
+        "wall_time_s": wall,
+        "per_k_time_s": {"mean": float(np.mean(times)), "min": float(np.min(times)),
+                         "max": float(np.max(times)),
+                         "note": "one group, all branches; 'values' in k order",
+                         "values": [float(done[i]["seconds"]) if i in done else None
+                                    for i in range(len(k))]}
+        if times else None,
+        "failures": post["failures"],
+        "lost": post["lost"],
+        "repair_solves": repairer.calls,
+        "exact": {"source": post["exact_note"], "matched": post["matched_exact"],
+                  "max_relative_error": post["max_relative_error"]},
+        "most_unstable": post["most_unstable"],
+        "versions": versions(),
+        "command": " ".join(sys.argv),
+    }
+    with open(os.path.join(out, "summary.json.tmp"), "w") as fh:
+        json.dump(summary, fh, indent=1)
+    os.replace(os.path.join(out, "summary.json.tmp"), os.path.join(out, "summary.json"))
+    if not args.no_plot:
+        plot(out, params, blist, post["per_branch"], post["most_unstable"],
+             {"parameters": params.as_dict(), "degree": args.degree, "cells": cells})
+    if post["failures"]:
+        print(f"warning: {len(post['failures'])} solve(s) failed, see {out}/summary.json",
+              file=sys.stderr)
+        code = 1
+    if post["lost"]:
+        print(f"note: branch lost at {len(post['lost'])} point(s), see {out}/summary.json",
+              file=sys.stderr)
+    best = post["most_unstable"]
+    if best is not None:
+        print(f"most unstable: branch {best['branch']} at k = {best['k']:.6g}: "
+              f"Lambda = {best['re_lambda']:.10g} {best['im_lambda']:+.10g}i "
+              f"({len(k)} k values, {wall:.1f} s on {comm.size} rank(s)) -> {out}")
+    return code
+
+
 def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
     """Run the sweep on ``comm`` (every rank calls this)."""
     args, extra = build_parser().parse_known_args()
@@ -507,20 +570,29 @@ def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
 
         bar = tqdm(total=len(mine), desc=f"k values (group 0 of {n_groups})", unit="k",
                    file=sys.stderr)
-    for i in mine:
-        t0 = time.perf_counter()
-        data = solve_one_k(model, solver, blist, params, float(k[i]), args.nev)
-        if data.pop("broken"):
-            destroy_quietly(solver)
-            solver = make_solver(args.solver, gcomm, args.nev)
-        seconds = time.perf_counter() - t0
-        if gcomm.rank == 0:
-            save_raw(out, i, float(k[i]), seconds, data)
+    try:
+        for i in mine:
+            t0 = time.perf_counter()
+            data = solve_one_k(model, solver, blist, params, float(k[i]), args.nev)
+            if data.pop("broken"):
+                destroy_quietly(solver)
+                solver = make_solver(args.solver, gcomm, args.nev)
+            seconds = time.perf_counter() - t0
+            if gcomm.rank == 0:
+                save_raw(out, i, float(k[i]), seconds, data)
+            if bar is not None:
+                bar.update(1)
+    except KeyboardInterrupt:
         if bar is not None:
-            bar.update(1)
+            bar.close()
+        n_done = len(os.listdir(os.path.join(out, "raw"))) - 1  # minus config.json
+        print(f"\ninterrupted: {n_done} of {len(k)} k values are in {out}/raw; "
+              "run again with --resume to continue", file=sys.stderr)
+        return 130
     if bar is not None:
         bar.close()
     destroy_quietly(solver)
+    model_form = model.form
     model.destroy()
     gcomm.Free()
     comm.Barrier()
@@ -528,61 +600,18 @@ def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
     cpu = comm.gather(time.process_time() - cpu_start, root=0)
 
     code = 0
+    error = None
     if comm.rank == 0:
-        done = load_raw(out, len(k))
-        repairer = Repairer(params, {"degree": args.degree, "cells": cells, "k_max": k_max,
-                                     "n_max": args.branches - 1, "ratio": ratio,
-                                     "form": model.form}, args.solver, args.nev)
-        post = postprocess(out, params, k, blist, done, repairer)
-        repairer.destroy()
-        times = [float(d["seconds"]) for d in done.values()]
-        summary = {
-            "parameters": params.as_dict(),
-            "k": {"spec": args.k, "count": len(k), "min": float(np.min(k)), "max": k_max},
-            "branches": [b.label for b in blist],
-            "discretisation": {"model": "cross-section (1D in y)", "degree": args.degree,
-                               "cells": cells, "grading_ratio": ratio,
-                               "unknowns": int(2 * (args.degree * cells + 1))},
-            "solver": settings | {"form": model.form, "nev_per_branch": args.nev},
-            "mpi": {"ranks": comm.size, "group_size": group_size, "groups": n_groups},
-            "cpu_time_s_per_rank": cpu,
-            "resumed": bool(args.resume),
-            "computed_this_run": len(todo),
-            "wall_time_s": wall,
-            "per_k_time_s": {"mean": float(np.mean(times)), "min": float(np.min(times)),
-                             "max": float(np.max(times)),
-                             "note": "one group, all branches; 'values' in k order",
-                             "values": [float(done[i]["seconds"]) if i in done else None
-                                        for i in range(len(k))]}
-            if times else None,
-            "failures": post["failures"],
-            "lost": post["lost"],
-            "repair_solves": repairer.calls,
-            "exact": {"source": post["exact_note"], "matched": post["matched_exact"],
-                      "max_relative_error": post["max_relative_error"]},
-            "most_unstable": post["most_unstable"],
-            "versions": versions(),
-            "command": " ".join(sys.argv),
-        }
-        with open(os.path.join(out, "summary.json.tmp"), "w") as fh:
-            json.dump(summary, fh, indent=1)
-        os.replace(os.path.join(out, "summary.json.tmp"), os.path.join(out, "summary.json"))
-        if not args.no_plot:
-            plot(out, params, blist, post["per_branch"], post["most_unstable"],
-                 {"parameters": params.as_dict(), "degree": args.degree, "cells": cells})
-        if post["failures"]:
-            print(f"warning: {len(post['failures'])} solve(s) failed, see {out}/summary.json",
-                  file=sys.stderr)
+        try:
+            code = finish(comm, args, out, params, k, blist, cells, ratio, model_form, settings,
+                          todo, wall, cpu)
+        except Exception as err:  # noqa: BLE001 - re-raised below, after releasing the ranks
+            error = err
             code = 1
-        if post["lost"]:
-            print(f"note: branch lost at {len(post['lost'])} point(s), see {out}/summary.json",
-                  file=sys.stderr)
-        best = post["most_unstable"]
-        if best is not None:
-            print(f"most unstable: branch {best['branch']} at k = {best['k']:.6g}: "
-                  f"Lambda = {best['re_lambda']:.10g} {best['im_lambda']:+.10g}i "
-                  f"({len(k)} k values, {wall:.1f} s on {comm.size} rank(s)) -> {out}")
-    return comm.bcast(code, root=0)
+    code = comm.bcast(code, root=0)
+    if error is not None:
+        raise error
+    return code
 
 
 if __name__ == "__main__":

@@ -223,8 +223,9 @@ class Repairer:
 def save_raw(out: str, index: int, k: float, seconds: float, data: dict) -> None:
     """Write one k atomically (tmp file + rename)."""
     path = _raw_path(out, index)
-    tmp = path + ".tmp.npz"
-    np.savez(tmp, k=k, index=index, seconds=seconds, **data)
+    tmp = os.path.join(os.path.dirname(path), "." + os.path.basename(path) + ".tmp")
+    with open(tmp, "wb") as fh:
+        np.savez(fh, k=k, index=index, seconds=seconds, **data)
     os.replace(tmp, path)
 
 
@@ -585,7 +586,7 @@ def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
     except KeyboardInterrupt:
         if bar is not None:
             bar.close()
-        n_done = len(os.listdir(os.path.join(out, "raw"))) - 1  # minus config.json
+        n_done = sum(os.path.exists(_raw_path(out, j)) for j in range(len(k)))
         print(f"\ninterrupted: {n_done} of {len(k)} k values are in {out}/raw; "
               "run again with --resume to continue", file=sys.stderr)
         return 130

@@ -159,6 +159,12 @@ class PolynomialSolver:
         if op.form != "polynomial":
             raise ValueError("PolynomialSolver needs the polynomial form")
         pep = self.pep
+        shape = (len(op.matrices), op.matrices[0].getSize())
+        if getattr(self, "_shape", shape) != shape:
+            # SLEPc 3.18 keeps work arrays sized for the previous polynomial degree/size:
+            # reusing them for another degree segfaults, so start afresh.
+            pep.reset()
+        self._shape = shape
         pep.setOperators(op.matrices)
         if nev is not None:
             pep.setDimensions(nev=nev)
@@ -215,7 +221,7 @@ class SplitSolver:
         prefix: Options prefix (empty: ``-nep_*`` apply).
     """
 
-    def __init__(self, comm: MPI.Comm, nev: int = 4, tol: float = 1e-12, max_it: int = 500,
+    def __init__(self, comm: MPI.Comm, nev: int = 4, tol: float = 1e-12, max_it: int = 30,
                  radius: float = 2.0, prefix: str = "") -> None:
         self.comm = comm
         self.radius = radius
@@ -250,6 +256,13 @@ class SplitSolver:
         if op.form != "split":
             raise ValueError("SplitSolver needs the split form")
         nep = self.nep
+        shape = (len(op.matrices), op.matrices[0].getSize())
+        if getattr(self, "_shape", shape) != shape:
+            nep.reset()  # see PolynomialSolver.solve
+            for f in self._fns:
+                f.destroy()
+            self._fns = []
+        self._shape = shape
         if not self._fns:
             self._fns = [_make_fn(self.comm, fn) for fn in op.functions]
         nep.setSplitOperator(op.matrices, self._fns, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
@@ -260,11 +273,15 @@ class SplitSolver:
         rg.setType(SLEPc.RG.Type.ELLIPSE)
         rg.setEllipseParameters(target, self.radius, 1.0)
         if not self._configured:
-            for ksp in nep.getNLEIGSKSPs() if nep.getType() == SLEPc.NEP.Type.NLEIGS else []:
-                ksp.setType(PETSc.KSP.Type.PREONLY)
-                ksp.getPC().setType(PETSc.PC.Type.LU)
-                ksp.getPC().setFactorSolverType("mumps")
+            if nep.getType() == SLEPc.NEP.Type.NLEIGS:
+                for ksp in nep.getNLEIGSKSPs():
+                    ksp.setType(PETSc.KSP.Type.PREONLY)
+                    ksp.getPC().setType(PETSc.PC.Type.LU)
+                    ksp.getPC().setFactorSolverType("mumps")
             nep.setFromOptions()
+            if nep.getType() == SLEPc.NEP.Type.CISS:
+                # contour integral: every eigenvalue inside the region
+                nep.setWhichEigenpairs(SLEPc.NEP.Which.ALL)
             self._configured = True
         nep.solve()
         nconv = nep.getConverged()

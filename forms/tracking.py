@@ -9,12 +9,15 @@ which does not depend on the previous ``k``: solves are independent and determin
 sweep gives the same numbers on any number of ranks. The branch is then followed through the
 candidates of all ``k`` afterwards (:func:`track_branch`): at the first ``k`` the candidate
 nearest ``Lambda_wg``, then at each ``k`` the candidate whose eigenvector overlaps most with
-the last accepted one; below :data:`MIN_OVERLAP` the branch is reported as lost at that ``k``.
+the last accepted one; below :data:`MIN_OVERLAP` the branch is re-solved near the value
+extrapolated from the previous accepted ``k`` values (optional ``resolve`` callback, run in one
+process, so still deterministic), and if that fails too it is reported as lost at that ``k``.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -89,15 +92,23 @@ def track_branch(
     vectors: list[np.ndarray],
     start_target: complex,
     min_overlap: float = MIN_OVERLAP,
+    k: np.ndarray | None = None,
+    resolve: Callable[[int, complex], tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> Tracked:
     """Follow one branch through per-k candidates (sorted by increasing k).
 
     Args:
-        values: Per k, the candidate eigenvalues (possibly empty: failed solve).
+        values: Per k, the candidate eigenvalues (possibly empty: failed solve). Lists are
+            extended in place when ``resolve`` adds candidates.
         vectors: Per k, the candidate eigenvectors, shape ``(n_candidates, n)``, already
             :func:`normalized` (same discretisation for every k).
         start_target: Where the branch is at the first k (e.g. :func:`waveguide_lambda`).
         min_overlap: Smallest overlap accepted as the continuation.
+        k: The wavenumbers (needed with ``resolve``).
+        resolve: Optional ``resolve(m, target) -> (values, vectors)``: new candidates at the
+            m-th k near ``target``; called where the branch would be lost, with the target
+            extrapolated linearly from the last two accepted points ("predict from the
+            previous k").
 
     Returns:
         The :class:`Tracked` choices.
@@ -106,7 +117,19 @@ def track_branch(
     status: list[str] = []
     overlap: list[float] = []
     ref: np.ndarray | None = None
-    for vals, vecs in zip(values, vectors, strict=True):
+    accepted: list[tuple[float, complex]] = []
+    for m in range(len(values)):
+        vals, vecs = values[m], vectors[m]
+        if resolve is not None and ref is not None and accepted:
+            ov = np.abs(np.asarray(vecs).conj() @ ref) if len(vals) else np.zeros(0)
+            if len(ov) == 0 or ov.max() < min_overlap:
+                target = _extrapolate(accepted, float(k[m]))
+                new_vals, new_vecs = resolve(m, target)
+                if len(new_vals):
+                    vals = np.concatenate([np.asarray(vals, dtype=complex), new_vals])
+                    old = np.asarray(vecs).reshape(len(values[m]), -1)
+                    vecs = np.vstack([old, new_vecs]) if len(old) else np.asarray(new_vecs)
+                    values[m], vectors[m] = vals, vecs
         if len(vals) == 0:
             choice.append(-1)
             status.append("no converged eigenvalue near the target")
@@ -118,6 +141,8 @@ def track_branch(
             status.append("ok")
             overlap.append(1.0)
             ref = vecs[i]
+            if k is not None:
+                accepted.append((float(k[m]), complex(vals[i])))
             continue
         ov = np.abs(np.asarray(vecs).conj() @ ref)
         i = int(np.argmax(ov))
@@ -130,4 +155,16 @@ def track_branch(
         status.append("ok")
         overlap.append(float(ov[i]))
         ref = vecs[i]
+        if k is not None:
+            accepted.append((float(k[m]), complex(vals[i])))
     return Tracked(choice, status, overlap)
+
+
+def _extrapolate(accepted: list[tuple[float, complex]], k: float) -> complex:
+    """Linear extrapolation of Lambda(k) from the last two accepted points (or the last one)."""
+    if len(accepted) == 1:
+        return accepted[-1][1]
+    (k1, l1), (k2, l2) = accepted[-2], accepted[-1]
+    if k2 == k1:
+        return l2
+    return l2 + (l2 - l1) * (k - k2) / (k2 - k1)

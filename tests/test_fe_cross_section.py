@@ -155,3 +155,29 @@ def test_relative_residual_detects_a_wrong_eigenvalue():
     assert isinstance(good.vector, PETSc.Vec)
     res.destroy()
     model.destroy()
+
+
+def test_spurious_root_of_cleared_denominator_is_dropped():
+    """Delta = 1 makes the x-row vanish at Lambda = -1: the PEP finds -1, the solver drops it."""
+    model = CrossSectionModel(MPI.COMM_SELF, Params(Delta=1.0), degree=2, cells=8)
+    res = _solve(model, 1.0, -1.0 + 0.01j, nev=3)
+    assert len(res.dropped) == 1 and abs(res.dropped[0] + 1.0) < 1e-10
+    assert all(abs(p.value + 1.0) > 1e-3 for p in res.pairs)
+    res.destroy()
+    model.destroy()
+
+
+def test_one_solver_reused_for_operators_of_different_degree():
+    """PEP degree 3 -> 4 -> 3 with one solver object (SLEPc needs a reset in between)."""
+    solver = PolynomialSolver(MPI.COMM_SELF, nev=1)
+    values = []
+    for p in (Params(), Params(alpha_pc=0.3), Params()):
+        model = CrossSectionModel(MPI.COMM_SELF, p, degree=3, cells=12)
+        for _ in range(2):
+            res = solver.solve(model.operator(1.0), -6.6j)
+            values.append(res.pairs[0].value)
+            res.destroy()
+        model.destroy()
+    solver.destroy()
+    assert values[0] == pytest.approx(values[4], rel=1e-12)
+    assert abs(values[2] - values[0]) > 1e-3  # alpha_pc changes the root

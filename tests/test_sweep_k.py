@@ -4,8 +4,10 @@
 import csv
 import json
 import os
+import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -68,6 +70,32 @@ def test_mpi_run_equals_serial_run(tmp_path, group_size):
     assert summary["mpi"] == {"ranks": 2, "group_size": group_size, "groups": 2 // group_size}
 
 
+def test_failed_solves_are_recorded_and_sweep_goes_on(tmp_path):
+    # a PETSc option that makes every PEP set-up fail (no shift-and-invert with LU on T(sigma))
+    out = tmp_path / "fail"
+    proc = _run([*TINY, "-st_type", "shift"], out, check=False)
+    assert proc.returncode == 1
+    rows = _table(out)
+    assert len(rows) == 6 and all(r["status"].startswith("failed") for r in rows)
+    assert all(r["re_lambda"] == "" for r in rows)
+    summary = json.loads((out / "summary.json").read_text())
+    assert len(summary["failures"]) == 6
+
+
+def test_nep_solver_matches_pep(tmp_path):
+    _run(TINY, tmp_path / "pep")
+    _run([*TINY, "--solver", "nep"], tmp_path / "nep")
+    a, b = _table(tmp_path / "pep"), _table(tmp_path / "nep")
+    assert [r["branch"] for r in a] == [r["branch"] for r in b]
+    # same discretisation, PEP (polynomial form) vs NEP (split rational form): measured
+    # largest relative difference 1e-11, 2026-11-21.
+    va, vb = _values(a), _values(b)
+    la, lb = va[:, 1] + 1j * va[:, 2], vb[:, 1] + 1j * vb[:, 2]
+    assert np.max(np.abs(la - lb) / np.abs(la)) < 1e-10
+    summary = json.loads((tmp_path / "nep" / "summary.json").read_text())
+    assert summary["solver"]["form"] == "split"
+
+
 @pytest.mark.parametrize(
     "bad",
     [["--beta", "0.9"], ["--k=-1,2"], ["--k", "1:0:5"], ["--degree", "0"], ["--nope", "1"],
@@ -96,3 +124,28 @@ def test_resume_recomputes_only_missing_k(tmp_path):
     proc = _run([*TINY, "--resume", "--f", "0.4"], out, check=False)
     assert proc.returncode == 2 and "different settings" in proc.stderr
     assert (out / "spectrum.csv").read_text() == before
+
+
+def test_interrupted_sweep_keeps_finished_k_and_resumes(tmp_path):
+    out = tmp_path / "int"
+    args = ["--k", "0.05:3:300", "--branches", "1", "--quiet", "--no-plot"]
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.Popen([sys.executable, SCRIPT, *args, "--out", str(out)], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    raw = out / "raw"
+    deadline = time.time() + 120
+    while time.time() < deadline and (not raw.exists() or len(list(raw.glob("k*.npz"))) < 5):
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)  # Ctrl-C
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130 and b"--resume" in err
+    finished = sorted(p.name for p in raw.glob("k*.npz"))
+    assert 5 <= len(finished) < 300
+    assert not (out / "spectrum.csv").exists()
+    before = {name: (raw / name).stat().st_mtime_ns for name in finished}
+    _run([*args, "--resume"], out)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["computed_this_run"] == 300 - len(finished)
+    assert all((raw / name).stat().st_mtime_ns == t for name, t in before.items())
+    rows = _table(out)
+    assert len(rows) == 600 and all(r["status"] == "ok" for r in rows)

@@ -110,16 +110,39 @@ def _raw_path(out: str, index: int) -> str:
     return os.path.join(out, "raw", f"k{index:05d}.npz")
 
 
+def make_solver(kind: str, comm, nev: int):
+    """A fresh PEP or NEP solver (options from the PETSc database)."""
+    if kind == "pep":
+        from forms.solvers import PolynomialSolver
+
+        return PolynomialSolver(comm, nev=nev)
+    from forms.solvers import SplitSolver
+
+    return SplitSolver(comm, nev=nev)
+
+
+def destroy_quietly(obj) -> None:
+    """Destroy a solver that may be in an error state (a failed solve) without raising."""
+    from petsc4py import PETSc
+
+    try:
+        obj.destroy()
+    except PETSc.Error:
+        pass
+
+
 def solve_one_k(model, solver, blist, p, k: float, nev: int) -> dict:
     """Solve all branch targets at one k on the model's communicator (collective).
 
     Returns (meaningful on the group's rank 0): candidate values, residuals, normalized
-    canonical vectors, the branch index of each candidate and SLEPc's reason per branch.
+    canonical vectors, the branch index of each candidate and SLEPc's reason per branch;
+    ``"broken"`` is True if a solve raised (the caller then replaces the solver).
     """
     from forms.tracking import normalized, waveguide_lambda
 
     op = model.operator(k)
     vals, res, vecs, owner, reasons, nconv = [], [], [], [], [], []
+    broken = False
     for j, b in enumerate(blist):
         target = waveguide_lambda(p, b, k)
         try:
@@ -127,7 +150,11 @@ def solve_one_k(model, solver, blist, p, k: float, nev: int) -> dict:
         except Exception as err:  # a PETSc error in one solve must not stop the sweep
             reasons.append(f"error: {type(err).__name__}: {err}".replace("\n", " "))
             nconv.append(0)
-            continue
+            broken = True
+            reasons.extend(["skipped: solver error at an earlier branch of this k"]
+                           * (len(blist) - j - 1))
+            nconv.extend([0] * (len(blist) - j - 1))
+            break
         reasons.append(out.reason)
         nconv.append(out.converged)
         for pair in out.pairs[:nev]:
@@ -146,14 +173,59 @@ def solve_one_k(model, solver, blist, p, k: float, nev: int) -> dict:
         "owner": np.asarray(owner, dtype=np.int64),
         "reasons": np.asarray(reasons, dtype=str),
         "nconv": np.asarray(nconv, dtype=np.int64),
+        "broken": broken,
     }
+
+
+class Repairer:
+    """Re-solves a lost branch point near an extrapolated target, on one process (rank 0).
+
+    Built lazily (only if a branch is lost) on ``MPI.COMM_SELF`` with the sweep's discretisation,
+    so the repaired values do not depend on the number of ranks either.
+    """
+
+    def __init__(self, params, model_kwargs: dict, solver: str, nev: int) -> None:
+        self.params, self.model_kwargs, self.solver_kind, self.nev = (params, model_kwargs,
+                                                                      solver, nev)
+        self.model = None
+        self.solver = None
+        self.calls = 0
+
+    def __call__(self, k: float, target: complex) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Candidates ``(values, normalized canonical vectors, residuals)`` near ``target``."""
+        from mpi4py import MPI
+
+        from forms.cross_section import CrossSectionModel
+        from forms.tracking import normalized
+
+        if self.model is None:
+            self.model = CrossSectionModel(MPI.COMM_SELF, self.params, **self.model_kwargs)
+            self.solver = make_solver(self.solver_kind, MPI.COMM_SELF, self.nev)
+        self.calls += 1
+        try:
+            out = self.solver.solve(self.model.operator(k), target, nev=self.nev)
+        except Exception:  # noqa: BLE001 - the point then stays lost
+            return np.zeros(0, complex), np.zeros((0, self.model.size), complex), np.zeros(0)
+        vals = np.array([p.value for p in out.pairs], dtype=complex)
+        vecs = np.array([normalized(self.model.canonical(p.vector)[:, 1:]) for p in out.pairs],
+                        dtype=complex).reshape(len(vals), self.model.size)
+        res = np.array([p.residual for p in out.pairs], dtype=float)
+        out.destroy()
+        return vals, vecs, res
+
+    def destroy(self) -> None:
+        """Destroy the PETSc/SLEPc objects."""
+        if self.solver is not None:
+            destroy_quietly(self.solver)
+            self.model.destroy()
 
 
 def save_raw(out: str, index: int, k: float, seconds: float, data: dict) -> None:
     """Write one k atomically (tmp file + rename)."""
     path = _raw_path(out, index)
-    tmp = path + ".tmp.npz"
-    np.savez(tmp, k=k, index=index, seconds=seconds, **data)
+    tmp = os.path.join(os.path.dirname(path), "." + os.path.basename(path) + ".tmp")
+    with open(tmp, "wb") as fh:
+        np.savez(fh, k=k, index=index, seconds=seconds, **data)
     os.replace(tmp, path)
 
 
@@ -208,8 +280,9 @@ def exact_lines(p, blist, k_fine: np.ndarray) -> dict[str, np.ndarray] | None:
     return lines
 
 
-def postprocess(out: str, p, k: np.ndarray, blist, done: dict[int, dict]) -> dict:
-    """Track branches, match exact roots, write spectrum.csv; return a summary dict."""
+def postprocess(out: str, p, k: np.ndarray, blist, done: dict[int, dict],
+                repairer: Repairer | None = None) -> dict:
+    """Track branches (repairing lost points), match exact roots, write spectrum.csv."""
     from forms.tracking import track_branch, waveguide_lambda
 
     order = np.argsort(k, kind="stable")
@@ -230,7 +303,15 @@ def postprocess(out: str, p, k: np.ndarray, blist, done: dict[int, dict]) -> dic
             vecs.append(d["vectors"][sel])
             ress.append(d["residuals"][sel])
             reasons.append(str(d["reasons"][j]) if j < len(d["reasons"]) else "missing")
-        tr = track_branch(vals, vecs, waveguide_lambda(p, b, float(k[order[0]])))
+        ks = k[order]
+
+        def resolve(m: int, target: complex, ress=ress, ks=ks) -> tuple[np.ndarray, np.ndarray]:
+            v, w, r = repairer(float(ks[m]), target)
+            ress[m] = np.concatenate([np.asarray(ress[m], dtype=float), r])
+            return v, w
+
+        tr = track_branch(vals, vecs, waveguide_lambda(p, b, float(ks[0])), k=ks,
+                          resolve=resolve if repairer is not None else None)
         fe = np.full(len(order), np.nan + 1j * np.nan)
         res = np.full(len(order), np.nan)
         status = list(tr.status)
@@ -302,7 +383,7 @@ def plot(out: str, p, blist, per_branch: dict, best: dict | None, meta: dict) ->
     kmax = max(float(np.max(bl["k"])) for bl in per_branch.values())
     k_fine = np.linspace(kmin, kmax, 400)
     lines = exact_lines(p, blist, k_fine)
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7.5, 7.5), sharex=True)
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9.5, 7.5), sharex=True)
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for b in blist:
         c = colors[b.n % len(colors)]
@@ -314,16 +395,18 @@ def plot(out: str, p, blist, per_branch: dict, best: dict | None, meta: dict) ->
             ax2.plot(k_fine, lam.imag, "-", color=c, lw=1.0, alpha=0.7)
         ax1.plot(bl["k"], bl["fe"].real, mk, ms=3, mfc="none", color=c, label=f"FE {b.label}")
         ax2.plot(bl["k"], bl["fe"].imag, mk, ms=3, mfc="none", color=c)
+    if lines:
+        ax1.plot([], [], "-", color="0.3", lw=1.0, label="exact (analytic)")
     if best is not None:
         ax1.plot([best["k"]], [best["re_lambda"]], "*", ms=16, color="crimson",
-                 label=f"most unstable: {best['branch']}, k = {best['k']:.3g}, "
+                 label=f"most unstable:\n{best['branch']}, k = {best['k']:.3g},\n"
                  f"Re = {best['re_lambda']:.4g}")
         ax2.plot([best["k"]], [best["im_lambda"]], "*", ms=16, color="crimson")
     ax1.axhline(0.0, color="k", lw=0.6)
     ax1.set_ylabel(r"growth rate Re $\Lambda$")
     ax2.set_ylabel(r"frequency Im $\Lambda$")
     ax2.set_xlabel("k")
-    ax1.legend(fontsize=7, ncol=2, loc="best")
+    ax1.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     title = (f"f={p.f:g}, gamma={p.gamma:g}, beta={p.beta:g}, Delta={p.Delta:g}, H={p.H:g}, "
              f"bc={p.bc}")
     if p.generalized:
@@ -360,6 +443,69 @@ def versions() -> dict[str, str]:
     return v
 
 
+def finish(comm, args, out: str, params, k: np.ndarray, blist, cells: int, ratio: float,
+           form: str, settings: dict, todo: list, wall: float, cpu: list) -> int:
+    """Rank 0: track, match, write spectrum.csv, summary.json, dispersion.png; exit code."""
+    k_max = float(np.max(k))
+    group_size = args.group_size
+    n_groups = comm.size // group_size
+    code = 0
+    done = load_raw(out, len(k))
+    repairer = Repairer(params, {"degree": args.degree, "cells": cells, "k_max": k_max,
+                                 "n_max": args.branches - 1, "ratio": ratio,
+                                 "form": form}, args.solver, args.nev)
+    post = postprocess(out, params, k, blist, done, repairer)
+    repairer.destroy()
+    times = [float(d["seconds"]) for d in done.values()]
+    summary = {
+        "parameters": params.as_dict(),
+        "k": {"spec": args.k, "count": len(k), "min": float(np.min(k)), "max": k_max},
+        "branches": [b.label for b in blist],
+        "discretisation": {"model": "cross-section (1D in y)", "degree": args.degree,
+                           "cells": cells, "grading_ratio": ratio,
+                           "unknowns": int(2 * (args.degree * cells + 1))},
+        "solver": settings | {"form": form, "nev_per_branch": args.nev},
+        "mpi": {"ranks": comm.size, "group_size": group_size, "groups": n_groups},
+        "cpu_time_s_per_rank": cpu,
+        "resumed": bool(args.resume),
+        "computed_this_run": len(todo),
+        "wall_time_s": wall,
+        "per_k_time_s": {"mean": float(np.mean(times)), "min": float(np.min(times)),
+                         "max": float(np.max(times)),
+                         "note": "one group, all branches; 'values' in k order",
+                         "values": [float(done[i]["seconds"]) if i in done else None
+                                    for i in range(len(k))]}
+        if times else None,
+        "failures": post["failures"],
+        "lost": post["lost"],
+        "repair_solves": repairer.calls,
+        "exact": {"source": post["exact_note"], "matched": post["matched_exact"],
+                  "max_relative_error": post["max_relative_error"]},
+        "most_unstable": post["most_unstable"],
+        "versions": versions(),
+        "command": " ".join(sys.argv),
+    }
+    with open(os.path.join(out, "summary.json.tmp"), "w") as fh:
+        json.dump(summary, fh, indent=1)
+    os.replace(os.path.join(out, "summary.json.tmp"), os.path.join(out, "summary.json"))
+    if not args.no_plot:
+        plot(out, params, blist, post["per_branch"], post["most_unstable"],
+             {"parameters": params.as_dict(), "degree": args.degree, "cells": cells})
+    if post["failures"]:
+        print(f"warning: {len(post['failures'])} solve(s) failed, see {out}/summary.json",
+              file=sys.stderr)
+        code = 1
+    if post["lost"]:
+        print(f"note: branch lost at {len(post['lost'])} point(s), see {out}/summary.json",
+              file=sys.stderr)
+    best = post["most_unstable"]
+    if best is not None:
+        print(f"most unstable: branch {best['branch']} at k = {best['k']:.6g}: "
+              f"Lambda = {best['re_lambda']:.10g} {best['im_lambda']:+.10g}i "
+              f"({len(k)} k values, {wall:.1f} s on {comm.size} rank(s)) -> {out}")
+    return code
+
+
 def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
     """Run the sweep on ``comm`` (every rank calls this)."""
     args, extra = build_parser().parse_known_args()
@@ -390,6 +536,7 @@ def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
             )
     comm.Barrier()
     t_start = time.perf_counter()
+    cpu_start = time.process_time()
     if comm.rank == 0:
         os.makedirs(os.path.join(out, "raw"), exist_ok=True)
         if not args.resume:
@@ -415,14 +562,7 @@ def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
     model = CrossSectionModel(gcomm, params, degree=args.degree, cells=cells, k_max=k_max,
                               n_max=args.branches - 1, ratio=ratio,
                               form="polynomial" if args.solver == "pep" else "split")
-    if args.solver == "pep":
-        from forms.solvers import PolynomialSolver
-
-        solver = PolynomialSolver(gcomm, nev=args.nev)
-    else:
-        from forms.solvers import SplitSolver
-
-        solver = SplitSolver(gcomm, nev=args.nev)
+    solver = make_solver(args.solver, gcomm, args.nev)
     settings = solver.settings()
 
     bar = None
@@ -431,69 +571,48 @@ def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
 
         bar = tqdm(total=len(mine), desc=f"k values (group 0 of {n_groups})", unit="k",
                    file=sys.stderr)
-    for i in mine:
-        t0 = time.perf_counter()
-        data = solve_one_k(model, solver, blist, params, float(k[i]), args.nev)
-        seconds = time.perf_counter() - t0
-        if gcomm.rank == 0:
-            save_raw(out, i, float(k[i]), seconds, data)
+    try:
+        for i in mine:
+            t0 = time.perf_counter()
+            data = solve_one_k(model, solver, blist, params, float(k[i]), args.nev)
+            if data.pop("broken"):
+                destroy_quietly(solver)
+                solver = make_solver(args.solver, gcomm, args.nev)
+            seconds = time.perf_counter() - t0
+            if gcomm.rank == 0:
+                save_raw(out, i, float(k[i]), seconds, data)
+            if bar is not None:
+                bar.update(1)
+    except KeyboardInterrupt:
         if bar is not None:
-            bar.update(1)
+            bar.close()
+        n_done = sum(os.path.exists(_raw_path(out, j)) for j in range(len(k)))
+        print(f"\ninterrupted: {n_done} of {len(k)} k values are in {out}/raw; "
+              "run again with --resume to continue", file=sys.stderr)
+        return 130
     if bar is not None:
         bar.close()
-    solver.destroy()
+    destroy_quietly(solver)
+    model_form = model.form
     model.destroy()
     gcomm.Free()
     comm.Barrier()
     wall = time.perf_counter() - t_start
+    cpu = comm.gather(time.process_time() - cpu_start, root=0)
 
     code = 0
+    error = None
     if comm.rank == 0:
-        done = load_raw(out, len(k))
-        post = postprocess(out, params, k, blist, done)
-        times = [float(d["seconds"]) for d in done.values()]
-        summary = {
-            "parameters": params.as_dict(),
-            "k": {"spec": args.k, "count": len(k), "min": float(np.min(k)), "max": k_max},
-            "branches": [b.label for b in blist],
-            "discretisation": {"model": "cross-section (1D in y)", "degree": args.degree,
-                               "cells": cells, "grading_ratio": ratio,
-                               "unknowns": int(2 * (args.degree * cells + 1))},
-            "solver": settings | {"form": model.form, "nev_per_branch": args.nev},
-            "mpi": {"ranks": comm.size, "group_size": group_size, "groups": n_groups},
-            "resumed": bool(args.resume),
-            "computed_this_run": len(todo),
-            "wall_time_s": wall,
-            "per_k_time_s": {"mean": float(np.mean(times)), "min": float(np.min(times)),
-                             "max": float(np.max(times)), "note": "one group, all branches"}
-            if times else None,
-            "failures": post["failures"],
-            "lost": post["lost"],
-            "exact": {"source": post["exact_note"], "matched": post["matched_exact"],
-                      "max_relative_error": post["max_relative_error"]},
-            "most_unstable": post["most_unstable"],
-            "versions": versions(),
-            "command": " ".join(sys.argv),
-        }
-        with open(os.path.join(out, "summary.json.tmp"), "w") as fh:
-            json.dump(summary, fh, indent=1)
-        os.replace(os.path.join(out, "summary.json.tmp"), os.path.join(out, "summary.json"))
-        if not args.no_plot:
-            plot(out, params, blist, post["per_branch"], post["most_unstable"],
-                 {"parameters": params.as_dict(), "degree": args.degree, "cells": cells})
-        if post["failures"]:
-            print(f"warning: {len(post['failures'])} solve(s) failed, see {out}/summary.json",
-                  file=sys.stderr)
+        try:
+            code = finish(comm, args, out, params, k, blist, cells, ratio, model_form, settings,
+                          todo, wall, cpu)
+        except Exception as err:  # noqa: BLE001 - re-raised below, after releasing the ranks
+            error = err
             code = 1
-        if post["lost"]:
-            print(f"note: branch lost at {len(post['lost'])} point(s), see {out}/summary.json",
-                  file=sys.stderr)
-        best = post["most_unstable"]
-        if best is not None:
-            print(f"most unstable: branch {best['branch']} at k = {best['k']:.6g}: "
-                  f"Lambda = {best['re_lambda']:.10g} {best['im_lambda']:+.10g}i "
-                  f"({len(k)} k values, {wall:.1f} s on {comm.size} rank(s)) -> {out}")
-    return comm.bcast(code, root=0)
+    code = comm.bcast(code, root=0)
+    if error is not None:
+        raise error
+    return code
 
 
 if __name__ == "__main__":

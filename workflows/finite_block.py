@@ -250,7 +250,12 @@ def main(comm=None, argv: list[str] | None = None) -> int:
 
         bar = tqdm(total=len(todo), desc="block lengths", file=sys.stderr)
     failed = 0
-    timings = {}
+    timings: dict[str, float] = {}
+    json_path = os.path.join(args.out, "finite_block.json")
+    if done and comm.rank == 0 and os.path.exists(json_path):
+        with open(json_path) as f:  # per-L times of the lengths kept from the earlier run
+            old = json.load(f).get("timings", {})
+        timings.update({key: v for key, v in old.items() if key != "total"})
     last = None
     for L in todo:
         t0 = time.perf_counter()
@@ -334,8 +339,8 @@ def main(comm=None, argv: list[str] | None = None) -> int:
                 interface, os.path.join(args.out, "block_mode.png"),
                 f"most unstable mode of a block, L = {L_b:g}, {args.lateral} ends:"
                 f" Lambda = {lam_b.real:.5f} {lam_b.imag:+.5f}i", meta)
-        meta["timings"]["total"] = time.perf_counter() - t_start
-        with open(os.path.join(args.out, "finite_block.json"), "w") as f:
+        meta["timings"]["total (this run)"] = time.perf_counter() - t_start
+        with open(json_path, "w") as f:
             json.dump(meta, f, indent=2)
         print(f"wrote {args.out}/", flush=True)
     return 1 if failed else 0

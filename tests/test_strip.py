@@ -164,3 +164,27 @@ def test_strip_matches_cross_section(bc, branch, measured):
         problem.destroy()
     assert errors[0] < 1.05 * measured
     assert abs(np.log2(errors[0] / errors[1]) - 4.0) < 0.1  # P2: eigenvalue error ~ h^4
+
+
+def test_follow_branch_stays_on_stress_top_0plus():
+    """Continuation keeps the stress-top 0+ branch past k = 1.4, where a waveguide target jumps.
+
+    The branch peaks at Re Lambda = 0.23294 near k = 1.545 (checked against the exact root).
+    """
+    from analytic.branches import polish_root
+    from forms.strip import follow_branch
+    from forms.tracking import Branch, waveguide_lambda
+
+    params = Params(bc="stress")
+    b = Branch.parse("0+")
+    ks = np.linspace(1.0, 2.0, 21)
+    lam = follow_branch(params, lambda k: waveguide_lambda(params, b, k), ks, comm=MPI.COMM_SELF)
+    assert np.all(np.isfinite(lam))
+    # smooth: neighbouring steps (dk = 0.05) move by less than 0.02 (measured max 0.016); a
+    # k-wise waveguide target lands on -1.113 + 7.707i at k = 1.6 instead
+    assert np.max(np.abs(np.diff(lam))) < 0.02
+    i = int(np.argmax(lam.real))
+    assert abs(ks[i] - 1.55) < 0.051
+    exact = polish_root(params, ks[i], lam[i]).value
+    assert abs(lam[i] - exact) < 1e-9 * abs(exact)  # measured 8.9e-11 (P3, default mesh)
+    assert abs(exact.real - 0.23294) < 1e-4

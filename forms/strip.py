@@ -421,8 +421,11 @@ def cross_section_mode(params: Params, k: float, target: complex, degree: int = 
 
     model = CrossSectionModel(comm, params, degree=degree, cells=cells, k_max=max(k, 1.0))
     solver = PolynomialSolver(comm, nev=1, prefix="xs_")
+    # A shift equal to an eigenvalue (e.g. one from follow_branch on the same mesh) makes the
+    # shift-and-invert factorisation singular: move it off by a relative 1e-7.
+    shift = target + 1e-7 * max(abs(target), 1.0) * (1 + 1j)
     try:
-        res = solver.solve(model.operator(k), target)
+        res = solver.solve(model.operator(k), shift)
         if not res.pairs:
             return None
         pair = res.pairs[0]
@@ -470,7 +473,9 @@ def follow_branch(params: Params, target_of_k, ks: np.ndarray, degree: int = 3,
                 target = out[i - 1]
             else:
                 target = target_of_k(float(k))
-            res = solver.solve(model.operator(float(k)), target)
+            # off an exact eigenvalue, see cross_section_mode
+            shift = target + 1e-7 * max(abs(target), 1.0) * (1 + 1j)
+            res = solver.solve(model.operator(float(k)), shift)
             if res.pairs:
                 out[i] = res.pairs[0].value
             res.destroy()

@@ -94,6 +94,7 @@ def test_mode_shape_from_cross_section(tmp_path):
     meta = json.loads((out / "mode.json").read_text())
     assert meta["source"].startswith("cross-section model")
     lam = complex(*meta["eigenvalue"])
+    assert meta["residual"] < 1e-12  # measured ~2e-16
     # the 1D model at its default mesh for k = 1 (P3): measured 7.6e-11 from the exact root
     assert abs(lam - CHECK_VALUE) / abs(CHECK_VALUE) < 1e-10
     with Image.open(out / "mode_shape.png") as im:

@@ -168,7 +168,7 @@ def render_mode(grid, out_png: str, title: str, color: str, lam: complex, k: flo
     y_arrow = -3.2 * m
     y_lo = y_arrow - 1.6 * m
     y_hi = height + amp + 0.25 * (height + amp - y_lo)  # title band
-    row_px = int(np.clip(1600 * (y_hi - y_lo) / length, 220, 760))
+    row_px = int(np.clip(1600 * (y_hi - y_lo) / (length + 2 * amp), 220, 760))
     plotter = pv.Plotter(off_screen=True, shape=(rows, 1), window_size=(1600, row_px * rows),
                          border=False)
     umax = float(np.max(np.linalg.norm(grid.point_data["u_re"] + 1j * grid.point_data["u_im"],
@@ -228,7 +228,7 @@ def render_mode(grid, out_png: str, title: str, color: str, lam: complex, k: flo
         cam.position = (cx, cy, 10.0 * max(length, y_hi - y_lo))
         cam.up = (0.0, 1.0, 0.0)
         plotter.enable_parallel_projection()
-        cam.parallel_scale = 0.52 * max(y_hi - y_lo, length * row_px / 1600)
+        cam.parallel_scale = 0.52 * max(y_hi - y_lo, (length + 2 * amp) * row_px / 1600)
         cam.clipping_range = (1e-3 * max(length, height), 100.0 * max(length, y_hi - y_lo))
     plotter.screenshot(out_png)
     plotter.close()

@@ -170,9 +170,11 @@ def plot(rows: list[dict], roots: list, path: str, title: str, meta: dict) -> No
             ax2.loglog(x, [max(r["rel_error"], 1e-17) for r in s], markers[i % 8], ms=6,
                        mfc=face, mec=col, ls="none", label=lab + ("" if trusted else " (flagged)"))
     ax1.set_xscale("log")
+    small = np.abs(gr[np.abs(gr) > 0])
+    ax1.set_yscale("symlog", linthresh=float(max(small.min(), 1e-300)) if small.size else 1e-12)
     ax1.axhline(0, color="0.6", lw=0.5)
     ax1.set_xlabel("k (= paper's q)")
-    ax1.set_ylabel("Re Lambda")
+    ax1.set_ylabel("Re Lambda (symlog)")
     ax1.set_title(title, fontsize=9)
     ax1.legend(fontsize=7)
     ax2.set_xlabel("k")

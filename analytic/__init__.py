@@ -5,6 +5,7 @@ Finite H (this package's ``finite_h``, ``branches``, ``smallk``): the spectrum
 Generic root tools: ``roots``. Physical units: ``units``. Half-space: ``halfspace``, ``largek``.
 """
 
+from analytic import halfspace, largek
 from analytic.branches import (
     BranchResult,
     branch_label,
@@ -15,6 +16,14 @@ from analytic.branches import (
     roots_in_box,
 )
 from analytic.finite_h import cutoff, det_M, matrix_M, spectrum_S
+from analytic.halfspace import (
+    HalfSpaceRoot,
+    dilatational_root,
+    max_growth,
+    s,
+    s_tilde,
+    shear_root,
+)
 from analytic.params import ParameterError, Params, check_k
 from analytic.roots import ContourError, Root, count_zeros, polish, winding_number, zeros_in_box
 from analytic.smallk import lambda_smallk, slope
@@ -22,6 +31,14 @@ from analytic.units import Conversion, Physical, to_dimensionless, to_physical
 
 __all__ = [
     "BranchResult",
+    "HalfSpaceRoot",
+    "dilatational_root",
+    "halfspace",
+    "largek",
+    "max_growth",
+    "s",
+    "s_tilde",
+    "shear_root",
     "ContourError",
     "Conversion",
     "ParameterError",

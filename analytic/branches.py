@@ -6,12 +6,18 @@ A branch ``(n, sign)`` (label ``"0-"``, ``"1+"``, ...) starts at
 1. at a small ``k_start`` it isolates the single root near ``Lambda_0`` with the argument
    principle (a box around the small-k prediction :func:`analytic.smallk.lambda_smallk` must hold
    exactly one root), then polishes it;
-2. marches in ``k`` with a secant predictor and a Newton corrector on :func:`det_M`;
-3. accepts a step only if the corrector moved little compared with the step and a box around
-   the new root (containing the predicted point, with margin) holds exactly one root: otherwise
-   two roots are close and the step is halved ("halve the step on doubt"). If the step falls
-   below ``dk_min`` while roots stay closer than the box, the point is kept with flag
-   ``"ambiguous"`` (the root nearest the prediction) and the march continues.
+2. marches in ``k`` with a quadratic (three-point) predictor and a Newton corrector on
+   :func:`det_M`;
+3. accepts a step only if the corrector moved less than a quarter of the step's move ``dL``
+   and the square centred between the old and the new root, of half-width
+   ``max(dL, 2 * corrector)``, holds exactly one root both at the new and at the old ``k``
+   (argument principle): otherwise another root is close and the step is halved ("halve the
+   step on doubt"). A silent jump to a neighbouring root would need a predictor error above
+   ~3/4 of the move, and a root approaching ours during the step is seen at one end. If the
+   step falls below ``dk_min`` while roots stay closer than the box (a near-collision), one
+   step of 4x the last undoubted size is tried across it (accepted under the same checks; a
+   note says so); failing that, the point is kept with flag ``"ambiguous"`` (the root nearest
+   the prediction) and the march continues.
 """
 
 from __future__ import annotations
@@ -56,8 +62,11 @@ class BranchResult:
         Lambda: Root at each requested ``k`` (NaN where the branch was lost).
         residual: :attr:`analytic.roots.Root.residual` of each root (``|det_M|``).
         cond: :attr:`analytic.roots.Root.cond` of each root.
-        ok: True where the root is converged and its isolation was checked.
-        flag: ``""`` when ok, otherwise why not (``"ambiguous"``, ``"lost"``, ...).
+        ok: True where the root is converged and its isolation was checked all the way from
+            the cut-off.
+        flag: ``""`` when ok, otherwise why not: ``"ambiguous"`` (not isolated here),
+            ``"after an ambiguous point at k = ..."`` (the branch's identity is in doubt from
+            there on), ``"lost"``.
         k_path: Every ``k`` of the continuation (for plots).
         Lambda_path: The root at every ``k_path``.
         note: Human-readable summary (where a branch could not be followed).
@@ -109,7 +118,13 @@ def roots_in_box(p: Params, k: float, box: tuple[float, float, float, float]) ->
     poles. Keep the box edges off ``Lambda = 0``.
     """
     kk = float(check_k(k)[0])
-    return zeros_in_box(spectrum_function(p, kk), box, n_initial=16)
+    return zeros_in_box(spectrum_function(p, kk), box, n_initial=_n_initial(p, box))
+
+
+def _n_initial(p: Params, box: tuple[float, float, float, float]) -> int:
+    """Initial contour samples per side: ``det_M`` turns by about ``H (1 + beta)`` per unit."""
+    side = max(box[1] - box[0], box[3] - box[2])
+    return 8 + int(math.ceil(2.0 * p.H * (1.0 + p.beta) * side))
 
 
 def _box_around(z: complex, r: float) -> tuple[float, float, float, float]:
@@ -120,8 +135,9 @@ def _count(p: Params, k: float, z: complex, r: float) -> int:
     """Roots within the square of half-width ``r`` around ``z``; -1 if the contour is unusable."""
     fun = spectrum_function(p, k)
     for shrink in (1.0, 0.93, 1.07):
+        box = _box_around(z, r * shrink)
         try:
-            return count_zeros(fun, _box_around(z, r * shrink), n_initial=8)
+            return count_zeros(fun, box, n_initial=_n_initial(p, box))
         except ContourError:
             continue
     return -1
@@ -136,7 +152,8 @@ def _start(p: Params, n: int, sign: int, k0: float) -> tuple[Root | None, str]:
     r = 0.3 * spacing
     for _ in range(12):
         try:
-            roots = zeros_in_box(fun, _box_around(guess, r), n_initial=16)
+            box = _box_around(guess, r)
+            roots = zeros_in_box(fun, box, n_initial=_n_initial(p, box))
         except ContourError:
             roots = None
         if roots is not None and len(roots) == 1 and roots[0].converged:
@@ -200,34 +217,74 @@ def follow_branch(
     k_path += [0.0, k_cur]
     L_path += [L_prev, L_cur]
     dk = k_start
+    good_h = k_start  # last step accepted without doubt
+    hist: tuple[float, complex] | None = None
     target_i = 0
     notes: list[str] = []
+    doubt = ""
     steps = 0
-    while target_i < ks.size and steps < max_steps:
-        steps += 1
-        k_target = float(ks[target_i])
-        k_new = min(k_cur + dk, k_target)
+
+    def attempt(k_new: float) -> tuple[Root, bool, float, float]:
+        """Predict, correct and check one step to k_new: (root, accepted, corrector, move)."""
         h = k_new - k_cur
-        # secant predictor through the last two points
-        L_pred = L_cur + (L_cur - L_prev) * h / (k_cur - k_prev)
+        # predictor: quadratic through the last three points (secant with only two)
+        d1 = (L_cur - L_prev) / (k_cur - k_prev)
+        L_pred = L_cur + d1 * h
+        if hist is not None:
+            k2, L2 = hist
+            d2 = (d1 - (L_prev - L2) / (k_prev - k2)) / (k_cur - k2)
+            L_pred = L_pred + d2 * h * (k_new - k_prev)
         r = polish(spectrum_function(p, k_new), L_pred)
         dL = abs(r.value - L_cur)
         corr = abs(r.value - L_pred)
-        good = r.converged and corr <= 0.25 * max(dL, 1e-12 * abs(L_cur))
-        isolated = False
-        if good:
-            rad = max(2.0 * corr, 0.25 * dL, 1e-9 * abs(r.value))
-            isolated = _count(p, k_new, r.value, rad) == 1
-        if not (good and isolated) and h > dk_min:
+        # Until three points exist the secant cannot know the curvature (the linear term may
+        # vanish at the cut-off, e.g. beta = 1/5): allow a larger corrector on those steps.
+        ratio = 0.25 if hist is not None else 0.75
+        ok = r.converged and corr <= ratio * max(dL, 1e-12 * abs(L_cur))
+        if ok:
+            # Counting between steps: the square centred between the old and the new root,
+            # half-width max(dL, 2 corr), must hold exactly one root at k_new *and* at k_cur.
+            # A jump to a neighbouring root would need a predictor error of ~3/4 of the move,
+            # and a root approaching ours within the step is seen at one end or the other.
+            centre = 0.5 * (L_cur + r.value)
+            rad = max(2.0 * corr, dL, 1e-9 * abs(r.value))
+            ok = _count(p, k_new, centre, rad) == 1 and _count(p, k_cur, centre, rad) == 1
+        return r, ok, corr, dL
+
+    while target_i < ks.size and steps < max_steps:
+        steps += 1
+        k_target = float(ks[target_i])
+        # the step ends on a requested k (may be short; never leave a sliver before it)
+        clamped = k_cur + dk * (1.0 + 1e-6) >= k_target
+        k_new = k_target if clamped else k_cur + dk
+        h = k_new - k_cur
+        r, accepted, corr, dL = attempt(k_new)
+        if not accepted and h > dk_min:
             dk = 0.5 * h
             continue
-        flag = "" if (good and isolated) else ("ambiguous" if r.converged else "lost")
+        flag = ""
+        if not accepted:
+            # Roots closer than the step can resolve (a near-collision): step over it with a
+            # step of the last undoubted size, if the root there is isolated.
+            k_over = min(k_cur + max(4.0 * good_h, 100.0 * dk_min), k_target)
+            r_over, ok_over, corr_o, dL_o = attempt(k_over)
+            if ok_over:
+                notes.append(f"branch {label}: stepped over a near-collision of roots between"
+                             f" k = {k_cur:.6g} and {k_over:.6g}")
+                k_new, h, r, corr, dL = k_over, k_over - k_cur, r_over, corr_o, dL_o
+            else:
+                flag = "ambiguous" if r.converged else "lost"
         if flag == "lost":
             notes.append(f"branch {label} lost at k = {k_new:.6g} ({r.reason})")
             break
         if flag == "ambiguous":
             notes.append(f"branch {label}: root near k = {k_new:.6g} not isolated"
                          " (close roots or a crossing)")
+            if not doubt:
+                doubt = f"after an ambiguous point at k = {k_new:.6g}"
+        elif doubt:
+            flag = doubt  # the branch's identity is in doubt from there on
+        hist = (k_prev, L_prev) if k_prev > 0 else None
         k_prev, L_prev, k_cur, L_cur = k_cur, L_cur, k_new, r.value
         k_path.append(k_cur)
         L_path.append(L_cur)
@@ -238,10 +295,16 @@ def follow_branch(
             out_ok[target_i] = flag == ""
             flags[target_i] = flag
             target_i += 1
-        # step control: grow when the predictor was good
-        if flag == "" and r.iterations <= 4 and corr < 0.05 * dL:
+        # step control: grow when the predictor was good; after doubt restart at a normal size
+        if flag == "ambiguous":
+            dk = good_h
+        elif clamped and h < dk:
+            pass  # a short step onto a requested k says nothing about the step size
+        elif r.iterations <= 4 and corr < 0.05 * dL:
+            good_h = h
             dk = min(2.0 * h, max(0.25 * k_cur, dk_min), 0.1 / p.H + 0.1 * k_cur)
         else:
+            good_h = h
             dk = h
     if steps >= max_steps:
         notes.append(f"branch {label}: max_steps = {max_steps} reached at k = {k_cur:.6g}")

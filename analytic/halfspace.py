@@ -504,6 +504,16 @@ def in_family(r: HalfSpaceRoot) -> bool:
     return r.branch == "unstable" and abs(r.kappa) < math.sqrt(1.0 - beta * beta)
 
 
+def family_room(r: HalfSpaceRoot) -> float:
+    """Relative distance of a root from the edge of its family's region (1: centre, 0: edge)."""
+    if r.family == "shear":
+        return 1.0 - abs(r.z + 1.0) / SHEAR_MAX_DIST
+    if r.family == "quasistatic":
+        return 1.0 - abs(r.z) / QS_MAX_ABS_Z
+    beta = abs(cmath.sqrt(1.0 - r.kappa * r.kappa) / r.z)
+    return 1.0 - abs(r.kappa) / math.sqrt(1.0 - beta * beta)
+
+
 def _family_growth(r: HalfSpaceRoot) -> float:
     return r.growth if (in_family(r) and r.physical) else -math.inf
 
@@ -530,6 +540,17 @@ class MaxGrowth:
     growth: float
     q_growth: float
     n_failed: int
+    root_margin: HalfSpaceRoot | None = None
+
+    @property
+    def interior(self) -> bool:
+        """The maximising root is well inside its family's region (:func:`family_room` > 10 %).
+
+        False means the margin is limited by the region's edge (``|z| = QS_MAX_ABS_Z`` or
+        ``|z + 1| = SHEAR_MAX_DIST``), not by a change of stability: a threshold located there
+        is an artefact of the family rule.
+        """
+        return self.root_margin is not None and family_room(self.root_margin) > 0.1
 
 
 def _refine_max(fun: Callable[[float], float], qs: np.ndarray, i: int) -> tuple[float, float]:
@@ -585,20 +606,22 @@ def max_growth(family: str, p: Params, qs: Sequence[float] | np.ndarray | None =
         tracks.append((fresh, lambda q, i: find_root(family, q, p)))
     n_failed = min(sum(not r.converged for r in roots) for roots, _ in tracks)
     q_m, m, q_g, g = math.nan, -math.inf, math.nan, -math.inf
+    r_m = None
     for roots, solve in tracks:
-        q_t, m_t, q_gt, g_t = _track_maxima(roots, solve, qs, refine)
+        q_t, m_t, q_gt, g_t, i_t = _track_maxima(roots, solve, qs, refine)
         if m_t > m:
             q_m, m = q_t, m_t
+            r_m = solve(q_t, i_t) if math.isfinite(q_t) else None
         if g_t > g:
             q_g, g = q_gt, g_t
     if not math.isfinite(g):
         q_g, g = math.nan, math.nan
     return MaxGrowth(family=family, unstable=m > 0, margin=m, q_margin=q_m, growth=g,
-                     q_growth=q_g, n_failed=n_failed)
+                     q_growth=q_g, n_failed=n_failed, root_margin=r_m)
 
 
 def _track_maxima(roots: list[HalfSpaceRoot], solve: Callable[[float, int], HalfSpaceRoot],
-                  qs: np.ndarray, refine: bool) -> tuple[float, float, float, float]:
+                  qs: np.ndarray, refine: bool) -> tuple[float, float, float, float, int]:
     """Maxima over ``q`` of the margin and of the physical growth along one track of roots."""
     margins = np.array([unstable_margin(r) for r in roots])
     growths = np.array([_family_growth(r) for r in roots])
@@ -624,7 +647,7 @@ def _track_maxima(roots: list[HalfSpaceRoot], solve: Callable[[float, int], Half
             q_g, g = _refine_max(lambda q: _family_growth(solve(q, i_g)), qs, i_g)
     if m > 0 and g <= 0:  # the margin found an interval the growth grid missed
         q_g, g = q_m, solve(q_m, i_m).growth
-    return q_m, m, q_g, g
+    return q_m, m, q_g, g, i_m
 
 
 def threshold_delta(family: str, gamma_f: float, f: float, beta: float,

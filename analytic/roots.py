@@ -214,7 +214,10 @@ def winding_number(
     changes by less than ``max_dphase`` across it *and* ``|F(t_{i+1}) - F(t_i)| <= max_rel *
     min(|F(t_i)|, |F(t_{i+1})|)``. The second rule makes the sample spacing smaller than the
     distance to a zero near the contour (estimated as ``|F| / |F'|``), so a zero just inside and
-    another just outside the contour between two samples cannot cancel unseen (aliasing).
+    another just outside the contour between two samples cannot cancel unseen. When both rules
+    hold, every interval is bisected once more and checked again (a verification pass): a
+    function that turned by a full ``2 pi`` between two samples (aliasing) is caught there. For
+    rapidly rotating functions, ``n_initial`` should still resolve the rotation roughly.
 
     Args:
         fun: Vectorised complex function, continuous and non-zero on the contour.
@@ -237,6 +240,7 @@ def winding_number(
     t = np.linspace(0.0, 4.0, 4 * n_initial, endpoint=False)
     f = _call(fun, _perimeter_point(bx, t))
     min_dt = 4.0 * 1e-12
+    verified = False
     while True:
         if not np.all(np.isfinite(f)):
             zbad = _perimeter_point(bx, t[~np.isfinite(f)][:1])[0]
@@ -252,21 +256,28 @@ def winding_number(
         dph = np.angle(np.exp(1j * (np.roll(ph, -1) - ph)))  # wrapped increments t_i -> t_{i+1}
         df = np.abs(np.roll(f, -1) - f)
         bad = (np.abs(dph) > max_dphase) | (df > max_rel * np.minimum(absf, np.roll(absf, -1)))
-        if not bad.any():
-            total = dph.sum() / (2 * math.pi)
-            n = int(round(total))
-            if abs(total - n) > 1e-6:  # cannot happen for a closed sampled loop; a guard
-                raise ContourError(f"winding number {total} is not an integer")
-            return n
         t_next = np.roll(t, -1)
         t_next[-1] = 4.0  # last interval closes the loop
         dt = t_next - t
-        if np.any(dt[bad] < min_dt):
+        if not bad.any():
+            if verified:
+                total = dph.sum() / (2 * math.pi)
+                n = int(round(total))
+                if abs(total - n) > 1e-6:  # cannot happen for a closed sampled loop; a guard
+                    raise ContourError(f"winding number {total} is not an integer")
+                return n
+            # Verification pass: bisect every interval once more. A function that turned by
+            # about 2 pi between two samples (aliasing) shows up as a bad interval here.
+            bad = dt > 2 * min_dt
+            verified = True
+        elif np.any(dt[bad] < min_dt):
             zbad = _perimeter_point(bx, t[bad & (dt < min_dt)][:1])[0]
             raise ContourError(
                 f"phase of the function jumps on the contour near z = {zbad:.6g}"
                 " (zero, pole or branch cut on the contour): move the box edge"
             )
+        else:
+            verified = False
         tm = 0.5 * (t[bad] + t_next[bad])
         if t.size + tm.size > max_points:
             zbad = _perimeter_point(bx, tm[:1])[0]

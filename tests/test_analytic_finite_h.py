@@ -146,3 +146,16 @@ def test_polish_root_from_rough_guess():
 def test_bad_input_is_named(call, needle):
     with pytest.raises(ParameterError, match=needle):
         call()
+
+
+def test_stress_top_grows_slower_than_velocity_top():
+    """Paper, Appendix B (Fig. stress-controlled, gamma f = 0.9, n = 0): same shape, lower."""
+    ks = np.linspace(0.2, 4.0, 12)
+    peak = {}
+    for bc in ("velocity", "stress"):
+        b = follow_branch(Params(bc=bc), 0, -1, ks)
+        assert b.ok.all(), b.note
+        assert (b.Lambda.real[:6] > 0).all()  # unstable at small kH for both tops
+        peak[bc] = b.Lambda.real.max()
+    # measured 2026-11-21: peaks 0.325 (velocity) and 0.133 (stress) on this grid
+    assert peak["stress"] < 0.6 * peak["velocity"]

@@ -36,7 +36,7 @@ def test_figures_smoke(tmp_path, nproc):
     ov.mkdir()
     (ov / "gaps.csv").write_text("x,y,label\n0.5,0.0001,FE test\n1.0,0.00005,FE test\n")
     names = ["gaps", "both", "modified2"]
-    res = run(["--out", str(out), "--only", ",".join(names), "--n-q", "24",
+    res = run(["--out", str(out), "--only", ",".join(names), "--n-q", "12",
                "--overlay", str(ov)], nproc)
     assert res.returncode == 0, res.stderr
     index = json.loads((out / "figures.json").read_text())
@@ -54,6 +54,7 @@ def test_figures_smoke(tmp_path, nproc):
     (["--only", "nosuchfigure"], "--only"),
     (["--n-q", "3"], "--n-q"),
     (["--overlay", "/nonexistent/folder"], "--overlay"),
+    (["--out", "/etc/hostname"], "--out"),
 ])
 def test_figures_bad_input(tmp_path, args, word):
     out = tmp_path / "never"

@@ -199,3 +199,70 @@ def test_bad_input():
     with pytest.raises(ParameterError, match="family"):
         hs.max_growth("rayleigh", Params())
     assert math.isnan(hs.threshold_delta("dilatational", 0.5, 0.3, 0.5, (0.6, 0.9)))
+
+
+@pytest.mark.parametrize("bc", ["velocity", "stress"])
+@pytest.mark.parametrize("case", ["shear", "dilatational", "dilatational_generalized",
+                                  "quasistatic"])
+def test_finite_h_roots_tend_to_half_space_roots(bc, case):
+    """Independent cross-check with helper A's det M(Lambda, k, H) (analytic.finite_h): the
+    finite-H root polished from the half-space root converges to it as H -> infinity, for both
+    top conditions (the paper: they become equivalent for H -> infinity).
+
+    Measured relative differences at H = 20 max(decay lengths): 3e-17 (shear), 2e-16
+    (dilatational), 4e-19 (generalized), 5e-13 (quasi-static); at H = 5 max(...): 9e-7, 1.5e-6
+    (shear), 1.4e-7, 1.1e-7 (dilatational), 2.8e-8, 2.6e-8 (generalized), so the agreement is
+    the limit, not a coincidence.
+    """
+    from analytic.branches import polish_root
+
+    if case == "shear":
+        p, q, root = Params(gamma=0.25, Delta=0.0), 0.24, hs.shear_root
+    elif case == "dilatational":
+        p, q, root = Params(gamma=10.0), 1.0, hs.dilatational_root
+    elif case == "dilatational_generalized":
+        p, q, root = Params(gamma=10.0, alpha_pc=0.5, alpha_ld=0.1), 1.0, hs.dilatational_root
+    else:
+        p, q, root = Params(f=0.3, beta=0.45, gamma=1e-4 / 0.3, Delta=5e-4), 1.658, \
+            hs.quasistatic_root
+    r = root(q, p)
+    assert r.physical and r.growth > 0
+    depth = max(r.decay_length_s, r.decay_length_d)
+    far = polish_root(p.replace(H=20 * depth, bc=bc), q, r.Lambda)
+    assert far.converged
+    assert abs(far.value - r.Lambda) < 1e-12 * abs(r.Lambda)
+    if case != "quasistatic":  # the quasi-static root decays over 0.6: already exact at H = 3
+        near = polish_root(p.replace(H=5 * depth, bc=bc), q, r.Lambda)
+        assert abs(near.value - r.Lambda) > 1e-9 * abs(r.Lambda)
+
+
+def test_family_edge_thresholds_are_flagged():
+    """A 'threshold' where the most unstable root sits on the edge of its family's region is
+    where the root leaves the region, not a stability change: MaxGrowth.interior says so.
+
+    Measured (f 0.3, beta 0.45): quasi-static at Gamma = 1e-4 interior (room 0.96); at
+    Gamma = 0.0067 the margin is maximal at |z| = 0.5 exactly (room 1e-8).
+    """
+    f, beta = 0.3, 0.45
+    for gamma_f, interior in ((1e-4, True), (0.0067, False)):
+        d = hs.threshold_delta("quasistatic", gamma_f, f, beta, (1e-9, 0.1))
+        below = hs.max_growth("quasistatic", Params(f=f, beta=beta, gamma=gamma_f / f,
+                                                    Delta=d * (1 - 1e-6)))
+        assert below.unstable
+        assert below.interior == interior
+        assert (hs.family_room(below.root_margin) < 1e-3) == (not interior)
+
+
+def test_gap_interval_fig_gaps():
+    """gamma f = 0.96: the unstable root leaves the physical sheet at q = 1.2376 and the stable
+    one enters it at q = 1.3529 (measured); in between no physical root near z = 1/beta."""
+    from scipy.optimize import brentq
+
+    p = Params(gamma=0.96 / 0.3)
+    q_u = brentq(lambda q: hs.dilatational_root(q, p).growth, 0.5, 2.0, xtol=1e-14)
+    q_s = brentq(lambda q: hs.dilatational_root(q, p, branch="stable").growth, 0.5, 2.0,
+                 xtol=1e-14)
+    assert abs(q_u - 1.2376) < 1e-4 and abs(q_s - 1.3529) < 1e-4
+    for q in np.linspace(q_u, q_s, 7)[1:-1]:
+        assert not hs.dilatational_root(q, p).physical
+        assert not hs.dilatational_root(q, p, branch="stable").physical

@@ -299,3 +299,37 @@ def test_generalized_shear_threshold_numerical(gamma, apc, ald):
     num = hs.threshold_delta("shear", gamma * f, f, beta, (0.0, 2 * exact), alpha_pc=apc,
                              alpha_ld=ald)
     assert abs(num / exact - 1) < 5e-7
+
+
+def test_analytic_spectrum_stable_branch_far_below_threshold():
+    """Eq. (analytic_spectrum), stable sign, gamma f = 0.6 (below threshold), q = 100: the
+    closed form gives -0.0325, the exact physical root -0.0604 (measured): a factor ~2."""
+    p = Params(gamma=2.0)
+    r = hs.dilatational_root(100.0, p, branch="stable")
+    assert r.physical
+    assert abs(r.growth - (-0.06035)) < 1e-4
+    assert abs(float(lk.growth_rate_dilatational(100.0, p, "stable")) - (-0.03250)) < 1e-4
+
+
+def test_fig_both_which_instability_grows_faster():
+    """Fig. both (gamma = 0.25): at Delta = 0 the shear peak (1.30e-3 at q = 0.241) beats the
+    dilatational one (9.2e-4 at q = 0.048), unlike the paper's text; at Delta = 0.01 the
+    dilatational one is larger (6.7e-4 vs 4.8e-4). Measured."""
+    p = Params(f=0.3, beta=0.5, gamma=0.25, Delta=0.0)
+    d, s = hs.max_growth("dilatational", p), hs.max_growth("shear", p)
+    assert abs(s.growth - 1.30e-3) < 1e-5 and abs(s.q_growth - 0.241) < 2e-3
+    assert abs(d.growth - 9.22e-4) < 1e-5 and abs(d.q_growth - 0.048) < 2e-3
+    p = p.replace(Delta=0.01)
+    d, s = hs.max_growth("dilatational", p), hs.max_growth("shear", p)
+    assert abs(d.growth - 6.71e-4) < 1e-5 and abs(s.growth - 4.85e-4) < 1e-5
+
+
+@pytest.mark.parametrize("ald, peak, q_last", [(0.0, 1.867e-4, 1.2376), (0.1, 1.967e-4, 0.4240),
+                                               (0.2, 2.079e-4, 0.3177), (0.4, 2.347e-4, 0.2431)])
+def test_alpha_ld_shrinks_range_but_raises_peak(ald, peak, q_last):
+    """Fig. modified2, gamma = 3.2: alpha_LD shrinks the unstable q range but the peak growth
+    rate increases (measured values below; the paper's text says it 'promotes stability')."""
+    p = Params(gamma=3.2, alpha_ld=ald)
+    assert abs(hs.max_growth("dilatational", p).growth - peak) < 1e-3 * peak
+    qc = brentq(lambda q: hs.dilatational_root(q, p).growth, 0.05, 5.0, xtol=1e-12)
+    assert abs(qc - q_last) < 1e-4

@@ -233,7 +233,8 @@ def fig_phase_diagram(opts: argparse.Namespace):  # noqa: ANN201
     rows = phase_diagram.check(args)
     grid = phase_diagram.gamma_grid(args.gamma_min, args.gamma_max, args.n_gamma)
     records = [r for f, b in rows for fam in phase_diagram.FAMILIES for g in grid
-               for r in phase_diagram.boundary_records(f, b, fam, float(g), args.delta_max)]
+               for r in phase_diagram.boundary_records(f, b, fam, float(g), args.delta_max)
+               if "dropped" not in r]
     fig = phase_diagram.draw(rows, records, args)
     return fig, {"rows": rows, "n_gamma": args.n_gamma,
                  "closed_form_vs_numerical": phase_diagram.measured_differences(records, rows)}
@@ -360,6 +361,8 @@ def check(opts: argparse.Namespace) -> list[str]:
                              f" allowed: {', '.join(FIGURES)}")
     _cli.positive_int("--n-q", opts.n_q, minimum=10, maximum=100000)
     _cli.positive_int("--n-gamma", opts.n_gamma, minimum=2, maximum=2000)
+    if os.path.exists(opts.out) and not os.path.isdir(opts.out):
+        raise ParameterError(f"--out = {opts.out!r} exists and is not a folder")
     if opts.overlay is not None and not os.path.isdir(opts.overlay):
         raise ParameterError(f"--overlay = {opts.overlay!r} is not a folder")
     return names

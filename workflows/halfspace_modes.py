@@ -72,7 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--overlay-name", default="overlay",
                     help="also write DIR/NAME.csv (x = k, y = Re Lambda, label) of the trusted "
                     "PML roots, for figures.py --overlay DIR (e.g. NAME = gaps)")
-    ap.add_argument("--out", default="results/halfspace_modes", help="output folder")
+    ap.add_argument("--out", default="out/halfspace_modes", help="output folder")
     return ap
 
 

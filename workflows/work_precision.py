@@ -69,7 +69,7 @@ class _Parser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     """Command-line options."""
     ap = _Parser(description="Work-precision diagram of the eigenvalue computations.")
-    ap.add_argument("--out", default="results/work_precision", help="output folder")
+    ap.add_argument("--out", default="out/work_precision", help="output folder")
     ap.add_argument("--repeats", type=int, default=3, help="timing repeats, best kept")
     ap.add_argument("--tiny", action="store_true", help="a few points only (smoke test)")
     ap.add_argument("--no-dense", action="store_true", help="skip the dense baseline")

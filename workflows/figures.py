@@ -1,7 +1,7 @@
 """Gallery: every figure of the paper that has data, regenerated into one folder.
 
-    python workflows/figures.py --out results/figures
-    mpirun -n 2 python workflows/figures.py --out results/figures   # figures split over ranks
+    python workflows/figures.py --out out/figures
+    mpirun -n 2 python workflows/figures.py --out out/figures   # figures split over ranks
 
 Figures (``--only`` takes a comma list of these names):
 
@@ -342,7 +342,7 @@ MAKERS: dict[str, Callable] = {
 def parse(argv: list[str] | None = None) -> argparse.Namespace:
     """Command line."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="results/figures", help="output folder")
+    ap.add_argument("--out", default="out/figures", help="output folder")
     ap.add_argument("--only", default=None, help=f"comma list of {', '.join(FIGURES)}")
     ap.add_argument("--n-q", type=int, default=240, help="wavenumbers per curve")
     ap.add_argument("--n-gamma", type=int, default=16, help="Gamma points, phase diagram")

@@ -36,10 +36,11 @@ import numpy as np
 
 OUTPUT_FILES = ("halfspace_modes.csv", "summary.json", "halfspace_modes.png")
 FAMILIES = ("dilatational", "shear")
-COLUMNS = ("k", "family", "method", "bc", "H", "re_lambda", "im_lambda", "re_lambda_exact",
-           "im_lambda_exact", "sheet_exact", "sheet", "rel_error", "growth_rel_error",
-           "disagreement", "growth_disagreement", "residual", "attenuation", "reflection",
-           "decay_length_s", "decay_length_d", "dofs", "seconds", "trusted", "flags")
+BRANCHES = ("unstable", "stable")
+COLUMNS = ("k", "family", "branch", "method", "bc", "H", "re_lambda", "im_lambda",
+           "re_lambda_exact", "im_lambda_exact", "sheet_exact", "sheet", "rel_error",
+           "growth_rel_error", "disagreement", "growth_disagreement", "residual", "attenuation",
+           "reflection", "decay_length_s", "decay_length_d", "dofs", "seconds", "trusted", "flags")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -52,6 +53,9 @@ def build_parser() -> argparse.ArgumentParser:
     ap = _Parser(description="Half-space modes: PML vs truncated strips vs s(z, q) roots.")
     _cli.add_param_arguments(ap)
     ap.add_argument("--family", choices=FAMILIES, default="dilatational")
+    ap.add_argument("--branch", default="unstable",
+                    help="dilatational kappa_d function(s), comma list of unstable, stable "
+                    "(%(default)s; the shear family has one)")
     ap.add_argument("--k", default="0.02,0.05,0.1,0.2,0.3,0.5,0.7,0.75,1,1.5,3",
                     help="start:stop:count or k1,k2,... (%(default)s)")
     ap.add_argument("--degree", type=int, default=4, help="element degree 1..6 (%(default)s)")
@@ -65,7 +69,10 @@ def build_parser() -> argparse.ArgumentParser:
                     help="relative disagreement / reflection accepted (%(default)s)")
     ap.add_argument("--silent-rtol", type=float, default=1e-6,
                     help="a trusted value farther than this from the root is a silent failure")
-    ap.add_argument("--out", default="results/halfspace_modes", help="output folder")
+    ap.add_argument("--overlay-name", default="overlay",
+                    help="also write DIR/NAME.csv (x = k, y = Re Lambda, label) of the trusted "
+                    "PML roots, for figures.py --overlay DIR (e.g. NAME = gaps)")
+    ap.add_argument("--out", default="out/halfspace_modes", help="output folder")
     return ap
 
 
@@ -85,11 +92,18 @@ def _check(args: argparse.Namespace) -> tuple:
     for b in bcs:
         if b not in ("velocity", "stress"):
             raise _cli.ParameterError(f"--bc-trunc: {b!r} is not 'velocity' or 'stress'")
+    branches = [b.strip() for b in args.branch.split(",") if b.strip()]
+    if not branches or any(b not in BRANCHES for b in branches):
+        raise _cli.ParameterError(f"--branch = {args.branch!r}: comma list of unstable, stable")
+    if args.family == "shear":
+        branches = ["unstable"]
+    if not args.overlay_name.replace("_", "").replace("-", "").isalnum():
+        raise _cli.ParameterError(f"--overlay-name = {args.overlay_name!r} must be a plain name")
     for name in ("tol", "silent_rtol"):
         v = getattr(args, name)
         if not (0 < v < 1):
             raise _cli.ParameterError(f"--{name.replace('_', '-')} = {v} must be in (0, 1)")
-    return p, ks, hs, bcs
+    return p, ks, hs, bcs, branches
 
 
 def _rel(a: complex, b: complex) -> float:
@@ -105,8 +119,8 @@ def solve_k(comm, p, k: float, root, args, hs, bcs) -> list[dict]:
     from forms.pml import solve_halfspace, solve_truncated
 
     exact = root.Lambda
-    base = {"k": k, "family": args.family, "re_lambda_exact": exact.real,
-            "im_lambda_exact": exact.imag, "sheet_exact": root.sheet,
+    base = {"k": k, "family": args.family, "branch": root.branch or "-",
+            "re_lambda_exact": exact.real, "im_lambda_exact": exact.imag, "sheet_exact": root.sheet,
             "decay_length_s": root.decay_length_s, "decay_length_d": root.decay_length_d}
     rows = []
     t0 = time.perf_counter()
@@ -142,13 +156,17 @@ def plot(rows: list[dict], roots: list, path: str, title: str, meta: dict) -> No
     import matplotlib.pyplot as plt
 
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.8))
-    kk = np.array([r.q for r in roots])
     gr = np.array([r.Lambda.real for r in roots])
     for sheet, ls in (("physical", "-"), ("s_tilde", "--")):
-        m = np.array([r.sheet == sheet for r in roots])
-        if m.any():
-            ax1.plot(kk[m], gr[m], ls, color="k", lw=1, marker=".",
-                     label=f"analytic root of {'s' if sheet == 'physical' else 's~'}")
+        first = True
+        for b in dict.fromkeys(r.branch for r in roots):
+            sel = [r for r in roots if r.branch == b]
+            y = np.array([r.Lambda.real if r.sheet == sheet else np.nan for r in sel])
+            if np.isfinite(y).any():
+                ax1.plot([r.q for r in sel], y, ls, color="k", lw=1, marker=".",
+                         label=f"analytic root of {'s' if sheet == 'physical' else 's~'}"
+                         if first else None)
+                first = False
     styles = {}
     for r in rows:
         key = ("pml", "", 0.0) if r["method"] == "pml" else ("truncated", r["bc"], r["H"])
@@ -170,9 +188,11 @@ def plot(rows: list[dict], roots: list, path: str, title: str, meta: dict) -> No
             ax2.loglog(x, [max(r["rel_error"], 1e-17) for r in s], markers[i % 8], ms=6,
                        mfc=face, mec=col, ls="none", label=lab + ("" if trusted else " (flagged)"))
     ax1.set_xscale("log")
+    small = np.abs(gr[np.abs(gr) > 0])
+    ax1.set_yscale("symlog", linthresh=float(max(small.min(), 1e-300)) if small.size else 1e-12)
     ax1.axhline(0, color="0.6", lw=0.5)
     ax1.set_xlabel("k (= paper's q)")
-    ax1.set_ylabel("Re Lambda")
+    ax1.set_ylabel("Re Lambda (symlog)")
     ax1.set_title(title, fontsize=9)
     ax1.legend(fontsize=7)
     ax2.set_xlabel("k")
@@ -187,7 +207,7 @@ def plot(rows: list[dict], roots: list, path: str, title: str, meta: dict) -> No
 def main(comm=None) -> int:
     """Entry point (``comm``: communicator whose ranks share the k values)."""
     args = build_parser().parse_args()
-    p, ks, hs, bcs = _check(args)
+    p, ks, hs, bcs, branches = _check(args)
     import slepc4py
 
     slepc4py.init(sys.argv[:1])
@@ -197,15 +217,15 @@ def main(comm=None) -> int:
 
     comm = comm or MPI.COMM_WORLD
     logging.disable(logging.INFO)
-    roots = follow(args.family, ks, p, branch="unstable")
+    roots = [r for b in branches for r in follow(args.family, ks, p, branch=b)]
     mine = []
-    for i in range(comm.rank, len(ks), comm.size):
-        mine.extend(solve_k(MPI.COMM_SELF, p, float(ks[i]), roots[i], args, hs, bcs))
+    for i in range(comm.rank, len(roots), comm.size):
+        mine.extend(solve_k(MPI.COMM_SELF, p, roots[i].q, roots[i], args, hs, bcs))
     parts = comm.gather(mine, root=0)
     code = 0
     if comm.rank == 0:
         rows = sorted((r for part in parts for r in part),
-                      key=lambda r: (r["k"], r["method"], r["bc"], r["H"]))
+                      key=lambda r: (r["branch"], r["k"], r["method"], r["bc"], r["H"]))
         silent = [r for r in rows if r["trusted"] and not r["rel_error"] <= args.silent_rtol]
         os.makedirs(args.out, exist_ok=True)
         with open(os.path.join(args.out, OUTPUT_FILES[0]), "w", newline="") as fh:
@@ -213,11 +233,18 @@ def main(comm=None) -> int:
             w.writeheader()
             for r in rows:
                 w.writerow({c: r[c] for c in COLUMNS})
+        with open(os.path.join(args.out, f"{args.overlay_name}.csv"), "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["x", "y", "label"])
+            for r in rows:
+                if r["method"] == "pml" and r["trusted"]:
+                    w.writerow([r["k"], r["re_lambda"], f"FE P{args.degree} + PML (trusted)"])
         import dolfinx
         import slepc4py as sl
 
         meta = {"command": " ".join(sys.argv), "params": dataclasses.asdict(p),
-                "family": args.family, "k": ks.tolist(), "degree": args.degree,
+                "family": args.family, "branches": branches, "k": ks.tolist(),
+                "degree": args.degree,
                 "attenuation": args.attenuation, "H_trunc": hs.tolist(), "bc_trunc": bcs,
                 "tol": args.tol, "silent_rtol": args.silent_rtol, "ranks": comm.size,
                 "machine": platform.platform(), "python": platform.python_version(),

@@ -16,7 +16,7 @@ Parallel over the (row, family, Gamma) tasks with MPI; rank 0 writes
 ``DIR/phase_diagram.json`` (parameters, versions, measured closed-form vs numerical
 differences) and ``DIR/phase_diagram.png``.
 
-    python workflows/phase_diagram.py --out results/phase_diagram
+    python workflows/phase_diagram.py --out out/phase_diagram
     mpirun -n 2 python workflows/phase_diagram.py --f 0.3 --beta 0.5 --n-gamma 12 --out DIR
 """
 
@@ -256,7 +256,7 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--delta-max", type=float, default=1.0, help="largest Delta shown")
     ap.add_argument("--n-gamma", type=int, default=24,
                     help="log-spaced Gamma points per boundary (plus n/2 linear ones)")
-    ap.add_argument("--out", default="results/phase_diagram", help="output folder")
+    ap.add_argument("--out", default="out/phase_diagram", help="output folder")
     return ap.parse_args(argv)
 
 

@@ -65,7 +65,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-kulikovskii", action="store_true",
                    help="skip the long-block limit from the cross-section model")
     p.add_argument("--resume", action="store_true", help="keep the rows already in the CSV")
-    p.add_argument("--out", default="finite_block", help="output directory")
+    p.add_argument("--out", default="out/finite_block", help="output directory")
     return p
 
 

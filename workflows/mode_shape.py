@@ -74,7 +74,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--color", choices=("displacement", "stress"), default="displacement",
                    help="colour of the deformed strip: |u| or sigma_yy")
     p.add_argument("--no-render", action="store_true", help="skip the PyVista pictures")
-    p.add_argument("--out", default="mode_shape", help="output directory")
+    p.add_argument("--out", default="out/mode_shape", help="output directory")
     return p
 
 

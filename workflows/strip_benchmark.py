@@ -27,7 +27,7 @@ def main(comm=None, argv: list[str] | None = None) -> int:
     p.add_argument("--levels", type=int, default=4, help="mesh levels (cells double each)")
     p.add_argument("--nx0", type=int, default=16, help="cells along x on the coarsest mesh")
     p.add_argument("--ny0", type=int, default=4, help="cells along y on the coarsest mesh")
-    p.add_argument("--out", default="strip_benchmark", help="output directory")
+    p.add_argument("--out", default="out/strip_benchmark", help="output directory")
     args = p.parse_args(argv)
     _cli.positive_int("--levels", args.levels, 1, 8)
     _cli.positive_int("--nx0", args.nx0, 2)

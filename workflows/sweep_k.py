@@ -608,9 +608,10 @@ def main(comm: MPI.Comm) -> int:  # noqa: C901 - a workflow script reads top to 
     except KeyboardInterrupt:
         if bar is not None:
             bar.close()
-        n_done = sum(os.path.exists(_raw_path(out, j)) for j in range(len(k)))
-        print(f"\ninterrupted: {n_done} of {len(k)} k values are in {out}/raw; "
-              "run again with --resume to continue", file=sys.stderr)
+        if comm.rank == 0:
+            n_done = sum(os.path.exists(_raw_path(out, j)) for j in range(len(k)))
+            print(f"\ninterrupted: {n_done} of {len(k)} k values are in {out}/raw; "
+                  "run again with --resume to continue", file=sys.stderr)
         return 130
     if bar is not None:
         bar.close()

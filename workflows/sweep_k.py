@@ -127,6 +127,17 @@ def _raw_path(out: str, index: int) -> str:
     return os.path.join(out, "raw", f"k{index:05d}.npz")
 
 
+def idle_barrier(comm: MPI.Comm, poll: float = 0.02) -> None:
+    """Barrier that sleeps while waiting.
+
+    OpenMPI's blocking Barrier spins at 100% CPU, which steals a core from the ranks still
+    working (e.g. rank 0's post-processing).
+    """
+    req = comm.Ibarrier()
+    while not req.Test():
+        time.sleep(poll)
+
+
 def make_solver(kind: str, comm: MPI.Comm, nev: int) -> Solver:
     """A fresh PEP or NEP solver (options from the PETSc database)."""
     if kind == "pep":
@@ -619,7 +630,7 @@ def main(comm: MPI.Comm) -> int:  # noqa: C901 - a workflow script reads top to 
     model_form = model.form
     model.destroy()
     gcomm.Free()
-    comm.Barrier()
+    idle_barrier(comm)
     wall = time.perf_counter() - t_start
     cpu = comm.gather(time.process_time() - cpu_start, root=0)
 
@@ -632,6 +643,7 @@ def main(comm: MPI.Comm) -> int:  # noqa: C901 - a workflow script reads top to 
         except Exception as err:  # noqa: BLE001 - re-raised below, after releasing the ranks
             error = err
             code = 1
+    idle_barrier(comm)
     code = comm.bcast(code, root=0)
     if error is not None:
         raise error

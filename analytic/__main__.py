@@ -1,0 +1,7 @@
+"""``python -m analytic``: see :mod:`analytic.cli`."""
+
+import sys
+
+from analytic.cli import main
+
+sys.exit(main())

@@ -1,0 +1,200 @@
+"""Command line of the ``analytic`` package, and the parameter plumbing shared with workflows.
+
+``python -m analytic branch --k 0.5,1,2 --H 0.5 --bc velocity --branches 2`` prints CSV
+``k,branch,re_lambda,im_lambda,residual`` for branches ``0+, 0-, 1+, 1-, ...`` followed in k
+from their cut-offs. ``python -m analytic units ...`` converts physical data.
+``python -m analytic dispersion --out DIR`` writes the analytic dispersion curve (CSV, JSON,
+PNG). Bad input: one line on stderr naming the parameter, exit code 2.
+
+:func:`add_param_arguments`, :func:`params_from_args`, :func:`parse_k`, :func:`positive_int`
+are also used by ``workflows/_cli.py`` (which re-exports them).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import sys
+from collections.abc import Sequence
+
+import numpy as np
+
+from analytic.params import ParameterError, Params, check_k
+
+EXIT_USAGE = 2
+
+
+def add_param_arguments(parser: argparse.ArgumentParser, defaults: Params | None = None) -> None:
+    """Add ``--f --gamma --beta --Delta --H --bc --alpha-pc --alpha-ld`` to ``parser``."""
+    d = defaults or Params()
+    g = parser.add_argument_group("physical parameters (dimensionless, DESIGN.md section 2)")
+    g.add_argument("--f", type=float, default=d.f, help="friction coefficient f >= 0 (%(default)s)")
+    g.add_argument("--gamma", type=float, default=d.gamma,
+                   help="gamma = mu/(c_s sigma0 d_v f) > 0 (%(default)s)")
+    g.add_argument("--beta", type=float, default=d.beta,
+                   help="beta = c_s/c_d in (0, 1/sqrt 2) (%(default)s)")
+    g.add_argument("--Delta", type=float, default=d.Delta,
+                   help="Delta = d_v f_ss / d_v f (%(default)s)")
+    g.add_argument("--H", type=float, default=d.H, help="strip height H > 0 (%(default)s)")
+    g.add_argument("--bc", choices=("velocity", "stress"), default=d.bc,
+                   help="top condition (%(default)s)")
+    g.add_argument("--alpha-pc", type=float, default=d.alpha_pc,
+                   help="Prakash-Clifton alpha_PC >= 0 (%(default)s)")
+    g.add_argument("--alpha-ld", type=float, default=d.alpha_ld,
+                   help="Linker-Dieterich alpha_LD >= 0 (%(default)s)")
+
+
+def params_from_args(args: argparse.Namespace) -> Params:
+    """Build (and validate) :class:`Params` from parsed arguments."""
+    return Params(f=args.f, gamma=args.gamma, beta=args.beta, Delta=args.Delta, H=args.H,
+                  bc=args.bc, alpha_pc=args.alpha_pc, alpha_ld=args.alpha_ld)
+
+
+def parse_k(spec: str, name: str = "--k") -> np.ndarray:
+    """Parse ``start:stop:count`` (inclusive, linear) or ``k1,k2,...``.
+
+    Raises:
+        ParameterError: On malformed input or a non-positive / non-finite value.
+    """
+    s = spec.strip()
+    try:
+        if ":" in s:
+            parts = s.split(":")
+            if len(parts) != 3:
+                raise ValueError
+            start, stop, count = float(parts[0]), float(parts[1]), int(parts[2])
+            if count < 1:
+                raise ParameterError(f"{name} = {spec!r}: count must be >= 1")
+            if count > 1 and not stop > start:
+                raise ParameterError(f"{name} = {spec!r}: stop must be larger than start")
+            values = np.linspace(start, stop, count)
+        else:
+            values = np.array([float(v) for v in s.split(",") if v.strip()])
+    except ValueError:
+        raise ParameterError(
+            f"{name} = {spec!r} is neither 'start:stop:count' nor a comma list of numbers"
+        ) from None
+    return check_k(values, name=name.lstrip("-"))
+
+
+def positive_int(name: str, value: int, minimum: int = 1, maximum: int | None = None) -> int:
+    """Check an integer option; raise :class:`ParameterError` naming it otherwise."""
+    if value < minimum or (maximum is not None and value > maximum):
+        rng = f">= {minimum}" if maximum is None else f"in [{minimum}, {maximum}]"
+        raise ParameterError(f"{name} = {value} is outside its allowed range {rng}")
+    return value
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse whose usage errors are a :class:`ParameterError` (one line, exit 2)."""
+
+    def error(self, message: str) -> None:  # noqa: D102 - argparse hook
+        raise ParameterError(message)
+
+
+def _finite_params(args: argparse.Namespace) -> Params:
+    p = params_from_args(args)
+    if not math.isfinite(p.H):
+        raise ParameterError("H = inf: branches start at finite-H cut-offs; give a finite H > 0")
+    return p
+
+
+def _branch(args: argparse.Namespace) -> int:
+    from analytic.branches import follow_branches
+
+    p = _finite_params(args)
+    k = parse_k(args.k)
+    positive_int("--branches", args.branches, 1, 50)
+    results = follow_branches(p, args.branches, k)
+    w = csv.writer(sys.stdout, lineterminator="\n")
+    w.writerow(["k", "branch", "re_lambda", "im_lambda", "residual"])
+    kk = results[0].k
+    for i, kv in enumerate(kk):
+        for r in results:
+            L = r.Lambda[i]
+            w.writerow([f"{kv:.12g}", r.label, f"{L.real:.16g}", f"{L.imag:.16g}",
+                        f"{r.residual[i]:.3e}"])
+    for r in results:
+        if r.note:
+            print(f"note: {r.note}", file=sys.stderr)
+    return 0
+
+
+def _units(args: argparse.Namespace) -> int:
+    from analytic.units import Physical, to_dimensionless
+
+    phys = Physical(mu=args.mu, nu=args.nu, rho=args.rho, sigma0=args.sigma0, v0=args.v0,
+                    D=args.D, f=args.f, a=args.a, b=args.b, H=args.H_m)
+    c = to_dimensionless(phys)
+    out = {
+        "physical": phys.as_dict(),
+        "dimensionless": c.params.as_dict(),
+        "Gamma": c.params.Gamma,
+        "units": {"t0_s": c.t0, "length_m": c.length, "c_s_m_per_s": c.c_s,
+                  "c_d_m_per_s": c.c_d},
+    }
+    print(json.dumps(out, indent=2))
+    return 0
+
+
+def _dispersion(args: argparse.Namespace) -> int:
+    from analytic.dispersion import write_dispersion
+
+    p = _finite_params(args)
+    k = parse_k(args.k)
+    positive_int("--branches", args.branches, 1, 20)
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise ParameterError(f"--out = {args.out!r} exists and is not a directory")
+    files = write_dispersion(p, k, args.branches, args.out)
+    for f in files:
+        print(f)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``python -m analytic`` argument parser."""
+    from analytic.units import PMMA_ON_STEEL as X
+
+    ap = OneLineParser(prog="python -m analytic", description=__doc__.split("\n\n")[0])
+    sub = ap.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
+    b = sub.add_parser("branch", help="exact roots on branches followed from the cut-offs")
+    b.add_argument("--k", required=True, help="wavenumbers: 'k1,k2,...' or 'start:stop:count'")
+    b.add_argument("--branches", type=int, default=1,
+                   help="number of cut-off indices n (each gives n+ and n-) (%(default)s)")
+    add_param_arguments(b)
+    b.set_defaults(func=_branch)
+
+    d = sub.add_parser("dispersion", help="analytic dispersion curves: CSV + JSON + PNG")
+    d.add_argument("--out", required=True, help="output directory (created)")
+    d.add_argument("--k", default="0.02:12:300", help="wavenumbers (%(default)s)")
+    d.add_argument("--branches", type=int, default=2, help="cut-off indices n (%(default)s)")
+    add_param_arguments(d)
+    d.set_defaults(func=_dispersion)
+
+    u = sub.add_parser("units", help="physical data (SI) -> dimensionless parameters and units")
+    u.add_argument("--mu", type=float, default=X.mu, help="shear modulus [Pa] (%(default)s)")
+    u.add_argument("--nu", type=float, default=X.nu, help="Poisson ratio (%(default)s)")
+    u.add_argument("--rho", type=float, default=X.rho, help="density [kg/m^3] (%(default)s)")
+    u.add_argument("--sigma0", type=float, default=X.sigma0,
+                   help="normal stress [Pa] (%(default)s)")
+    u.add_argument("--v0", type=float, default=X.v0, help="sliding velocity [m/s] (%(default)s)")
+    u.add_argument("--D", type=float, default=X.D, help="memory length [m] (%(default)s)")
+    u.add_argument("--f", type=float, default=X.f, help="friction coefficient (%(default)s)")
+    u.add_argument("--a", type=float, default=X.a, help="df/dln v (%(default)s)")
+    u.add_argument("--b", type=float, default=X.b, help="df/dln phi (%(default)s)")
+    u.add_argument("--H-m", type=float, default=X.H, help="height [m] (%(default)s)")
+    u.set_defaults(func=_units)
+    return ap
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point: returns the exit code (2 on bad input, one line on stderr)."""
+    try:
+        args = build_parser().parse_args(argv)
+        return int(args.func(args) or 0)
+    except ParameterError as err:
+        print(f"error: {err}", file=sys.stderr, flush=True)
+        return EXIT_USAGE

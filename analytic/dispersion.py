@@ -1,0 +1,110 @@
+"""Analytic dispersion curves (growth rate and frequency vs k) as CSV + JSON + PNG."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import platform
+import sys
+
+import numpy as np
+
+from analytic.branches import BranchResult, follow_branches
+from analytic.params import Params
+from analytic.smallk import lambda_smallk
+
+
+def _versions() -> dict[str, str]:
+    import matplotlib
+    import scipy
+
+    return {"python": platform.python_version(), "numpy": np.__version__,
+            "scipy": scipy.__version__, "matplotlib": matplotlib.__version__}
+
+
+def plot_dispersion(p: Params, results: list[BranchResult], path: str,
+                    metadata: dict[str, str] | None = None) -> None:
+    """Two panels: ``Re Lambda`` and ``Im Lambda`` vs ``k`` for each branch, saved as PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for i, r in enumerate(results):
+        c = colors[(i // 2) % len(colors)]
+        ls = "-" if r.sign < 0 else "--"
+        ok = np.asarray(r.ok)
+        L = np.where(ok, r.Lambda, np.nan)
+        ax1.plot(r.k, L.real, ls, color=c, label=f"branch {r.label}")
+        ax2.plot(r.k, L.imag, ls, color=c, label=f"branch {r.label}")
+        kk = r.k[r.k <= 0.25 * r.k.max()]
+        if kk.size:
+            ax1.plot(kk, lambda_smallk(kk, r.n, r.sign, p).real, ":", color="k", lw=1)
+    ax1.plot([], [], ":", color="k", lw=1, label="small-k slope (Eq. Hspectrum)")
+    ax1.axhline(0.0, color="0.6", lw=0.8)
+    ax1.set_xlabel("k  [1 / (c_s t0)]")
+    ax1.set_ylabel("growth rate Re Lambda  [1 / t0]")
+    ax2.set_xlabel("k  [1 / (c_s t0)]")
+    ax2.set_ylabel("frequency Im Lambda  [1 / t0]")
+    title = (f"exact finite-H spectrum, bc = {p.bc}: f = {p.f:g}, gamma = {p.gamma:g}, "
+             f"beta = {p.beta:g}, Delta = {p.Delta:g}, H = {p.H:g}")
+    if p.generalized:
+        title += f", alpha_pc = {p.alpha_pc:g}, alpha_ld = {p.alpha_ld:g}"
+    fig.suptitle(title, fontsize=10)
+    ax1.legend(fontsize=8)
+    ax1.set_title("Re Lambda > 0: unstable", fontsize=9)
+    ax2.set_title("branches start at Lambda_0 = +-i(2n+1) pi/(2 beta H)", fontsize=9)
+    fig.savefig(path, dpi=120, metadata=metadata or {})
+    plt.close(fig)
+
+
+def write_dispersion(p: Params, k: np.ndarray, n_branches: int, out: str) -> list[str]:
+    """Follow ``n_branches`` cut-off pairs over ``k``; write CSV, JSON and PNG into ``out``.
+
+    Args:
+        p: Parameters (finite ``H``).
+        k: Wavenumbers (validated, ascending).
+        n_branches: Number of cut-off indices ``n`` (each gives ``n+`` and ``n-``).
+        out: Output directory (created if missing).
+
+    Returns:
+        The paths written.
+    """
+    results = follow_branches(p, n_branches, k)  # all computing before any file is written
+    os.makedirs(out, exist_ok=True)
+    csv_path = os.path.join(out, "dispersion.csv")
+    with open(csv_path, "w", newline="") as fh:
+        w = csv.writer(fh, lineterminator="\n")
+        w.writerow(["k", "branch", "re_lambda", "im_lambda", "residual", "ok"])
+        for r in results:
+            for i, kv in enumerate(r.k):
+                L = r.Lambda[i]
+                w.writerow([f"{kv:.12g}", r.label, f"{L.real:.16g}", f"{L.imag:.16g}",
+                            f"{r.residual[i]:.3e}", int(bool(r.ok[i]))])
+    info = {
+        "what": "exact roots of det M(Lambda, k, H) = 0 followed from the waveguide cut-offs",
+        "params": p.as_dict(),
+        "branches": [r.label for r in results],
+        "k": {"min": float(k.min()), "max": float(k.max()), "count": int(k.size)},
+        "max_growth": {r.label: (None if not np.any(r.ok) else
+                                 {"re_lambda": float(np.nanmax(np.where(r.ok, r.Lambda.real,
+                                                                        np.nan))),
+                                  "at_k": float(r.k[np.nanargmax(np.where(r.ok, r.Lambda.real,
+                                                                          np.nan))])})
+                       for r in results},
+        "notes": [r.note for r in results if r.note],
+        "command": " ".join(sys.argv),
+        "versions": _versions(),
+    }
+    json_path = os.path.join(out, "dispersion.json")
+    with open(json_path, "w") as fh:
+        json.dump(info, fh, indent=2)
+    png_path = os.path.join(out, "dispersion.png")
+    plot_dispersion(p, results, png_path,
+                    metadata={"Title": "analytic dispersion curve",
+                              "Description": json.dumps(p.as_dict()),
+                              "Software": "analytic (bimaterial-stability)"})
+    return [csv_path, json_path, png_path]

@@ -1,0 +1,64 @@
+"""Smoke tests of workflows/halfspace_modes.py: serial, mpirun -n 2, bad input.
+
+Launched once (serial pass); the MPI run is a subprocess.
+"""
+
+import csv
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SCRIPT = os.path.join(ROOT, "workflows", "halfspace_modes.py")
+TINY = ["--k", "0.3,1.0", "--H-trunc", "50", "--bc-trunc", "velocity", "--degree", "3"]
+
+pytestmark = pytest.mark.serial
+
+
+def _run(args, out, n=1):
+    cmd = [sys.executable, SCRIPT, *args, "--out", str(out)]
+    if n > 1:
+        cmd = ["mpirun", "-n", str(n), *cmd]
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    return subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
+
+
+def _rows(out):
+    with open(os.path.join(out, "halfspace_modes.csv")) as fh:
+        return list(csv.DictReader(fh))
+
+
+@pytest.mark.parametrize("n", [1, 2])
+def test_run_writes_outputs_and_flags_truncation(tmp_path, n):
+    proc = _run(TINY, tmp_path, n)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    for name in ("halfspace_modes.csv", "summary.json", "halfspace_modes.png"):
+        assert (tmp_path / name).stat().st_size > 0
+    rows = _rows(tmp_path)
+    assert len(rows) == 4  # 2 k x (PML + one strip)
+    pml = {float(r["k"]): r for r in rows if r["method"] == "pml"}
+    # k = 0.3: physical root; k = 1.0 is past q_c = 0.707: the s~ root (Appendix C).
+    assert pml[0.3]["sheet"] == "physical" and pml[1.0]["sheet"] == "s_tilde"
+    for r in pml.values():
+        assert r["trusted"] == "True"
+        # P3 layer: measured 1.7e-11 and 6e-12 (2026-11-21).
+        assert float(r["rel_error"]) < 1e-10
+    for r in rows:
+        if r["method"] == "truncated":  # H = 50 strips reflect: flagged, and wrong
+            assert r["trusted"] == "False" and "reflection" in r["flags"]
+            assert float(r["rel_error"]) > 1e-5
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["silent_failures"] == 0 and summary["ranks"] == n
+
+
+@pytest.mark.parametrize("bad", [["--degree", "0"], ["--k", "-1"], ["--bc-trunc", "free"],
+                                 ["--attenuation", "-3"], ["--gamma", "-1"]])
+def test_bad_input_exits_2_and_writes_nothing(tmp_path, bad):
+    out = tmp_path / "out"
+    proc = _run(bad, out)
+    assert proc.returncode == 2
+    assert proc.stderr.strip().count("\n") == 0 and proc.stderr.startswith("error:")
+    assert not out.exists()

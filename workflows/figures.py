@@ -1,0 +1,405 @@
+"""Gallery: every figure of the paper that has data, regenerated into one folder.
+
+    python workflows/figures.py --out results/figures
+    mpirun -n 2 python workflows/figures.py --out results/figures   # figures split over ranks
+
+Figures (``--only`` takes a comma list of these names):
+
+- ``finiteH``: waveguide growth ``H Re Lambda`` vs ``Hk`` for several ``gamma f`` and ``n``,
+  and for several ``H`` (Fig. finiteH), with the small-``k`` slope of Eq. (Hspectrum);
+  needs ``analytic.branches`` / ``analytic.smallk`` (helper A), skipped with a message if absent;
+- ``comparison``: ``Re lambda`` and ``Re z`` vs ``q`` for several ``gamma f``, exact roots of
+  ``s(z, q)`` and Eqs. (analytic_spectrum), (kappa_d)+(kappa_d1) (Fig. comparison);
+- ``both``: dilatational and shear instabilities at small ``Delta`` (Fig. both);
+- ``phase_diagram``: Fig. stability_diagram (via ``workflows/phase_diagram.py``);
+- ``modified1`` / ``modified2``: effect of ``alpha_PC`` / ``alpha_LD`` (Figs. modified1/2);
+- ``stress_top``: velocity vs stress top condition at finite ``H`` (Appendix B figure); needs
+  ``analytic.branches`` (helper A);
+- ``gaps``: the gaps of the spectrum closed by ``s~`` (Appendix C, Fig. gaps).
+
+Every PNG carries its command line and parameters in the PNG metadata (``Description``,
+``Comment``); ``DIR/figures.json`` lists what was made (or skipped, and why).
+
+Overlaying other data (e.g. FE eigenvalues): with ``--overlay DIR``, a file
+``DIR/<figure>.csv`` with columns ``x, y, label`` (and optionally ``panel``, 0-based) is plotted
+as markers on that figure (``x, y`` in the figure's axes units: ``q`` or ``Hk``, growth rate).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import sys
+from collections.abc import Callable
+
+import numpy as np
+
+from mpi4py import MPI
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+import _cli  # noqa: E402
+import phase_diagram  # noqa: E402
+
+from analytic import halfspace as hs  # noqa: E402
+from analytic import largek as lk  # noqa: E402
+from analytic.params import ParameterError, Params  # noqa: E402
+
+FIGURES = ("finiteH", "comparison", "both", "phase_diagram", "modified1", "modified2",
+           "stress_top", "gaps")
+
+
+class Skipped(RuntimeError):
+    """A figure cannot be made here (a missing optional part); the reason is recorded."""
+
+
+# ------------------------------------------------------------------------------- data helpers
+def dilatational_tracks(qs: np.ndarray, p: Params) -> dict[str, list[hs.HalfSpaceRoot]]:
+    """Both ``kappa_d`` roots (``"unstable"``/``"stable"`` functions) continued over ``qs``."""
+    return {b: hs.follow("dilatational", qs, p, branch=b) for b in ("unstable", "stable")}
+
+
+def physical_curve(roots: list[hs.HalfSpaceRoot], attr: Callable[[hs.HalfSpaceRoot], float],
+                   sheet: str = "physical") -> np.ndarray:
+    """``attr(root)`` where the root is converged and on ``sheet``, NaN elsewhere (gaps show)."""
+    return np.array([attr(r) if (r.converged and r.sheet == sheet) else np.nan for r in roots])
+
+
+def overlay(ax, name: str, opts: argparse.Namespace, panel: int = 0) -> None:  # noqa: ANN001
+    """Plot ``opts.overlay/<name>.csv`` (columns x, y, label[, panel]) as markers."""
+    if not opts.overlay:
+        return
+    path = os.path.join(opts.overlay, f"{name}.csv")
+    if not os.path.exists(path):
+        return
+    groups: dict[str, list[tuple[float, float]]] = {}
+    with open(path) as fh:
+        for row in csv.DictReader(fh):
+            if int(row.get("panel", 0) or 0) != panel:
+                continue
+            groups.setdefault(row.get("label", "overlay"), []).append(
+                (float(row["x"]), float(row["y"])))
+    for label, pts in groups.items():
+        x, y = np.array(pts).T
+        ax.plot(x, y, "s", ms=4, mfc="none", label=label)
+
+
+# ---------------------------------------------------------------------------------- figures
+def fig_comparison(opts: argparse.Namespace):  # noqa: ANN201
+    """Fig. comparison: Re lambda (left) and Re z (right) vs q, exact and analytic."""
+    import matplotlib.pyplot as plt
+
+    base = Params(f=0.3, beta=0.5, Delta=0.7)
+    gfs = (0.6, 0.75, 0.84, 0.96, 1.2)
+    qs = np.logspace(-2, 2, opts.n_q)
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.6))
+    for i, gf in enumerate(gfs):
+        c = f"C{i}"
+        p = base.replace(gamma=gf / base.f)
+        tr = dilatational_tracks(qs, p)
+        for j, b in enumerate(("unstable", "stable")):
+            lab = f"gamma f = {gf:g}" if j == 0 else None
+            a1.plot(qs, physical_curve(tr[b], lambda r: r.growth), "-", color=c, lw=1.6,
+                    label=lab)
+            a2.plot(qs, physical_curve(tr[b], lambda r: r.z.real), "-", color=c, lw=1.6,
+                    label=lab)
+        a1.plot(qs, lk.growth_rate_dilatational_physical(qs, p), ":", color=c, lw=1.4)
+        zl = np.where(lk.growth_rate_dilatational(qs, p) > 0, lk.z_linear(qs, p, "unstable"),
+                      lk.z_linear(qs, p, "stable"))
+        a2.plot(qs, zl.real, ":", color=c, lw=1.4)
+    a1.axhline(0, color="k", lw=0.6)
+    a1.set_yscale("symlog", linthresh=1e-4, linscale=1.5)
+    a1.set(xscale="log", xlabel="q", ylabel=r"Re $\lambda$ = q Im z  (symlog, linear below 1e-4)")
+    a1.set_title("growth rate: exact s(z,q) roots (solid), Eq. analytic_spectrum (dotted)",
+                 fontsize=10)
+    a2.set(xscale="log", xlabel="q", ylabel="Re z")
+    a2.set_title("Re z: exact (solid), Eq. kappa_d with kappa_d1 (dotted)", fontsize=10)
+    a2.axhline(1 / base.beta, color="k", lw=0.6, ls="--")
+    overlay(a1, "comparison", opts, 0)
+    overlay(a2, "comparison", opts, 1)
+    for a in (a1, a2):
+        a.grid(alpha=0.3)
+        a.legend(fontsize=8)
+    fig.suptitle(f"dilatational branch, f = {base.f}, beta = {base.beta}, Delta = {base.Delta} "
+                 "(gaps: Appendix C)")
+    fig.tight_layout()
+    return fig, {"f": base.f, "beta": base.beta, "Delta": base.Delta, "gamma_f": gfs,
+                 "q": [qs[0], qs[-1], len(qs)]}
+
+
+def fig_gaps(opts: argparse.Namespace):  # noqa: ANN201
+    """Appendix C: roots of s (solid) and of s~ (dashed) join into continuous curves."""
+    import matplotlib.pyplot as plt
+
+    p = Params(f=0.3, beta=0.5, Delta=0.7, gamma=0.96 / 0.3)
+    qs = np.logspace(-2, 2, opts.n_q)
+    tr = dilatational_tracks(qs, p)
+    fig, ax = plt.subplots(figsize=(7.5, 4.8))
+    for b, c in (("unstable", "C0"), ("stable", "C1")):
+        ax.plot(qs, physical_curve(tr[b], lambda r: r.growth), "-", color="tab:red", lw=2)
+        ax.plot(qs, physical_curve(tr[b], lambda r: r.growth, "s_tilde"), "--",
+                color="tab:green", lw=2)
+        ax.plot(qs, [r.growth for r in tr[b]], "-", color=c, lw=0.6, alpha=0.8,
+                label=f"continued root, kappa_d function '{b}'")
+    ax.plot([], [], "-", color="tab:red", lw=2, label="roots of s (physical sheet)")
+    ax.plot([], [], "--", color="tab:green", lw=2, label="roots of s~ (Eq. spectrum_dimless_gap)")
+    ax.axhline(0, color="k", lw=0.6)
+    overlay(ax, "gaps", opts)
+    ax.set(xscale="log", xlabel="q", ylabel=r"Re $\lambda$",
+           title="gamma f = 0.96: the gap of s(z,q) is filled by s~ (Appendix C)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig, {**p.as_dict(), "q": [qs[0], qs[-1], len(qs)]}
+
+
+def fig_both(opts: argparse.Namespace):  # noqa: ANN201
+    """Fig. both: dilatational and shear growth rates at small Delta, gamma = 0.25."""
+    import matplotlib.pyplot as plt
+
+    f, beta, gamma = 0.3, 0.5, 0.25
+    deltas = (0.0, 0.01, 0.02, 0.026, 0.035)
+    qs = np.unique(np.concatenate([np.logspace(-2.5, 1, opts.n_q),
+                                   np.linspace(0.03, 0.08, opts.n_q // 2),
+                                   np.linspace(0.18, 0.32, opts.n_q // 2)]))
+    fig, ax = plt.subplots(figsize=(8, 5))
+    for i, d in enumerate(deltas):
+        p = Params(f=f, beta=beta, gamma=gamma, Delta=d)
+        dil = hs.follow("dilatational", qs, p)
+        she = [hs.shear_root(float(q), p) for q in qs]
+        gd = np.array([r.growth if (r.physical and r.growth > 0) else np.nan for r in dil])
+        gs = np.array([r.growth if (r.physical and hs.in_family(r) and r.growth > 0)
+                       else np.nan for r in she])
+        ax.plot(qs, gd, "-", color=f"C{i}", lw=1.6, label=f"Delta = {d:g} dilatational")
+        ax.plot(qs, gs, "--", color=f"C{i}", lw=1.6, label=f"Delta = {d:g} shear")
+    qc = lk.qc_shear(gamma, f, beta)
+    ax.annotate(f"q_c^(s) = {qc:.3f}", xy=(qc, 0), xytext=(0.6 * qc, 6e-4),
+                arrowprops={"arrowstyle": "->"}, ha="center", fontsize=8)
+    overlay(ax, "both", opts)
+    dm, ds = lk.delta_m(f, beta), float(lk.delta_s(gamma * f, f, beta))
+    ax.set(xscale="log", xlabel="q", ylabel=r"Re $\lambda$ > 0")
+    ax.set_title(f"gamma = {gamma}, f = {f}, beta = {beta}: shear threshold at this gamma "
+                 f"Delta_s = {ds:.4f};\nEq. Delta_m: Delta^(m) = {dm:.4f} (paper's caption: "
+                 "0.024); solid dilatational, dashed shear", fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    return fig, {"f": f, "beta": beta, "gamma": gamma, "Delta": deltas,
+                 "q": [qs[0], qs[-1], len(qs)], "qc_shear": qc, "delta_s": ds,
+                 "delta_m": dm}
+
+
+def _modified(opts: argparse.Namespace, name: str, key: str, values: tuple[float, ...]):  # noqa: ANN202
+    import matplotlib.pyplot as plt
+
+    qs = np.logspace(-2, 3, opts.n_q)
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.6))
+    for ax, gamma in zip(axes, (3.2, 4.0), strict=True):
+        for i, v in enumerate(values):
+            p = Params(f=0.3, beta=0.5, Delta=0.7, gamma=gamma, **{key: v})
+            roots = hs.follow("dilatational", qs, p)
+            ex = np.array([r.growth if (r.physical and r.growth > 0) else np.nan for r in roots])
+            an = lk.growth_linear(qs, p)
+            ax.plot(qs, ex, "-", color=f"C{i}", lw=2.2, label=f"{key} = {v:g} exact")
+            ax.plot(qs, np.where(an > 0, an, np.nan), "-", color=f"C{i}", lw=0.8,
+                    label=f"{key} = {v:g} Eq. kappa_d2")
+        overlay(ax, name, opts, 0 if gamma == 3.2 else 1)
+        ax.set(xscale="log", xlabel="q", ylabel=r"Re $\lambda$ > 0")
+        ax.set_title(f"gamma = {gamma} (Gamma = {0.3 * gamma:.2f}), f = 0.3, beta = 0.5, "
+                     "Delta = 0.7; thick: exact, thin: Eq. kappa_d2", fontsize=10)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig, {"f": 0.3, "beta": 0.5, "Delta": 0.7, "gamma": [3.2, 4.0], key: values,
+                 "q": [qs[0], qs[-1], len(qs)]}
+
+
+def fig_modified1(opts: argparse.Namespace):  # noqa: ANN201
+    """Fig. modified1: alpha_PC (alpha_LD = 0)."""
+    return _modified(opts, "modified1", "alpha_pc", (0.0, 0.5, 1.0, 2.0, 5.0))
+
+
+def fig_modified2(opts: argparse.Namespace):  # noqa: ANN201
+    """Fig. modified2: alpha_LD (alpha_PC = 0), including alpha_LD > f."""
+    return _modified(opts, "modified2", "alpha_ld", (0.0, 0.1, 0.2, 0.4))
+
+
+def fig_phase_diagram(opts: argparse.Namespace):  # noqa: ANN201
+    """Fig. stability_diagram, computed with workflows/phase_diagram.py's functions."""
+    args = phase_diagram.parse(["--n-gamma", str(opts.n_gamma)])
+    rows = phase_diagram.check(args)
+    grid = phase_diagram.gamma_grid(args.gamma_min, args.gamma_max, args.n_gamma)
+    records = [r for f, b in rows for fam in phase_diagram.FAMILIES for g in grid
+               for r in phase_diagram.boundary_records(f, b, fam, float(g), args.delta_max)]
+    fig = phase_diagram.draw(rows, records, args)
+    return fig, {"rows": rows, "n_gamma": args.n_gamma,
+                 "closed_form_vs_numerical": phase_diagram.measured_differences(records, rows)}
+
+
+def _finite_h_tools():  # noqa: ANN202
+    """Helper A's finite-H continuation and small-k slope (Skipped if not available)."""
+    try:
+        from analytic.branches import follow_branch
+        from analytic.smallk import lambda_smallk
+    except ImportError as err:
+        raise Skipped(f"needs analytic.branches / analytic.smallk (helper A): {err}") from None
+    return follow_branch, lambda_smallk
+
+
+def _unstable_branch(follow_branch, p: Params, n: int, hk: np.ndarray):  # noqa: ANN001, ANN202
+    """``H Re Lambda`` on the partner of cut-off ``n`` that grows at small ``k``."""
+    best = None
+    for sign in (-1, 1):
+        res = follow_branch(p, n, sign, hk / p.H)
+        g = np.where(res.ok, res.Lambda.real, np.nan) * p.H
+        if best is None or np.nanmax(np.r_[g[:3], -np.inf]) > np.nanmax(np.r_[best[0][:3],
+                                                                              -np.inf]):
+            best = (g, sign, res)
+    return best
+
+
+def fig_finiteH(opts: argparse.Namespace):  # noqa: ANN201, N802
+    """Fig. finiteH: H Re Lambda vs Hk; left: gamma f and n (H = 0.5), right: H (n = 0)."""
+    import matplotlib.pyplot as plt
+
+    follow_branch, lambda_smallk = _finite_h_tools()
+    hk = np.linspace(0.02, 3.0, max(opts.n_q // 4, 12))
+    base = Params(f=0.3, beta=0.5, Delta=0.7, H=0.5)
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.6))
+    gfs = (0.3, 0.6, 0.9, 1.2)
+    signs = {}
+    for i, gf in enumerate(gfs):
+        p = base.replace(gamma=gf / base.f)
+        g, sign, _ = _unstable_branch(follow_branch, p, 0, hk)
+        signs[f"gf={gf}"] = sign
+        a1.plot(hk, g, "-", color=f"C{i}", lw=1.6, label=f"gamma f = {gf:g}, n = 0")
+        a1.plot(hk[hk < 0.8], p.H * lambda_smallk(hk[hk < 0.8] / p.H, 0, sign, p).real, "--",
+                color="k", lw=0.8)
+    p = base.replace(gamma=0.9 / base.f)
+    for n, ls in ((1, "--"), (2, ":")):
+        g, sign, _ = _unstable_branch(follow_branch, p, n, hk)
+        a1.plot(hk, g, ls, color="C2", lw=1.6, label=f"gamma f = 0.9, n = {n}")
+        a1.plot(hk[hk < 0.8], p.H * lambda_smallk(hk[hk < 0.8] / p.H, n, sign, p).real, "--",
+                color="k", lw=0.8)
+    a1.plot([], [], "--", color="k", lw=0.8, label="Eq. Hspectrum (small k)")
+    hs_ = (0.5, 1.0, 2.0, 5.0, 10.0)
+    for i, h in enumerate(hs_):
+        p = base.replace(H=h, gamma=3.0)
+        g, _, _ = _unstable_branch(follow_branch, p, 0, hk)
+        a2.plot(hk, g, "-", color=f"C{i}", lw=1.6, label=f"H = {h:g}")
+    for ax, title in ((a1, "H = 0.5: several gamma f (n = 0) and n (gamma f = 0.9)"),
+                      (a2, "n = 0, gamma = 3: several H (saturation at large H)")):
+        ax.axhline(0, color="k", lw=0.6)
+        ax.set(xlabel="H k", ylabel=r"H Re $\Lambda$  (units of $c_s/H$)")
+        ax.set_title(title, fontsize=10)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    overlay(a1, "finiteH", opts, 0)
+    overlay(a2, "finiteH", opts, 1)
+    fig.suptitle("waveguide branches from the cut-offs, velocity top (f = 0.3, beta = 0.5, "
+                 "Delta = 0.7)")
+    fig.tight_layout()
+    return fig, {**base.as_dict(), "gamma_f": gfs, "n": [0, 1, 2], "H_right": hs_,
+                 "gamma_right": 3.0, "Hk": [hk[0], hk[-1], len(hk)], "signs": signs}
+
+
+def fig_stress_top(opts: argparse.Namespace):  # noqa: ANN201
+    """Appendix B figure: velocity vs stress top, gamma f = 0.9, n = 0, H = 0.5."""
+    import matplotlib.pyplot as plt
+
+    follow_branch, _ = _finite_h_tools()
+    hk = np.linspace(0.02, 2.0, max(opts.n_q // 4, 12))
+    fig, ax = plt.subplots(figsize=(7.5, 4.8))
+    params = {}
+    for bc, c in (("velocity", "tab:red"), ("stress", "tab:green")):
+        p = Params(f=0.3, beta=0.5, Delta=0.7, H=0.5, gamma=3.0, bc=bc)
+        g, sign, _ = _unstable_branch(follow_branch, p, 0, hk)
+        ax.plot(hk, g, "-", color=c, lw=1.8,
+                label=f"{bc} controlled top (branch 0{'+-'[sign < 0]})")
+        params[bc] = p.as_dict()
+    overlay(ax, "stress_top", opts)
+    ax.axhline(0, color="k", lw=0.6)
+    ax.set(xlabel="H k", ylabel=r"H Re $\Lambda$")
+    ax.set_title("gamma f = 0.9, n = 0, H = 0.5: velocity vs stress top condition", fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig, {"cases": params, "Hk": [hk[0], hk[-1], len(hk)]}
+
+
+MAKERS: dict[str, Callable] = {
+    "finiteH": fig_finiteH, "comparison": fig_comparison, "both": fig_both,
+    "phase_diagram": fig_phase_diagram, "modified1": fig_modified1,
+    "modified2": fig_modified2, "stress_top": fig_stress_top, "gaps": fig_gaps,
+}
+
+
+# -------------------------------------------------------------------------------------- main
+def parse(argv: list[str] | None = None) -> argparse.Namespace:
+    """Command line."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="results/figures", help="output folder")
+    ap.add_argument("--only", default=None, help=f"comma list of {', '.join(FIGURES)}")
+    ap.add_argument("--n-q", type=int, default=240, help="wavenumbers per curve")
+    ap.add_argument("--n-gamma", type=int, default=16, help="Gamma points, phase diagram")
+    ap.add_argument("--overlay", default=None,
+                    help="folder with <figure>.csv (x, y, label[, panel]) to overlay")
+    return ap.parse_args(argv)
+
+
+def check(opts: argparse.Namespace) -> list[str]:
+    """Validate options before anything is written; returns the figure names."""
+    names = list(FIGURES) if opts.only is None else [n.strip() for n in opts.only.split(",")
+                                                      if n.strip()]
+    bad = [n for n in names if n not in FIGURES]
+    if bad or not names:
+        raise ParameterError(f"--only = {opts.only!r}: unknown figure {bad[0] if bad else ''!r};"
+                             f" allowed: {', '.join(FIGURES)}")
+    _cli.positive_int("--n-q", opts.n_q, minimum=10, maximum=100000)
+    _cli.positive_int("--n-gamma", opts.n_gamma, minimum=2, maximum=2000)
+    if opts.overlay is not None and not os.path.isdir(opts.overlay):
+        raise ParameterError(f"--overlay = {opts.overlay!r} is not a folder")
+    return names
+
+
+def main(comm: MPI.Comm = MPI.COMM_WORLD, argv: list[str] | None = None) -> int:
+    """Make the figures (split over ranks); rank 0 writes ``figures.json``."""
+    opts = parse(argv)
+    names = check(opts)  # every rank: same input, same verdict, before any collective
+    if comm.rank == 0:
+        os.makedirs(opts.out, exist_ok=True)
+    comm.Barrier()
+    done = {}
+    for name in names[comm.rank::comm.size]:
+        path = os.path.join(opts.out, f"{name}.png")
+        try:
+            fig, params = MAKERS[name](opts)
+        except Skipped as why:
+            done[name] = {"status": "skipped", "reason": str(why)}
+            continue
+        import matplotlib.pyplot as plt
+
+        command = " ".join([sys.executable] + sys.argv)
+        phase_diagram.save_png(fig, path, {"figure": name, **params}, command)
+        plt.close(fig)
+        done[name] = {"status": "written", "file": os.path.basename(path),
+                      "parameters": params}
+    parts = comm.gather(done, root=0)
+    if comm.rank == 0:
+        index = {k: v for part in parts for k, v in part.items()}
+        with open(os.path.join(opts.out, "figures.json"), "w") as fh:
+            json.dump({"command": " ".join([sys.executable] + sys.argv),
+                       "versions": phase_diagram.versions(), "figures": index}, fh, indent=2,
+                      default=str)
+        for k in names:
+            v = index[k]
+            print(f"{k}: {v['status']}" + (f" ({v['reason']})" if "reason" in v else ""),
+                  flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    _cli.run(lambda: main(MPI.COMM_WORLD))

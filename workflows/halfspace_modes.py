@@ -1,0 +1,250 @@
+"""Half-space modes: FE with a PML layer vs plain truncated strips vs the roots of s(z, q).
+
+    mpirun -n N python workflows/halfspace_modes.py [options] --out DIR
+
+For every ``k`` the root of the half-space spectrum (``analytic.halfspace``: the dilatational
+family near ``z = 1/beta``, continued in ``k`` through ``q_c`` onto the ``s~`` sheet of
+Appendix C, or the shear family near ``z = -1``) is the reference. The FE computes it
+
+- with the PML layer of :mod:`forms.pml` (two layer settings, failure flags), and
+- with plain strips of the heights ``--H-trunc`` and the top conditions ``--bc-trunc``
+  (B's cross-section model; flag: reflection estimate at the top).
+
+Every row says whether the code trusted its number (``trusted``, ``flags``) and how far it is
+from the analytic root; ``summary.json`` counts the *silent failures* (trusted but wrong by
+more than ``--silent-rtol``), which must be zero. Ranks share the ``k`` values (one mesh per
+rank). Writes ``DIR/halfspace_modes.csv``, ``DIR/summary.json``, ``DIR/halfspace_modes.png``.
+
+Exit codes: 0 fine; 1 some silent failure; 2 bad input (nothing written).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import json
+import logging
+import math
+import os
+import platform
+import sys
+import time
+
+import _cli
+import numpy as np
+
+OUTPUT_FILES = ("halfspace_modes.csv", "summary.json", "halfspace_modes.png")
+FAMILIES = ("dilatational", "shear")
+COLUMNS = ("k", "family", "method", "bc", "H", "re_lambda", "im_lambda", "re_lambda_exact",
+           "im_lambda_exact", "sheet_exact", "sheet", "rel_error", "growth_rel_error",
+           "disagreement", "growth_disagreement", "residual", "attenuation", "reflection",
+           "decay_length_s", "decay_length_d", "dofs", "seconds", "trusted", "flags")
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # noqa: D102
+        raise _cli.ParameterError(message)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Command-line options (``--H`` and ``--bc`` of the shared group are ignored)."""
+    ap = _Parser(description="Half-space modes: PML vs truncated strips vs s(z, q) roots.")
+    _cli.add_param_arguments(ap)
+    ap.add_argument("--family", choices=FAMILIES, default="dilatational")
+    ap.add_argument("--k", default="0.02,0.05,0.1,0.2,0.3,0.5,0.7,0.75,1,1.5,3",
+                    help="start:stop:count or k1,k2,... (%(default)s)")
+    ap.add_argument("--degree", type=int, default=4, help="element degree 1..6 (%(default)s)")
+    ap.add_argument("--attenuation", type=float, default=16.0,
+                    help="e-folds of the slower wave across the PML (%(default)s)")
+    ap.add_argument("--H-trunc", default="100,1000",
+                    help="heights of the plain truncated strips, comma list ('' for none)")
+    ap.add_argument("--bc-trunc", default="velocity,stress",
+                    help="top conditions of the truncated strips (%(default)s)")
+    ap.add_argument("--tol", type=float, default=1e-8,
+                    help="relative disagreement / reflection accepted (%(default)s)")
+    ap.add_argument("--silent-rtol", type=float, default=1e-6,
+                    help="a trusted value farther than this from the root is a silent failure")
+    ap.add_argument("--out", default="results/halfspace_modes", help="output folder")
+    return ap
+
+
+def _check(args: argparse.Namespace) -> tuple:
+    """Validate everything before any output or collective call."""
+    from analytic.params import Params
+
+    base = _cli.params_from_args(args)
+    p = Params(f=base.f, gamma=base.gamma, beta=base.beta, Delta=base.Delta, H=math.inf,
+               alpha_pc=base.alpha_pc, alpha_ld=base.alpha_ld)
+    ks = np.sort(_cli.parse_k(args.k))
+    _cli.positive_int("--degree", args.degree, 1, 6)
+    if not (math.isfinite(args.attenuation) and args.attenuation > 0):
+        raise _cli.ParameterError(f"--attenuation = {args.attenuation} must be > 0")
+    hs = _cli.parse_k(args.H_trunc, name="--H-trunc") if args.H_trunc.strip() else np.array([])
+    bcs = [b.strip() for b in args.bc_trunc.split(",") if b.strip()]
+    for b in bcs:
+        if b not in ("velocity", "stress"):
+            raise _cli.ParameterError(f"--bc-trunc: {b!r} is not 'velocity' or 'stress'")
+    for name in ("tol", "silent_rtol"):
+        v = getattr(args, name)
+        if not (0 < v < 1):
+            raise _cli.ParameterError(f"--{name.replace('_', '-')} = {v} must be in (0, 1)")
+    return p, ks, hs, bcs
+
+
+def _rel(a: complex, b: complex) -> float:
+    return abs(a - b) / abs(b) if np.isfinite(a) else math.inf
+
+
+def _growth_rel(a: complex, b: complex) -> float:
+    return abs(a.real - b.real) / abs(b.real) if np.isfinite(a) and b.real else math.inf
+
+
+def solve_k(comm, p, k: float, root, args, hs, bcs) -> list[dict]:
+    """All rows of one ``k`` (PML + truncated strips) on ``comm``."""
+    from forms.pml import solve_halfspace, solve_truncated
+
+    exact = root.Lambda
+    base = {"k": k, "family": args.family, "re_lambda_exact": exact.real,
+            "im_lambda_exact": exact.imag, "sheet_exact": root.sheet,
+            "decay_length_s": root.decay_length_s, "decay_length_d": root.decay_length_d}
+    rows = []
+    t0 = time.perf_counter()
+    sheet = root.sheet if root.sheet != "unphysical" else "physical"
+    r = solve_halfspace(comm, p, k, exact, degree=args.degree, attenuation=args.attenuation,
+                        sheet=sheet, tol=args.tol)
+    rows.append({**base, "method": "pml", "bc": "", "H": math.inf, "re_lambda": r.Lambda.real,
+                 "im_lambda": r.Lambda.imag, "sheet": r.sheet,
+                 "rel_error": _rel(r.Lambda, exact),
+                 "growth_rel_error": _growth_rel(r.Lambda, exact),
+                 "disagreement": r.disagreement, "growth_disagreement": r.growth_disagreement,
+                 "residual": r.residual, "attenuation": r.attenuation, "reflection": math.nan,
+                 "dofs": sum(r.sizes), "seconds": time.perf_counter() - t0,
+                 "trusted": r.ok, "flags": ";".join(r.flags)})
+    for bc in bcs:
+        for H in hs:
+            t0 = time.perf_counter()
+            t = solve_truncated(comm, p, k, float(H), bc, exact, degree=args.degree, tol=args.tol)
+            rows.append({**base, "method": "truncated", "bc": bc, "H": float(H),
+                         "re_lambda": t.Lambda.real, "im_lambda": t.Lambda.imag, "sheet": "",
+                         "rel_error": _rel(t.Lambda, exact),
+                         "growth_rel_error": _growth_rel(t.Lambda, exact),
+                         "disagreement": math.nan, "growth_disagreement": math.nan,
+                         "residual": t.residual, "attenuation": math.nan,
+                         "reflection": t.reflection, "dofs": t.size,
+                         "seconds": time.perf_counter() - t0, "trusted": not t.flags,
+                         "flags": ";".join(t.flags)})
+    return rows
+
+
+def plot(rows: list[dict], roots: list, path: str, title: str, meta: dict) -> None:
+    """Growth rate and relative error vs k (PML, truncated strips, analytic)."""
+    import matplotlib.pyplot as plt
+
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.8))
+    kk = np.array([r.q for r in roots])
+    gr = np.array([r.Lambda.real for r in roots])
+    for sheet, ls in (("physical", "-"), ("s_tilde", "--")):
+        m = np.array([r.sheet == sheet for r in roots])
+        if m.any():
+            ax1.plot(kk[m], gr[m], ls, color="k", lw=1, marker=".",
+                     label=f"analytic root of {'s' if sheet == 'physical' else 's~'}")
+    styles = {}
+    for r in rows:
+        key = ("pml", "", 0.0) if r["method"] == "pml" else ("truncated", r["bc"], r["H"])
+        styles.setdefault(key, len(styles))
+    markers = "os^vDP*X"
+    for key, i in styles.items():
+        sel = [r for r in rows if (r["method"], r["bc"], r["H"] if r["method"] != "pml" else 0.0)
+               == key]
+        lab = "PML" if key[0] == "pml" else f"strip H={key[2]:g} ({key[1]} top)"
+        col = f"C{i}"
+        for trusted in (True, False):
+            s = [r for r in sel if r["trusted"] == trusted]
+            if not s:
+                continue
+            x = [r["k"] for r in s]
+            face = col if trusted else "none"
+            ax1.plot(x, [r["re_lambda"] for r in s], markers[i % 8], ms=6, mfc=face, mec=col,
+                     ls="none", label=lab + ("" if trusted else " (flagged)"))
+            ax2.loglog(x, [max(r["rel_error"], 1e-17) for r in s], markers[i % 8], ms=6,
+                       mfc=face, mec=col, ls="none", label=lab + ("" if trusted else " (flagged)"))
+    ax1.set_xscale("log")
+    ax1.axhline(0, color="0.6", lw=0.5)
+    ax1.set_xlabel("k (= paper's q)")
+    ax1.set_ylabel("Re Lambda")
+    ax1.set_title(title, fontsize=9)
+    ax1.legend(fontsize=7)
+    ax2.set_xlabel("k")
+    ax2.set_ylabel("|Lambda_FE - Lambda_exact| / |Lambda_exact|")
+    ax2.set_title("filled: trusted by the code; hollow: flagged", fontsize=9)
+    ax2.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110, metadata={"Title": title, "Description": json.dumps(meta)})
+    plt.close(fig)
+
+
+def main(comm=None) -> int:
+    """Entry point (``comm``: communicator whose ranks share the k values)."""
+    args = build_parser().parse_args()
+    p, ks, hs, bcs = _check(args)
+    import slepc4py
+
+    slepc4py.init(sys.argv[:1])
+    from mpi4py import MPI
+
+    from analytic.halfspace import follow
+
+    comm = comm or MPI.COMM_WORLD
+    logging.disable(logging.INFO)
+    roots = follow(args.family, ks, p, branch="unstable")
+    mine = []
+    for i in range(comm.rank, len(ks), comm.size):
+        mine.extend(solve_k(MPI.COMM_SELF, p, float(ks[i]), roots[i], args, hs, bcs))
+    parts = comm.gather(mine, root=0)
+    code = 0
+    if comm.rank == 0:
+        rows = sorted((r for part in parts for r in part),
+                      key=lambda r: (r["k"], r["method"], r["bc"], r["H"]))
+        silent = [r for r in rows if r["trusted"] and not r["rel_error"] <= args.silent_rtol]
+        os.makedirs(args.out, exist_ok=True)
+        with open(os.path.join(args.out, OUTPUT_FILES[0]), "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=COLUMNS)
+            w.writeheader()
+            for r in rows:
+                w.writerow({c: r[c] for c in COLUMNS})
+        import dolfinx
+        import slepc4py as sl
+
+        meta = {"command": " ".join(sys.argv), "params": dataclasses.asdict(p),
+                "family": args.family, "k": ks.tolist(), "degree": args.degree,
+                "attenuation": args.attenuation, "H_trunc": hs.tolist(), "bc_trunc": bcs,
+                "tol": args.tol, "silent_rtol": args.silent_rtol, "ranks": comm.size,
+                "machine": platform.platform(), "python": platform.python_version(),
+                "dolfinx": dolfinx.__version__, "slepc4py": sl.__version__,
+                "numpy": np.__version__}
+        meta["params"] = {k: (v if not isinstance(v, float) or math.isfinite(v) else str(v))
+                          for k, v in meta["params"].items()}
+        summary = {**meta, "rows": len(rows),
+                   "trusted": sum(r["trusted"] for r in rows),
+                   "flagged": sum(not r["trusted"] for r in rows),
+                   "silent_failures": len(silent),
+                   "silent_failure_rows": [{"k": r["k"], "method": r["method"], "bc": r["bc"],
+                                            "H": r["H"], "rel_error": r["rel_error"]}
+                                           for r in silent],
+                   "pml_max_rel_error_trusted": max(
+                       [r["rel_error"] for r in rows if r["method"] == "pml" and r["trusted"]],
+                       default=math.nan)}
+        with open(os.path.join(args.out, OUTPUT_FILES[1]), "w") as fh:
+            json.dump(summary, fh, indent=1, default=str)
+        title = (f"{args.family} family, f={p.f}, gamma={p.gamma}, beta={p.beta}, "
+                 f"Delta={p.Delta}, P{args.degree}")
+        plot(rows, roots, os.path.join(args.out, OUTPUT_FILES[2]), title, meta)
+        print(f"{len(rows)} rows, {summary['flagged']} flagged, "
+              f"{len(silent)} silent failures -> {args.out}", flush=True)
+        code = 1 if silent else 0
+    return comm.bcast(code, root=0)
+
+
+if __name__ == "__main__":
+    _cli.run(main)

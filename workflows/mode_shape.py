@@ -1,0 +1,474 @@
+"""Mode shape of the sliding strip in real space: files for ParaView and pictures.
+
+Solves the Bloch-periodic strip (:mod:`forms.strip`) at one wavenumber ``k`` near a target,
+keeps the eigenvalue whose mode really carries ``exp(-i k x)`` (a one-wavelength cell also holds
+``0, -k, 2k, ...``: see :func:`forms.strip.harmonic_content`), and writes to ``--out``:
+
+- ``mode.xdmf`` (+ ``.h5``): ``Re(u exp(i Im(Lambda) t))`` over one period ``T = 2 pi/|Im
+  Lambda|`` (``--phases`` steps, growth factored out; XDMF stores vertex values), for ParaView;
+- ``mode_p2.pvd``: the complex mode at phase 0 at full polynomial degree (VTK Lagrange cells);
+- ``mode_shape.png``: the deformed strip coloured by ``|u|`` (or ``--color stress``: the normal
+  stress perturbation ``sigma_yy``), sliding and propagation directions marked; PyVista
+  off-screen; ``mode_phases.png``: four phases of the period;
+- ``interface_tractions.png`` and ``interface.csv``: shear and normal stress perturbations and
+  slip along the interface (the bi-material coupling);
+- ``mode.json``: parameters, eigenvalue, backward error, harmonic content, timings, versions.
+
+Under ``mpirun -n N`` the strip is distributed; the writers use the mesh communicator and the
+pictures are drawn on rank 0 from gathered data.
+
+Example (the README picture)::
+
+    ./run mpirun -n 2 python workflows/mode_shape.py --out workflows/results/mode_shape
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+
+import numpy as np
+
+# No display here: VTK >= 9.4 picks its window class from this (EGL, no X server attempt).
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+# VTK's wheel must be loaded before dolfinx's C++ library: the other way round, std::regex in
+# vtkScalarBarActor aborts with std::bad_alloc (a libstdc++ clash, seen with vtk 9.7.2 and
+# Debian's dolfinx 0.5.2). So pyvista is imported first, here.
+import pyvista  # noqa: E402, F401, I001
+
+import _cli  # noqa: E402
+
+DEFAULT_K = 1.0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Command-line options."""
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0],
+                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    _cli.add_param_arguments(p)
+    p.add_argument("--k", type=float, default=DEFAULT_K, help="wavenumber k > 0")
+    p.add_argument("--most-unstable", action="store_true",
+                   help="instead of --k: the k of largest growth of --branch on the --k-scan grid"
+                        " (cross-section model)")
+    p.add_argument("--k-scan", default="0.05:4:80", help="k grid for --most-unstable")
+    p.add_argument("--branch", default="0-",
+                   help="waveguide branch n and sign of Im Lambda_0 (e.g. 0-, 1+)")
+    p.add_argument("--target", type=complex, default=None,
+                   help="eigenvalue target (Python complex, e.g. 0.27-6.59j); default: the"
+                        " cross-section eigenvalue of --branch at k")
+    p.add_argument("--source", choices=("strip", "cross-section"), default="strip",
+                   help="strip: solve the Bloch strip; cross-section: show Re(u_hat(y) exp(-ikx))"
+                        " of the 1D model on the strip mesh, no strip solve")
+    p.add_argument("--wavelengths", type=int, default=1, help="strip length in wavelengths")
+    p.add_argument("--cells-per-wavelength", type=int, default=32, help="cells along x")
+    p.add_argument("--ny", type=int, default=8, help="cells along y")
+    p.add_argument("--grading", type=float, default=1.0,
+                   help="top/bottom cell height ratio (>= 1; > 1 refines towards y = 0)")
+    p.add_argument("--degree", type=int, default=2, help="Lagrange degree")
+    p.add_argument("--nev", type=int, default=8, help="eigenpairs computed near the target")
+    p.add_argument("--phases", type=int, default=16, help="phases over one period in mode.xdmf")
+    p.add_argument("--color", choices=("displacement", "stress"), default="displacement",
+                   help="colour of the deformed strip: |u| or sigma_yy")
+    p.add_argument("--no-render", action="store_true", help="skip the PyVista pictures")
+    p.add_argument("--out", default="mode_shape", help="output directory")
+    return p
+
+
+def parse_branch(spec: str) -> tuple[int, int]:
+    """``"0-"`` -> ``(0, -1)``; raises :class:`ParameterError` on anything else."""
+    s = spec.strip()
+    if len(s) >= 2 and s[-1] in "+-" and s[:-1].isdigit():
+        return int(s[:-1]), (1 if s[-1] == "+" else -1)
+    raise _cli.ParameterError(f"--branch = {spec!r} is not of the form n+ or n- (n = 0, 1, ...)")
+
+
+def validate(args: argparse.Namespace):
+    """Check every option before anything collective or any file is created."""
+    params = _cli.params_from_args(args)
+    if math.isinf(params.H):
+        raise _cli.ParameterError("H = inf is outside its allowed range here (a finite strip)")
+    _cli.check_k(args.k, name="k")
+    branch = parse_branch(args.branch)
+    k_scan = _cli.parse_k(args.k_scan, name="--k-scan") if args.most_unstable else None
+    _cli.positive_int("--wavelengths", args.wavelengths, 1, 64)
+    _cli.positive_int("--cells-per-wavelength", args.cells_per_wavelength, 2)
+    _cli.positive_int("--ny", args.ny, 1)
+    _cli.positive_int("--degree", args.degree, 1, 5)
+    _cli.positive_int("--nev", args.nev, 1, 200)
+    _cli.positive_int("--phases", args.phases, 1, 1000)
+    if not (math.isfinite(args.grading) and args.grading >= 1.0):
+        raise _cli.ParameterError(f"--grading = {args.grading} is outside its allowed range >= 1")
+    if args.target is not None and not np.isfinite(args.target):
+        raise _cli.ParameterError(f"--target = {args.target} is not a finite complex number")
+    return params, branch, k_scan
+
+
+def _add_png_metadata(path: str, meta: dict[str, str]) -> None:
+    from PIL import Image
+    from PIL.PngImagePlugin import PngInfo
+
+    info = PngInfo()
+    for key, value in meta.items():
+        info.add_text(key, value)
+    with Image.open(path) as im:
+        im.load()
+        im.save(path, pnginfo=info)
+
+
+def _gather_grid(V, point_arrays: dict[str, np.ndarray], comm):
+    """Gather the Lagrange VTK grid of ``V`` and nodal arrays on rank 0 (``None`` elsewhere)."""
+    import dolfinx.plot
+
+    topology, cell_types, x = dolfinx.plot.create_vtk_mesh(V)
+    npc = topology[0] + 1
+    cells = topology.reshape(-1, npc)
+    parts = comm.gather((cells, cell_types, x, point_arrays), root=0)
+    if comm.rank != 0:
+        return None
+    import pyvista as pv
+
+    all_cells, all_types, all_x, offset = [], [], [], 0
+    arrays: dict[str, list] = {name: [] for name in point_arrays}
+    for c, t, xx, arr in parts:
+        c = c.copy()
+        c[:, 1:] += offset
+        all_cells.append(c)
+        all_types.append(t)
+        all_x.append(xx)
+        for name in arrays:
+            arrays[name].append(arr[name])
+        offset += xx.shape[0]
+    grid = pv.UnstructuredGrid(np.vstack(all_cells).ravel(), np.concatenate(all_types),
+                               np.vstack(all_x))
+    for name, vals in arrays.items():
+        grid.point_data[name] = np.concatenate(vals)
+    return grid
+
+
+def render_mode(grid, out_png: str, title: str, color: str, lam: complex, k: float,
+                height: float, length: float, fractions: tuple[float, ...] = (0.0,)) -> None:
+    """Deformed strip coloured by ``|u|`` or ``sigma_yy``, with direction arrows (rank 0).
+
+    Each row shows ``Re(u exp(i Im(Lambda) t))`` at ``t = fraction * period`` (growth factored
+    out), so successive rows step forward in time and the pattern moves with the phase velocity
+    ``Im(Lambda) / k``.
+    """
+    import pyvista as pv
+
+    pv.OFF_SCREEN = True
+    rows = len(fractions)
+    # World-space layout: strip (deformation drawn up to `amp`), substrate below it, a band of
+    # direction arrows under the substrate, room on top for the title and the colour bar.
+    m = 0.06 * max(height, length / 6)
+    amp = 0.2 * min(height, length / 4)
+    y_arrow = -3.2 * m
+    y_lo = y_arrow - 1.6 * m
+    y_hi = height + amp + 0.25 * (height + amp - y_lo)  # title band
+    row_px = int(np.clip(1600 * (y_hi - y_lo) / length, 220, 760))
+    plotter = pv.Plotter(off_screen=True, shape=(rows, 1), window_size=(1600, row_px * rows),
+                         border=False)
+    umax = float(np.max(np.linalg.norm(grid.point_data["u_re"] + 1j * grid.point_data["u_im"],
+                                       axis=1)))
+    scale = amp / max(umax, 1e-300)
+    omega = lam.imag
+    c_phase = omega / k
+    syy = grid.point_data["syy_re"] + 1j * grid.point_data["syy_im"]
+    smax = float(np.max(np.abs(syy)))
+    for r, frac in enumerate(fractions):
+        plotter.subplot(r, 0)
+        angle = math.copysign(2 * math.pi * frac, omega)  # exp(i omega t), t = frac * period
+        g = grid.copy()
+        u = np.cos(angle) * g.point_data["u_re"] - np.sin(angle) * g.point_data["u_im"]
+        g.point_data["u"] = u
+        if color == "displacement":
+            g.point_data["|u|"] = np.linalg.norm(u, axis=1)
+            scalars, label, cmap, clim = "|u|", "displacement magnitude", "viridis", (0.0, umax)
+        else:
+            g.point_data["sigma_yy"] = (np.exp(1j * angle) * syy).real
+            scalars, label, cmap = "sigma_yy", "normal stress sigma_yy", "RdBu_r"
+            clim = (-smax, smax)
+        warped = g.warp_by_vector("u", factor=scale).extract_surface(
+            algorithm="dataset_surface", nonlinear_subdivision=3)
+        plotter.add_mesh(warped, scalars=scalars, cmap=cmap, clim=clim, show_edges=False,
+                         scalar_bar_args={"title": label, "vertical": False, "position_x": 0.76,
+                                          "position_y": 0.03, "width": 0.22, "height": 0.15,
+                                          "title_font_size": 14, "label_font_size": 11,
+                                          "n_labels": 3, "fmt": "%.2g"})
+        outline = pv.Rectangle([[0, 0, 0], [length, 0, 0], [length, height, 0]])
+        plotter.add_mesh(outline.extract_feature_edges(), color="grey", line_width=1)
+        plotter.add_mesh(pv.Rectangle([[0, -m, 0], [length, -m, 0], [length, 0, 0]]),
+                         color="#b0b0b0")
+        # sliding direction (+x: the body moves at v0 > 0) and phase velocity direction
+        alen = min(0.1 * length, 0.4 * max(height, length / 6))
+        arrow = dict(scale=alen, shaft_radius=0.05, tip_radius=0.14, tip_length=0.3)
+        plotter.add_mesh(pv.Arrow(start=(0.0, y_arrow, 0), direction=(1, 0, 0), **arrow),
+                         color="black")
+        sgn = 1.0 if c_phase >= 0 else -1.0
+        x0 = 0.5 * length if sgn > 0 else 0.5 * length + alen
+        plotter.add_mesh(pv.Arrow(start=(x0, y_arrow, 0), direction=(sgn, 0, 0), **arrow),
+                         color="crimson")
+        plotter.add_point_labels(
+            np.array([[alen, y_arrow, 0], [0.5 * length + alen, y_arrow, 0]]),
+            ["  sliding, v0 > 0", f"  phase velocity Im(Lambda)/k = {c_phase:+.3g}"],
+            font_size=15, show_points=False, shape=None, text_color="black",
+            justification_horizontal="left", justification_vertical="center",
+            always_visible=True)
+        plotter.add_text(f"t = {frac:.2f} T" if rows > 1 else "t = 0", position="upper_right",
+                         font_size=10)
+        if r == 0:
+            plotter.add_text(title, position="upper_left", font_size=10)
+        # camera framing exactly [0, L] x [y_lo, y_hi] (a little margin), whatever the aspect
+        cx, cy = 0.5 * length, 0.5 * (y_lo + y_hi)
+        cam = plotter.camera
+        cam.focal_point = (cx, cy, 0.0)
+        cam.position = (cx, cy, 10.0 * max(length, y_hi - y_lo))
+        cam.up = (0.0, 1.0, 0.0)
+        plotter.enable_parallel_projection()
+        cam.parallel_scale = 0.52 * max(y_hi - y_lo, length * row_px / 1600)
+        cam.clipping_range = (1e-3 * max(length, height), 100.0 * max(length, y_hi - y_lo))
+    plotter.screenshot(out_png)
+    plotter.close()
+
+
+def plot_interface(data: dict[str, np.ndarray], out_png: str, title: str, meta: dict) -> None:
+    """Shear/normal stress perturbation and slip along the interface at phase 0 (rank 0)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    x = data["x"]
+    fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    ax = axes[0]
+    for key, label, col in (("sxy", r"shear $\delta\sigma_{xy}$", "tab:blue"),
+                            ("syy", r"normal $\delta\sigma_{yy}$", "tab:red")):
+        ax.plot(x, data[key].real, color=col, label=label + " (Re, phase 0)")
+        ax.plot(x, np.abs(data[key]), color=col, ls=":", lw=1, label=label + " envelope")
+    ax.axhline(0, color="k", lw=0.5)
+    ax.set_ylabel(r"stress / $\max|u|$ ($\mu = 1$)")
+    ax.legend(fontsize=8, ncol=2, loc="upper right")
+    ax.set_title(title, fontsize=10)
+    ax = axes[1]
+    ax.plot(data["x_slip"], data["ux"].real, color="k", label=r"slip $\delta u_x$ (Re)")
+    ax.plot(data["x_slip"], np.abs(data["ux"]), color="k", ls=":", lw=1, label="envelope")
+    ax.axhline(0, color="k", lw=0.5)
+    ax.set_xlabel(r"$x$ (units $c_s t_0$)")
+    ax.set_ylabel(r"$\delta u_x(y=0)$")
+    ax.legend(fontsize=8, loc="upper right")
+    fig.tight_layout()
+    fig.savefig(out_png, dpi=130, metadata={"Title": title, "Description": json.dumps(meta)})
+    plt.close(fig)
+
+
+def versions() -> dict[str, str]:
+    """Versions of the numerical stack."""
+    import dolfinx
+    import petsc4py
+    import slepc4py
+
+    out = {"python": sys.version.split()[0], "numpy": np.__version__,
+           "dolfinx": dolfinx.__version__, "petsc4py": petsc4py.__version__,
+           "slepc4py": slepc4py.__version__}
+    try:
+        import pyvista
+
+        out["pyvista"] = pyvista.__version__
+    except ImportError:
+        pass
+    return out
+
+
+def _write_outputs(args, meta: dict, title: str, u, params, length: float, k: float,
+                   lam: complex) -> None:
+    """XDMF/PVD files (collective), then CSV, PNGs and JSON on rank 0."""
+    import dolfinx.fem
+    import dolfinx.io
+
+    from forms.elasticity import sigma
+    from forms.strip import interface_stresses
+
+    V = u.function_space
+    msh = V.mesh
+    comm = msh.comm
+    # ParaView: a period of phases (vertex values) and the full-degree complex mode.
+    u_phase = dolfinx.fem.Function(V, name="u")
+    period = 2 * math.pi / abs(lam.imag) if lam.imag != 0 else 1.0
+    with dolfinx.io.XDMFFile(comm, os.path.join(args.out, "mode.xdmf"), "w") as f:
+        f.write_mesh(msh)
+        for j in range(args.phases):
+            t = period * j / args.phases
+            u_phase.x.array[:] = (u.x.array * np.exp(1j * lam.imag * t)).real
+            f.write_function(u_phase, t=t)
+    with dolfinx.io.VTKFile(comm, os.path.join(args.out, "mode_p2.pvd"), "w") as f:
+        f.write_function(u, 0.0)
+
+    data = interface_stresses(u, params.lame_lambda, params.H)
+    S = dolfinx.fem.FunctionSpace(msh, ("Lagrange", V.ufl_element().degree()))
+    syy = dolfinx.fem.Function(S)
+    syy.interpolate(dolfinx.fem.Expression(sigma(u, params.lame_lambda, 1.0)[1, 1],
+                                           S.element.interpolation_points()))
+    nodal = u.x.array.reshape(-1, 2)
+    zeros = np.zeros((nodal.shape[0], 1))
+    arrays = {"u_re": np.hstack([nodal.real, zeros]), "u_im": np.hstack([nodal.imag, zeros]),
+              "syy_re": syy.x.array.real.copy(), "syy_im": syy.x.array.imag.copy()}
+    grid = None if args.no_render else _gather_grid(V, arrays, comm)
+    if comm.rank != 0:
+        return
+    with open(os.path.join(args.out, "interface.csv"), "w") as f:
+        f.write("x,re_sxy,im_sxy,re_syy,im_syy,re_ux,im_ux\n")
+        ux = np.interp(data["x"], data["x_slip"], data["ux"].real) + 1j * np.interp(
+            data["x"], data["x_slip"], data["ux"].imag)
+        for row in zip(data["x"], data["sxy"], data["syy"], ux, strict=True):
+            f.write(f"{row[0]:.12g},{row[1].real:.12g},{row[1].imag:.12g},"
+                    f"{row[2].real:.12g},{row[2].imag:.12g},{row[3].real:.12g},"
+                    f"{row[3].imag:.12g}\n")
+    png_meta = {"Title": title, "Description": json.dumps(meta)}
+    plot_interface(data, os.path.join(args.out, "interface_tractions.png"), title, meta)
+    if grid is not None:
+        for name, fractions in (("mode_shape.png", (0.0,)),
+                                ("mode_phases.png", (0.0, 0.25, 0.5, 0.75))):
+            path = os.path.join(args.out, name)
+            render_mode(grid, path, title, args.color, lam, k, params.H, length, fractions)
+            _add_png_metadata(path, png_meta)
+
+
+def main(comm=None, argv: list[str] | None = None) -> int:
+    """Run the workflow; returns the exit code (0, or 1 if no suitable mode converged)."""
+    parser = build_parser()
+    args, petsc_args = parser.parse_known_args(argv)
+    # Left over: PETSc/SLEPc options (single dash, e.g. -strip_pep_ncv 40) and their values.
+    bad = [a for a in petsc_args if a.startswith("--")]
+    if petsc_args and not petsc_args[0].startswith("-"):
+        bad.insert(0, petsc_args[0])
+    if bad:
+        parser.error(f"unrecognized arguments: {' '.join(bad)}")
+    params, branch, k_scan = validate(args)
+
+    import slepc4py
+
+    slepc4py.init(sys.argv[:1] + petsc_args)  # PETSc/SLEPc options, e.g. -strip_pep_ncv 40
+    import logging
+
+    import dolfinx.fem
+    from mpi4py import MPI
+
+    from forms.strip import (
+        build_strip_problem,
+        cross_section_mode,
+        most_unstable_k,
+        normalise,
+        solve_modes,
+    )
+    from forms.tracking import Branch, waveguide_lambda
+    from meshes.strip import strip_mesh, wavelength
+
+    logging.getLogger().setLevel(logging.WARNING)  # quiet the JIT compiler's INFO lines
+    comm = comm or MPI.COMM_WORLD
+    t_start = time.perf_counter()
+    b = Branch(*branch)
+
+    def wg(k: float) -> complex:
+        return waveguide_lambda(params, b, k)
+
+    k = float(args.k)
+    if args.most_unstable:
+        k, lam_max = most_unstable_k(params, wg, k_scan)  # every rank alike (COMM_SELF solves)
+        k = comm.bcast(k, root=0)
+        if comm.rank == 0:
+            print(f"most unstable on the k grid (branch {b.label}): k = {k:.6g},"
+                  f" Lambda = {lam_max:.6g}", flush=True)
+    xs = cross_section_mode(params, k, args.target if args.target is not None else wg(k))
+    if xs is None and (args.source == "cross-section" or args.target is None):
+        if comm.rank == 0:
+            print("error: the cross-section solve did not converge near"
+                  f" {wg(k):.6g}; give --target", file=sys.stderr, flush=True)
+        return 1
+    length = args.wavelengths * wavelength(k)
+    nx = args.wavelengths * args.cells_per_wavelength
+    strip = strip_mesh(comm, length, params.H, nx, args.ny, grading=args.grading)
+    meta = {
+        "workflow": "mode_shape", "params": params.as_dict(), "k": k, "branch": b.label,
+        "most_unstable": bool(args.most_unstable), "length": length,
+        "wavelengths": args.wavelengths, "cells": [nx, args.ny], "grading": args.grading,
+        "degree": args.degree, "ranks": comm.size, "versions": versions(),
+        "command": " ".join(sys.argv),
+    }
+    if xs is not None:
+        meta["cross_section"] = {"eigenvalue": [xs.eigenvalue.real, xs.eigenvalue.imag],
+                                 "residual": xs.residual, "degree": 3}
+
+    if args.source == "strip":
+        target = args.target if args.target is not None else xs.eigenvalue
+        problem = build_strip_problem(strip, params, k=k, degree=args.degree)
+        t0 = time.perf_counter()
+        modes = solve_modes(problem, target, nev=args.nev)
+        t_solve = time.perf_counter() - t0
+        wanted = [m for m in modes if m.harmonic == 0]
+        if comm.rank == 0:
+            print(f"k = {k:.6g}, target = {target:.6g}: {len(modes)} converged"
+                  f" ({problem.last_solve.get('reason')}); harmonics m ="
+                  f" {[m.harmonic for m in modes]}", flush=True)
+        if not wanted:
+            if comm.rank == 0:
+                print("error: no converged eigenvalue carries exp(-i k x) near the target; try"
+                      " --target or a larger --nev", file=sys.stderr, flush=True)
+            for m in modes:
+                m.vector.destroy()
+            problem.destroy()
+            return 1
+        mode = wanted[0]
+        lam = mode.eigenvalue
+        u = problem.to_function(mode.vector, name="u")
+        meta.update({
+            "source": "Bloch-periodic 2D strip (forms.strip), route (a): P^H A P",
+            "target": [target.real, target.imag], "eigenvalue": [lam.real, lam.imag],
+            "residual": mode.residual, "harmonic_content_m0": mode.harmonics.get(0, 0.0),
+            "solver": problem.last_solve,
+            "other_eigenvalues": [{"re": m.eigenvalue.real, "im": m.eigenvalue.imag,
+                                   "harmonic": m.harmonic, "wavenumber": k + 2 * math.pi *
+                                   (m.harmonic or 0) / length} for m in modes],
+            "phase_velocity": lam.imag / k,
+            "timings": {**problem.timings, "solve": t_solve},
+        })
+        title = (f"Bloch strip (2D FE, P{args.degree}), k = {k:.4g}, branch {b.label}:"
+                 f" Lambda = {lam.real:.6f} {lam.imag:+.6f}i")
+        for m in modes:
+            m.vector.destroy()
+        problem.destroy()
+    else:
+        import ufl
+
+        lam = xs.eigenvalue
+        V = dolfinx.fem.FunctionSpace(strip.mesh, ufl.VectorElement(
+            "Lagrange", strip.mesh.ufl_cell(), args.degree))
+        u = dolfinx.fem.Function(V, name="u")
+        u.interpolate(xs.field)
+        meta.update({
+            "source": "cross-section model (1D FE, P3) shown as Re(u_hat(y) exp(-i k x)),"
+                      " interpolated on the strip mesh; no strip solve",
+            "eigenvalue": [lam.real, lam.imag], "residual": xs.residual,
+            "phase_velocity": lam.imag / k, "timings": {},
+        })
+        title = (f"cross-section model (1D FE, P3) as Re(u_hat(y) exp(-ikx)), k = {k:.4g},"
+                 f" branch {b.label}: Lambda = {lam.real:.6f} {lam.imag:+.6f}i")
+
+    if comm.rank == 0:
+        os.makedirs(args.out, exist_ok=True)
+    comm.barrier()
+    normalise(u)
+    _write_outputs(args, meta, title, u, params, length, k, lam)
+    if comm.rank == 0:
+        meta["timings"]["total"] = time.perf_counter() - t_start
+        with open(os.path.join(args.out, "mode.json"), "w") as f:
+            json.dump(meta, f, indent=2)
+        print(f"{meta['source']}\nLambda = {lam:.10g} (relative residual"
+              f" {meta['residual']:.1e}); wrote {args.out}/", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    _cli.run(main)

@@ -1,0 +1,98 @@
+"""Cost of the Bloch reduction ``P^H A P`` against the rest of a strip eigen-solve.
+
+For a sequence of meshes (one wavelength at ``k``, P2, refined in both directions) prints and
+writes ``strip_benchmark.csv``: unknowns, and wall times of assembly (``K, M, M_Gamma``), building
+``P``, the three products ``P^H A P``, the friction rows, and the PEP solve, plus the relative
+error against the check value of DESIGN.md (default case only). Run serially and under
+``mpirun -n 2`` to see the scaling::
+
+    ./run python workflows/strip_benchmark.py
+    ./run mpirun -n 2 python workflows/strip_benchmark.py
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+import _cli
+
+CHECK_VALUE = 0.2716852879456 - 6.5866951866228j
+
+
+def main(comm=None, argv: list[str] | None = None) -> int:
+    """Run the benchmark."""
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--levels", type=int, default=4, help="mesh levels (cells double each)")
+    p.add_argument("--nx0", type=int, default=16, help="cells along x on the coarsest mesh")
+    p.add_argument("--ny0", type=int, default=4, help="cells along y on the coarsest mesh")
+    p.add_argument("--out", default="strip_benchmark", help="output directory")
+    args = p.parse_args(argv)
+    _cli.positive_int("--levels", args.levels, 1, 8)
+    _cli.positive_int("--nx0", args.nx0, 2)
+    _cli.positive_int("--ny0", args.ny0, 1)
+
+    import slepc4py
+
+    slepc4py.init(sys.argv[:1])
+    import logging
+
+    from mpi4py import MPI
+
+    from analytic.params import Params
+    from forms.friction import FrictionLaw, apply_dirichlet, friction_operator
+    from forms.solvers import PolynomialSolver
+    from forms.strip import DIRICHLET_DIAGONAL, build_strip_problem
+    from meshes.strip import strip_mesh, wavelength
+
+    logging.getLogger().setLevel(logging.WARNING)
+    comm = comm or MPI.COMM_WORLD
+    params, k = Params(), 1.0
+    rows = []
+    header = ("dofs", "assemble", "bloch_map", "reduce", "friction_rows", "solve", "rel_error")
+    if comm.rank == 0:
+        os.makedirs(args.out, exist_ok=True)
+        print(f"ranks = {comm.size}; times in s")
+        print(" ".join(f"{h:>13}" for h in header), flush=True)
+    for level in range(args.levels):
+        nx, ny = args.nx0 * 2**level, args.ny0 * 2**level
+        strip = strip_mesh(comm, wavelength(k), params.H, nx, ny)
+        comm.barrier()
+        problem = build_strip_problem(strip, params, k=k, degree=2)
+        t0 = MPI.Wtime()
+        op = friction_operator(FrictionLaw.from_params(params), problem.stiffness, problem.mass,
+                               problem.interface_mass, problem.interface_x, problem.interface_y)
+        apply_dirichlet(op.matrices, list(problem.interface_y) + list(problem.dirichlet),
+                        op.constant_term, DIRICHLET_DIAGONAL)
+        t_rows = MPI.Wtime() - t0
+        solver = PolynomialSolver(comm, nev=1, prefix="bench_")
+        t0 = MPI.Wtime()
+        res = solver.solve(op, CHECK_VALUE)
+        t_solve = MPI.Wtime() - t0
+        lam = res.pairs[0].value if res.pairs else complex("nan")
+        res.destroy()
+        solver.destroy()
+        dofs = op.matrices[0].getSize()[0]
+        op.destroy()
+        tm = problem.timings
+        row = (dofs, tm["assemble"], tm["bloch_map"], tm["reduce"], t_rows, t_solve,
+               abs(lam - CHECK_VALUE) / abs(CHECK_VALUE))
+        # slowest rank sets the wall time
+        row = (row[0], *[comm.allreduce(v, op=MPI.MAX) for v in row[1:6]], row[6])
+        rows.append(row)
+        problem.destroy()
+        if comm.rank == 0:
+            print(f"{row[0]:>13d} " + " ".join(f"{v:13.3e}" for v in row[1:]), flush=True)
+    if comm.rank == 0:
+        path = os.path.join(args.out, f"strip_benchmark_np{comm.size}.csv")
+        with open(path, "w") as f:
+            f.write(",".join(header) + "\n")
+            for r in rows:
+                f.write(",".join(f"{v:.6g}" for v in r) + "\n")
+        print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    _cli.run(main)

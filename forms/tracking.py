@@ -26,6 +26,10 @@ from analytic.params import Params
 
 #: Smallest |<u_prev, u>| (unit vectors) accepted as the same branch at the next k.
 MIN_OVERLAP = 0.7
+#: Jump guard (see :func:`jump_tolerance`): multiple of the last step ...
+JUMP_FACTOR = 3.0
+#: ... plus this fraction of |Lambda|.
+JUMP_RELATIVE = 0.02
 
 
 @dataclass(frozen=True)
@@ -97,6 +101,12 @@ def track_branch(
 ) -> Tracked:
     """Follow one branch through per-k candidates (sorted by increasing k).
 
+    A candidate continues the branch if its eigenvector overlaps the last accepted one by at
+    least ``min_overlap`` and (when ``k`` is given and two points are accepted) its eigenvalue
+    lies within :func:`jump_tolerance` of the linear extrapolation; among those the largest
+    overlap wins. Otherwise ``resolve`` (if given) adds candidates near the extrapolated value;
+    if still none qualifies, the point is reported as lost and the next k is tried.
+
     Args:
         values: Per k, the candidate eigenvalues (possibly empty: failed solve). Lists are
             extended in place when ``resolve`` adds candidates.
@@ -104,11 +114,10 @@ def track_branch(
             :func:`normalized` (same discretisation for every k).
         start_target: Where the branch is at the first k (e.g. :func:`waveguide_lambda`).
         min_overlap: Smallest overlap accepted as the continuation.
-        k: The wavenumbers (needed with ``resolve``).
+        k: The wavenumbers (enables the jump guard; needed with ``resolve``).
         resolve: Optional ``resolve(m, target) -> (values, vectors)``: new candidates at the
-            m-th k near ``target``; called where the branch would be lost, with the target
-            extrapolated linearly from the last two accepted points ("predict from the
-            previous k").
+            m-th k near ``target``, the value extrapolated linearly from the last two accepted
+            points ("predict from the previous k").
 
     Returns:
         The :class:`Tracked` choices.
@@ -118,24 +127,36 @@ def track_branch(
     overlap: list[float] = []
     ref: np.ndarray | None = None
     accepted: list[tuple[float, complex]] = []
+
+    def pick(vals: np.ndarray, vecs: np.ndarray, m: int) -> tuple[int, float, str]:
+        """Best continuing candidate: (index or -1, its overlap, reason if none)."""
+        if len(vals) == 0:
+            return -1, float("nan"), "no converged eigenvalue near the target"
+        ov = np.abs(np.asarray(vecs).conj() @ ref)
+        ok = ov >= min_overlap
+        reason = f"best eigenvector overlap {ov.max():.2f} < {min_overlap}"
+        if k is not None and len(accepted) >= 2 and ok.any():
+            pred = _extrapolate(accepted, float(k[m]))
+            tol = jump_tolerance(accepted, float(k[m]))
+            near = np.abs(np.asarray(vals) - pred) <= tol
+            if not (ok & near).any():
+                j = int(np.argmax(np.where(ok, ov, -1.0)))
+                reason = (f"best overlapping candidate jumps by {abs(vals[j] - pred):.3g} "
+                          f"> {tol:.3g} from the extrapolated value")
+            ok &= near
+        if not ok.any():
+            return -1, float(ov.max()), reason
+        i = int(np.argmax(np.where(ok, ov, -1.0)))
+        return i, float(ov[i]), ""
+
     for m in range(len(values)):
         vals, vecs = values[m], vectors[m]
-        if resolve is not None and ref is not None and accepted:
-            ov = np.abs(np.asarray(vecs).conj() @ ref) if len(vals) else np.zeros(0)
-            if len(ov) == 0 or ov.max() < min_overlap:
-                target = _extrapolate(accepted, float(k[m]))
-                new_vals, new_vecs = resolve(m, target)
-                if len(new_vals):
-                    vals = np.concatenate([np.asarray(vals, dtype=complex), new_vals])
-                    old = np.asarray(vecs).reshape(len(values[m]), -1)
-                    vecs = np.vstack([old, new_vecs]) if len(old) else np.asarray(new_vecs)
-                    values[m], vectors[m] = vals, vecs
-        if len(vals) == 0:
-            choice.append(-1)
-            status.append("no converged eigenvalue near the target")
-            overlap.append(float("nan"))
-            continue
         if ref is None:
+            if len(vals) == 0:
+                choice.append(-1)
+                status.append("no converged eigenvalue near the target")
+                overlap.append(float("nan"))
+                continue
             i = int(np.argmin(np.abs(np.asarray(vals) - start_target)))
             choice.append(i)
             status.append("ok")
@@ -144,20 +165,39 @@ def track_branch(
             if k is not None:
                 accepted.append((float(k[m]), complex(vals[i])))
             continue
-        ov = np.abs(np.asarray(vecs).conj() @ ref)
-        i = int(np.argmax(ov))
-        if ov[i] < min_overlap:
+        i, ov, reason = pick(vals, vecs, m)
+        if i < 0 and resolve is not None and accepted:
+            new_vals, new_vecs = resolve(m, _extrapolate(accepted, float(k[m])))
+            if len(new_vals):
+                old = np.asarray(vecs).reshape(len(vals), -1)
+                vals = np.concatenate([np.asarray(vals, dtype=complex), new_vals])
+                vecs = np.vstack([old, new_vecs]) if len(old) else np.asarray(new_vecs)
+                values[m], vectors[m] = vals, vecs
+                i, ov, reason = pick(vals, vecs, m)
+        if i < 0:
             choice.append(-1)
-            status.append(f"lost: best eigenvector overlap {ov[i]:.2f} < {min_overlap}")
-            overlap.append(float(ov[i]))
+            status.append(f"lost: {reason}")
+            overlap.append(ov)
             continue
         choice.append(i)
         status.append("ok")
-        overlap.append(float(ov[i]))
+        overlap.append(ov)
         ref = vecs[i]
         if k is not None:
             accepted.append((float(k[m]), complex(vals[i])))
     return Tracked(choice, status, overlap)
+
+
+def jump_tolerance(accepted: list[tuple[float, complex]], k: float) -> float:
+    """Largest accepted distance from the extrapolated value at ``k``.
+
+    ``JUMP_FACTOR`` times the last step (scaled to the k spacing) plus :data:`JUMP_RELATIVE`
+    of ``|Lambda|``: a kink in the path (a near-double root) passes, a switch to another root
+    far from the path does not.
+    """
+    (k1, l1), (k2, l2) = accepted[-2], accepted[-1]
+    scale = abs(k - k2) / abs(k2 - k1) if k2 != k1 else 1.0
+    return JUMP_FACTOR * abs(l2 - l1) * scale + JUMP_RELATIVE * max(1.0, abs(l2))
 
 
 def _extrapolate(accepted: list[tuple[float, complex]], k: float) -> complex:

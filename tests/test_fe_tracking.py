@@ -55,3 +55,16 @@ def test_lost_point_is_reported_then_repaired_by_resolve():
     assert tr.status == ["ok"] * 5 and tr.choice[3] == 1
     # target extrapolated linearly from k[1], k[2]: 1 + k[3]
     assert len(calls) == 1 and abs(calls[0][1] - (1.0 + k[3])) < 1e-12
+
+
+def test_jump_to_a_far_root_with_a_similar_vector_is_not_accepted():
+    """Overlap alone would accept the jump at k[3]; the eigenvalue guard reports it as lost."""
+    k = np.linspace(0, 1, 5)
+    values = [np.array([1.0 + 0.1 * kk]) for kk in k]
+    vectors = [np.array([_vec(0.05 * kk)]) for kk in k]
+    values[3] = np.array([5.0 + 0j])  # far from the path 1 + 0.1 k, same-looking vector
+    tr = track_branch(values, vectors, 1.0, k=k)
+    assert tr.status[3].startswith("lost: best overlapping candidate jumps")
+    assert tr.choice[:3] == [0, 0, 0] and tr.choice[4] == 0
+    # without k (no eigenvalue guard) the jump is taken: the guard is what catches it
+    assert track_branch(values, vectors, 1.0).choice[3] == 0

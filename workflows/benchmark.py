@@ -26,9 +26,15 @@ import subprocess
 import sys
 import tempfile
 import time
+from typing import TYPE_CHECKING
 
 import _cli
 import numpy as np
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+
+    from analytic.params import Params
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 CHECK_VALUE = 0.2716852879456 - 6.5866951866228j  # DESIGN.md section 4
@@ -36,7 +42,7 @@ CONVERGENCE_CELLS = {1: (32, 64, 128, 256), 2: (6, 8, 12, 16, 24), 3: (3, 4, 6, 
                      4: (2, 3, 4, 6)}
 
 
-def exact_reference(p, k: float, guess: complex) -> tuple[complex, str]:
+def exact_reference(p: Params, k: float, guess: complex) -> tuple[complex, str]:
     """Exact root near ``guess`` (analytic.branches.polish_root) or the DESIGN check value."""
     try:
         from analytic.branches import polish_root
@@ -49,7 +55,7 @@ def exact_reference(p, k: float, guess: complex) -> tuple[complex, str]:
     return CHECK_VALUE, "DESIGN.md check value (13 digits)"
 
 
-def accuracy_and_cost(comm, out: str) -> dict:
+def accuracy_and_cost(comm: MPI.Comm, out: str) -> dict:
     """Default sweep: FE errors vs exact, FE per-k cost vs analytic continuation per-k cost."""
     import sweep_k
 
@@ -146,7 +152,7 @@ def mpi_speedup(n_k: int) -> dict:
     return res
 
 
-def convergence(comm, out: str) -> dict:
+def convergence(comm: MPI.Comm, out: str) -> dict:
     """Relative error at the check point for P1..P4 on uniform meshes; observed orders."""
     from analytic.params import Params
     from forms.cross_section import CrossSectionModel
@@ -201,7 +207,7 @@ def convergence(comm, out: str) -> dict:
     return {"reference": source, "rows": rows}
 
 
-def main(comm) -> int:
+def main(comm: MPI.Comm) -> int:
     """Run the benchmark (rank 0 prints)."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=os.path.join("out", "benchmark"))

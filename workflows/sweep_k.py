@@ -17,18 +17,35 @@ Exit codes: 0 all fine; 1 some solves failed (see ``status`` in spectrum.csv and
 
 from __future__ import annotations
 
-import argparse
-import csv
-import json
-import logging
-import math
 import os
-import platform
-import sys
-import time
 
-import _cli
-import numpy as np
+# One MPI rank per core: a threaded BLAS/OpenMP in every rank oversubscribes the cores. Must be
+# set before numpy/PETSc load OpenBLAS and libgomp.
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import csv  # noqa: E402
+import json  # noqa: E402
+import logging  # noqa: E402
+import math  # noqa: E402
+import platform  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from typing import TYPE_CHECKING  # noqa: E402
+
+import _cli  # noqa: E402
+import numpy as np  # noqa: E402
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+
+    from analytic.params import Params
+    from forms.cross_section import CrossSectionModel
+    from forms.solvers import PolynomialSolver, SplitSolver
+    from forms.tracking import Branch
+
+    Solver = PolynomialSolver | SplitSolver
 
 #: Default k grid: shows the first maximum of the n = 0 growth rate (k H ~ 0.8 at the paper's
 #: defaults) and the n = 1, 2 branches up to k H = 3.
@@ -91,8 +108,8 @@ def validate(args: argparse.Namespace, n_ranks: int) -> tuple:
     return params, k
 
 
-def run_config(args: argparse.Namespace, params, k: np.ndarray, cells: int, ratio: float
-               ) -> dict:
+def run_config(args: argparse.Namespace, params: Params, k: np.ndarray, cells: int,
+               ratio: float) -> dict:
     """Everything that determines the numbers (compared on --resume)."""
     return {
         "params": params.as_dict(),
@@ -110,7 +127,18 @@ def _raw_path(out: str, index: int) -> str:
     return os.path.join(out, "raw", f"k{index:05d}.npz")
 
 
-def make_solver(kind: str, comm, nev: int):
+def idle_barrier(comm: MPI.Comm, poll: float = 0.02) -> None:
+    """Barrier that sleeps while waiting.
+
+    OpenMPI's blocking Barrier spins at 100% CPU, which steals a core from the ranks still
+    working (e.g. rank 0's post-processing).
+    """
+    req = comm.Ibarrier()
+    while not req.Test():
+        time.sleep(poll)
+
+
+def make_solver(kind: str, comm: MPI.Comm, nev: int) -> Solver:
     """A fresh PEP or NEP solver (options from the PETSc database)."""
     if kind == "pep":
         from forms.solvers import PolynomialSolver
@@ -121,7 +149,7 @@ def make_solver(kind: str, comm, nev: int):
     return SplitSolver(comm, nev=nev)
 
 
-def destroy_quietly(obj) -> None:
+def destroy_quietly(obj: Solver) -> None:
     """Destroy a solver that may be in an error state (a failed solve) without raising."""
     from petsc4py import PETSc
 
@@ -131,7 +159,8 @@ def destroy_quietly(obj) -> None:
         pass
 
 
-def solve_one_k(model, solver, blist, p, k: float, nev: int) -> dict:
+def solve_one_k(model: CrossSectionModel, solver: Solver, blist: list[Branch], p: Params,
+                k: float, nev: int) -> dict:
     """Solve all branch targets at one k on the model's communicator (collective).
 
     Returns (meaningful on the group's rank 0): candidate values, residuals, normalized
@@ -184,7 +213,7 @@ class Repairer:
     so the repaired values do not depend on the number of ranks either.
     """
 
-    def __init__(self, params, model_kwargs: dict, solver: str, nev: int) -> None:
+    def __init__(self, params: Params, model_kwargs: dict, solver: str, nev: int) -> None:
         self.params, self.model_kwargs, self.solver_kind, self.nev = (params, model_kwargs,
                                                                       solver, nev)
         self.model = None
@@ -240,7 +269,8 @@ def load_raw(out: str, n_k: int) -> dict[int, dict]:
     return done
 
 
-def exact_for_branch(p, b, k: np.ndarray, fe: np.ndarray) -> tuple[np.ndarray, str]:
+def exact_for_branch(p: Params, b: Branch, k: np.ndarray, fe: np.ndarray
+                     ) -> tuple[np.ndarray, str]:
     """Exact roots matched to the FE values of one branch (NaN where none matched).
 
     Uses ``analytic.branches.polish_root`` started from each FE eigenvalue; a root is accepted
@@ -263,7 +293,8 @@ def exact_for_branch(p, b, k: np.ndarray, fe: np.ndarray) -> tuple[np.ndarray, s
     return exact, "analytic.branches.polish_root from each FE value"
 
 
-def exact_lines(p, blist, k_fine: np.ndarray) -> dict[str, np.ndarray] | None:
+def exact_lines(p: Params, blist: list[Branch], k_fine: np.ndarray
+                ) -> dict[str, np.ndarray] | None:
     """Analytic branch lines for the plot (``analytic.branches.follow_branch``), or None."""
     try:
         from analytic.branches import follow_branch
@@ -280,7 +311,7 @@ def exact_lines(p, blist, k_fine: np.ndarray) -> dict[str, np.ndarray] | None:
     return lines
 
 
-def postprocess(out: str, p, k: np.ndarray, blist, done: dict[int, dict],
+def postprocess(out: str, p: Params, k: np.ndarray, blist: list[Branch], done: dict[int, dict],
                 repairer: Repairer | None = None) -> dict:
     """Track branches (repairing lost points), match exact roots, write spectrum.csv."""
     from forms.tracking import track_branch, waveguide_lambda
@@ -366,13 +397,14 @@ def postprocess(out: str, p, k: np.ndarray, blist, done: dict[int, dict],
     }
 
 
-def _parse(label: str):
+def _parse(label: str) -> Branch:
     from forms.tracking import Branch
 
     return Branch.parse(label)
 
 
-def plot(out: str, p, blist, per_branch: dict, best: dict | None, meta: dict) -> None:
+def plot(out: str, p: Params, blist: list[Branch], per_branch: dict, best: dict | None,
+         meta: dict) -> None:
     """dispersion.png: growth rate and frequency against k, FE points on the exact lines."""
     import matplotlib
 
@@ -443,8 +475,9 @@ def versions() -> dict[str, str]:
     return v
 
 
-def finish(comm, args, out: str, params, k: np.ndarray, blist, cells: int, ratio: float,
-           form: str, settings: dict, todo: list, wall: float, cpu: list) -> int:
+def finish(comm: MPI.Comm, args: argparse.Namespace, out: str, params: Params, k: np.ndarray,
+           blist: list[Branch], cells: int, ratio: float, form: str, settings: dict,
+           todo: list, wall: float, cpu: list) -> int:
     """Rank 0: track, match, write spectrum.csv, summary.json, dispersion.png; exit code."""
     k_max = float(np.max(k))
     group_size = args.group_size
@@ -506,7 +539,7 @@ def finish(comm, args, out: str, params, k: np.ndarray, blist, cells: int, ratio
     return code
 
 
-def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
+def main(comm: MPI.Comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
     """Run the sweep on ``comm`` (every rank calls this)."""
     args, extra = build_parser().parse_known_args()
     unknown = [a for a in extra if a.startswith("--")]
@@ -586,9 +619,10 @@ def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
     except KeyboardInterrupt:
         if bar is not None:
             bar.close()
-        n_done = sum(os.path.exists(_raw_path(out, j)) for j in range(len(k)))
-        print(f"\ninterrupted: {n_done} of {len(k)} k values are in {out}/raw; "
-              "run again with --resume to continue", file=sys.stderr)
+        if comm.rank == 0:
+            n_done = sum(os.path.exists(_raw_path(out, j)) for j in range(len(k)))
+            print(f"\ninterrupted: {n_done} of {len(k)} k values are in {out}/raw; "
+                  "run again with --resume to continue", file=sys.stderr)
         return 130
     if bar is not None:
         bar.close()
@@ -596,7 +630,7 @@ def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
     model_form = model.form
     model.destroy()
     gcomm.Free()
-    comm.Barrier()
+    idle_barrier(comm)
     wall = time.perf_counter() - t_start
     cpu = comm.gather(time.process_time() - cpu_start, root=0)
 
@@ -609,6 +643,7 @@ def main(comm) -> int:  # noqa: C901 - a workflow script reads top to bottom
         except Exception as err:  # noqa: BLE001 - re-raised below, after releasing the ranks
             error = err
             code = 1
+    idle_barrier(comm)
     code = comm.bcast(code, root=0)
     if error is not None:
         raise error

@@ -66,8 +66,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--wavelengths", type=int, default=1, help="strip length in wavelengths")
     p.add_argument("--cells-per-wavelength", type=int, default=32, help="cells along x")
     p.add_argument("--ny", type=int, default=8, help="cells along y")
-    p.add_argument("--grading", type=float, default=1.0,
-                   help="top/bottom cell height ratio (>= 1; > 1 refines towards y = 0)")
+    p.add_argument("--grading", type=float, default=None,
+                   help="top/bottom cell height ratio (>= 1; > 1 refines towards y = 0);"
+                        " default: from k H as for the cross-section mesh (uniform for"
+                        " k H <= 4, then k H / 4, at most 20)")
     p.add_argument("--degree", type=int, default=2, help="Lagrange degree")
     p.add_argument("--nev", type=int, default=8, help="eigenpairs computed near the target")
     p.add_argument("--phases", type=int, default=16, help="phases over one period in mode.xdmf")
@@ -100,7 +102,7 @@ def validate(args: argparse.Namespace):
     _cli.positive_int("--degree", args.degree, 1, 5)
     _cli.positive_int("--nev", args.nev, 1, 200)
     _cli.positive_int("--phases", args.phases, 1, 1000)
-    if not (math.isfinite(args.grading) and args.grading >= 1.0):
+    if args.grading is not None and not (math.isfinite(args.grading) and args.grading >= 1.0):
         raise _cli.ParameterError(f"--grading = {args.grading} is outside its allowed range >= 1")
     if args.target is not None and not np.isfinite(args.target):
         raise _cli.ParameterError(f"--target = {args.target} is not a finite complex number")
@@ -365,6 +367,7 @@ def main(comm=None, argv: list[str] | None = None) -> int:
         solve_modes,
     )
     from forms.tracking import Branch, waveguide_lambda
+    from meshes.interval import grading_ratio
     from meshes.strip import strip_mesh, wavelength
 
     logging.getLogger().setLevel(logging.WARNING)  # quiet the JIT compiler's INFO lines
@@ -398,11 +401,12 @@ def main(comm=None, argv: list[str] | None = None) -> int:
         return 1
     length = args.wavelengths * wavelength(k)
     nx = args.wavelengths * args.cells_per_wavelength
-    strip = strip_mesh(comm, length, params.H, nx, args.ny, grading=args.grading)
+    grading = args.grading if args.grading is not None else grading_ratio(k, params.H)
+    strip = strip_mesh(comm, length, params.H, nx, args.ny, grading=grading)
     meta = {
         "workflow": "mode_shape", "params": params.as_dict(), "k": k, "branch": b.label,
         "most_unstable": bool(args.most_unstable), "length": length,
-        "wavelengths": args.wavelengths, "cells": [nx, args.ny], "grading": args.grading,
+        "wavelengths": args.wavelengths, "cells": [nx, args.ny], "grading": grading,
         "degree": args.degree, "ranks": comm.size, "versions": versions(),
         "command": " ".join(sys.argv),
     }

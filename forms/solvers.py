@@ -170,21 +170,7 @@ class PolynomialSolver:
             pep.setDimensions(nev=nev)
         pep.setTarget(target)
         pep.solve()
-        nconv = pep.getConverged()
-        reason = _reason_name(SLEPc.PEP.ConvergedReason, pep.getConvergedReason())
-        norms = np.array([a.norm(PETSc.NormType.FROBENIUS) for a in op.matrices])
-        pairs: list[Eigenpair] = []
-        dropped: list[complex] = []
-        for i in range(nconv):
-            v = op.matrices[0].createVecRight()
-            lam = complex(pep.getEigenpair(i, v))
-            if op.law.is_spurious(lam):
-                dropped.append(lam)
-                v.destroy()
-                continue
-            pairs.append(Eigenpair(lam, relative_residual(op, lam, v, norms), v))
-        pairs.sort(key=lambda p: abs(p.value - target))
-        return SolveResult(pairs, nconv, reason, pep.getIterationNumber(), dropped)
+        return _collect(pep, SLEPc.PEP.ConvergedReason, op, target)
 
     def destroy(self) -> None:
         """Destroy the SLEPc object."""
@@ -284,24 +270,32 @@ class SplitSolver:
                 nep.setWhichEigenpairs(SLEPc.NEP.Which.ALL)
             self._configured = True
         nep.solve()
-        nconv = nep.getConverged()
-        reason = _reason_name(SLEPc.NEP.ConvergedReason, nep.getConvergedReason())
-        norms = np.array([a.norm(PETSc.NormType.FROBENIUS) for a in op.matrices])
-        pairs: list[Eigenpair] = []
-        dropped: list[complex] = []
-        for i in range(nconv):
-            v = op.matrices[0].createVecRight()
-            lam = complex(nep.getEigenpair(i, v))
-            if op.law.is_spurious(lam):
-                dropped.append(lam)
-                v.destroy()
-                continue
-            pairs.append(Eigenpair(lam, relative_residual(op, lam, v, norms), v))
-        pairs.sort(key=lambda p: abs(p.value - target))
-        return SolveResult(pairs, nconv, reason, nep.getIterationNumber(), dropped)
+        return _collect(nep, SLEPc.NEP.ConvergedReason, op, target)
 
     def destroy(self) -> None:
         """Destroy the SLEPc objects."""
         for f in self._fns:
             f.destroy()
         self.nep.destroy()
+
+
+def _collect(eps, reasons: type, op: FrictionOperator, target: complex) -> SolveResult:  # noqa: ANN001
+    """Converged pairs of a solved SLEPc PEP or NEP ``eps``.
+
+    Spurious roots are dropped, residuals attached, pairs sorted by distance to ``target``.
+    """
+    nconv = eps.getConverged()
+    reason = _reason_name(reasons, eps.getConvergedReason())
+    norms = np.array([a.norm(PETSc.NormType.FROBENIUS) for a in op.matrices])
+    pairs: list[Eigenpair] = []
+    dropped: list[complex] = []
+    for i in range(nconv):
+        v = op.matrices[0].createVecRight()
+        lam = complex(eps.getEigenpair(i, v))
+        if op.law.is_spurious(lam):
+            dropped.append(lam)
+            v.destroy()
+            continue
+        pairs.append(Eigenpair(lam, relative_residual(op, lam, v, norms), v))
+    pairs.sort(key=lambda p: abs(p.value - target))
+    return SolveResult(pairs, nconv, reason, eps.getIterationNumber(), dropped)

@@ -32,7 +32,9 @@ import csv
 import json
 import os
 import sys
+import time
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -87,8 +89,250 @@ def overlay(ax, name: str, opts: argparse.Namespace, panel: int = 0) -> None:  #
         ax.plot(x, y, "s", ms=4, mfc="none", label=label)
 
 
+# ------------------------------------------------------------------------------ FE markers
+#: Element degree of the cross-section model (finite H); cells from
+#: :func:`meshes.interval.default_cells` (the sweep's default mesh).
+CS_DEGREE = 3
+#: Largest backward error of a cross-section eigenpair drawn as trusted. Converged PEP pairs of
+#: this model have 1e-16 .. 1e-14 (measured 2026-11-21 on the gallery's points); a pair above
+#: this is not a converged eigenpair of the discrete problem.
+CS_RESIDUAL = 1e-10
+#: Relative offset of the cross-section shift from the exact root: a shift *at* the eigenvalue
+#: makes shift-and-invert nearly singular (measured: backward errors 1e-9 .. 1e-6 and
+#: DIVERGED_BREAKDOWN with the exact root as shift, 1e-16 with this offset).
+CS_SHIFT_OFFSET = 1e-3
+#: Element degree of the half-space (PML) model, ``forms.pml.solve_halfspace``'s default.
+PML_DEGREE = 4
+FE_MODELS = {
+    "cross_section": f"cross-section model P{CS_DEGREE} (forms.cross_section, SLEPc PEP), "
+                     f"trusted if converged and backward error < {CS_RESIDUAL:g}",
+    "pml": f"half-space PML model P{PML_DEGREE} (forms.pml.solve_halfspace: two layer "
+           "settings), trusted if no flag",
+}
+FE_LEGEND = {"cross_section": f"FE, cross-section P{CS_DEGREE}",
+             "pml": f"FE, half-space PML P{PML_DEGREE}"}
+FE_MARKER = {"cross_section": "o", "pml": "D"}
+
+
+@dataclass(frozen=True)
+class FETask:
+    """One FE eigenvalue to compute and draw on top of an analytic curve.
+
+    Attributes:
+        figure: Figure name.
+        curve: Label of the analytic curve it checks.
+        color: Colour of that curve.
+        model: ``"cross_section"`` (finite H) or ``"pml"`` (half-space).
+        params: Parameters.
+        k: Wavenumber.
+        target: The exact root (shift of the eigensolver, and the reference).
+        x: Abscissa in the figure's units (``q`` or ``Hk``).
+        draw: ``(panel, quantity)`` pairs, quantity ``"growth"`` (``Re Lambda``),
+            ``"H_growth"`` (``H Re Lambda``) or ``"re_z"`` (``Re z = Re(i Lambda / k)``).
+        sheet: Sheet of the exact root (PML).
+        n_max: Highest waveguide branch on the cross-section mesh.
+    """
+
+    figure: str
+    curve: str
+    color: str
+    model: str
+    params: Params
+    k: float
+    target: complex
+    x: float
+    draw: tuple[tuple[int, str], ...]
+    sheet: str = "physical"
+    n_max: int = 0
+
+
+def sample(valid: np.ndarray, n: int) -> np.ndarray:
+    """Up to ``n`` indices spread evenly over the True entries of ``valid`` (ends included)."""
+    idx = np.flatnonzero(valid)
+    if len(idx) <= n:
+        return idx
+    return idx[np.unique(np.round(np.linspace(0, len(idx) - 1, n)).astype(int))]
+
+
+def fe_value(lam: complex, task: FETask, quantity: str) -> float:
+    """Plotted quantity of ``Lambda`` for ``task``."""
+    if quantity == "growth":
+        return lam.real
+    if quantity == "H_growth":
+        return task.params.H * lam.real
+    if quantity == "re_z":
+        return (1j * lam / task.k).real
+    raise ValueError(f"unknown quantity {quantity!r}")
+
+
+def _fail(err: Exception) -> str:
+    return f"error: {type(err).__name__}: {err}".replace("\n", " ")[:200]
+
+
+def solve_cross_section(comm: MPI.Comm, tasks: list[FETask]) -> list[dict]:
+    """FE eigenvalues of tasks sharing one parameter set, on one cross-section mesh."""
+    from forms.cross_section import CrossSectionModel
+    from forms.solvers import PolynomialSolver
+
+    t0 = time.perf_counter()
+    model = CrossSectionModel(comm, tasks[0].params, degree=CS_DEGREE,
+                              k_max=max(t.k for t in tasks), n_max=max(t.n_max for t in tasks))
+    solver = PolynomialSolver(comm, nev=2, prefix="gallery_cs_")
+    out = []
+    for t in tasks:
+        row = {"Lambda": complex("nan"), "residual": float("nan"), "flags": [],
+               "size": model.size}
+        try:
+            shift = t.target + CS_SHIFT_OFFSET * abs(t.target) * complex(1, 1) / 2**0.5
+            res = solver.solve(model.operator(t.k), shift)
+        except Exception as err:  # noqa: BLE001 - one failed solve must not stop the gallery
+            row["flags"].append(_fail(err))
+            solver.destroy()
+            solver = PolynomialSolver(comm, nev=2, prefix="gallery_cs_")
+            out.append(row)
+            continue
+        if res.pairs:  # the converged eigenvalue nearest the exact root
+            pair = min(res.pairs, key=lambda q: abs(q.value - t.target))
+            row["Lambda"], row["residual"] = pair.value, pair.residual
+            if not row["residual"] < CS_RESIDUAL:
+                row["flags"].append("residual")
+        else:
+            row["flags"].append("no_root")
+        if not res.ok:
+            row["flags"].append(f"not_converged ({res.reason})")
+        res.destroy()
+        out.append(row)
+    solver.destroy()
+    model.destroy()
+    dt = (time.perf_counter() - t0) / len(tasks)
+    for row in out:
+        row["seconds"] = dt
+    return out
+
+
+def solve_pml(comm: MPI.Comm, task: FETask) -> dict:
+    """FE half-space root near the exact one (PML, with its own failure checks)."""
+    from forms.pml import solve_halfspace
+
+    t0 = time.perf_counter()
+    try:
+        r = solve_halfspace(comm, task.params, task.k, task.target, degree=PML_DEGREE,
+                            sheet=task.sheet)
+        row = {"Lambda": r.Lambda, "residual": r.residual, "flags": list(r.flags),
+               "size": max(r.sizes)}
+    except Exception as err:  # noqa: BLE001 - one failed solve must not stop the gallery
+        row = {"Lambda": complex("nan"), "residual": float("nan"), "flags": [_fail(err)],
+               "size": 0}
+    row["seconds"] = time.perf_counter() - t0
+    return row
+
+
+def fe_units(tasks: list[FETask]) -> list[tuple[float, list[int]]]:
+    """Work units ``(estimated cost, task indices)``.
+
+    One unit per cross-section curve (one mesh), one per PML point (cost from the size of the
+    layer :func:`forms.pml.design_layer` would build).
+    """
+    from forms.pml import design_layer
+
+    units: list[tuple[float, list[int]]] = []
+    curves: dict[tuple, list[int]] = {}
+    for i, t in enumerate(tasks):
+        if t.model == "cross_section":
+            curves.setdefault((t.figure, t.curve, t.params), []).append(i)
+        else:
+            try:
+                cells = design_layer(t.k, t.target, t.params.beta, PML_DEGREE,
+                                     sheet=t.sheet).cells
+            except ValueError:
+                cells = 100
+            units.append((2.0 * cells, [i]))
+    units += [(400.0 + 20.0 * len(idx), idx) for idx in curves.values()]
+    return units
+
+
+def distribute(units: list[tuple[float, list[int]]], size: int) -> list[list[int]]:
+    """Longest-first greedy split of the work units over ``size`` ranks (deterministic)."""
+    load = [0.0] * size
+    share: list[list[int]] = [[] for _ in range(size)]
+    for cost, idx in sorted(units, key=lambda u: (-u[0], u[1])):
+        r = int(np.argmin(load))
+        load[r] += cost
+        share[r].extend(idx)
+    return share
+
+
+def solve_fe(comm: MPI.Comm, tasks: list[FETask]) -> list[dict]:
+    """Every task solved once, split over the ranks (each on ``MPI.COMM_SELF``).
+
+    Collective; every rank gets every result, in the order of ``tasks``.
+    """
+    mine = distribute(fe_units(tasks), comm.size)[comm.rank]
+    results: dict[int, dict] = {}
+    curves: dict[tuple, list[int]] = {}
+    for i in mine:
+        t = tasks[i]
+        if t.model == "cross_section":
+            curves.setdefault((t.figure, t.curve, t.params), []).append(i)
+        else:
+            results[i] = solve_pml(MPI.COMM_SELF, t)
+    for idx in curves.values():
+        results.update(zip(idx, solve_cross_section(MPI.COMM_SELF, [tasks[i] for i in idx]),
+                           strict=True))
+    merged: dict[int, dict] = {}
+    for part in comm.allgather(results):
+        merged.update(part)
+    return [merged[i] for i in range(len(tasks))]
+
+
+def draw_fe(fig, tasks: list[FETask], results: list[dict]) -> dict:  # noqa: ANN001
+    """Draw the trusted FE points on ``fig`` and return their summary for ``figures.json``."""
+    axes = fig.axes
+    used: dict[int, set[str]] = {}
+    skipped, dev, dev_y, seconds = [], [], [], 0.0
+    for t, r in zip(tasks, results, strict=True):
+        seconds += r["seconds"]
+        lam = r["Lambda"]
+        if r["flags"] or not np.isfinite(lam):
+            skipped.append({"curve": t.curve, "k": t.k, "x": t.x,
+                            "reason": ";".join(r["flags"]) or "no value"})
+            continue
+        dev.append(abs(lam - t.target) / abs(t.target))
+        for panel, quantity in t.draw:
+            y = fe_value(lam, t, quantity)
+            dev_y.append(abs(y - fe_value(t.target, t, quantity)))
+            axes[panel].plot([t.x], [y], FE_MARKER[t.model], color=t.color, mfc="none", ms=6,
+                             mew=1.2, zorder=5)
+            used.setdefault(panel, set()).add(t.model)
+    for panel, models in used.items():
+        ax = axes[panel]
+        leg = ax.get_legend()
+        size = leg.get_texts()[0].get_fontsize() if leg and leg.get_texts() else 8
+        ncol = getattr(leg, "_ncols", 1) if leg else 1
+        for m in sorted(models):
+            ax.plot([], [], FE_MARKER[m], color="k", mfc="none", ms=6, mew=1.2,
+                    label=f"{FE_LEGEND[m]} (trusted points)")
+        ax.legend(fontsize=size, ncol=ncol)
+    models = sorted({t.model for t in tasks})
+    return {"models": [FE_MODELS[m] for m in models], "requested": len(tasks),
+            "points": len(dev), "max_rel_deviation": max(dev) if dev else None,
+            "median_rel_deviation": float(np.median(dev)) if dev else None,
+            "max_abs_deviation_plotted": max(dev_y) if dev_y else None,
+            "seconds": seconds, "skipped": skipped}
+
+
 # ---------------------------------------------------------------------------------- figures
-def fig_comparison(opts: argparse.Namespace):  # noqa: ANN201
+def halfspace_tasks(fe: list[FETask], figure: str, curve: str, color: str, p: Params,
+                    roots: list[hs.HalfSpaceRoot], valid: np.ndarray, n: int,
+                    draw: tuple[tuple[int, str], ...] = ((0, "growth"),)) -> None:
+    """Append PML tasks at up to ``n`` of the drawn points (``valid``) of a half-space curve."""
+    for i in sample(valid, n):
+        r = roots[i]
+        fe.append(FETask(figure, curve, color, "pml", p, float(r.q), complex(r.Lambda),
+                         float(r.q), draw, sheet=r.sheet))
+
+
+def fig_comparison(opts: argparse.Namespace, fe: list[FETask]):  # noqa: ANN201
     """Fig. comparison: Re lambda (left) and Re z (right) vs q, exact and analytic."""
     import matplotlib.pyplot as plt
 
@@ -106,6 +350,9 @@ def fig_comparison(opts: argparse.Namespace):  # noqa: ANN201
                     label=lab)
             a2.plot(qs, physical_curve(tr[b], lambda r: r.z.real), "-", color=c, lw=1.6,
                     label=lab)
+            halfspace_tasks(fe, "comparison", f"gamma f = {gf:g} ({b})", c, p, tr[b],
+                            np.isfinite(physical_curve(tr[b], lambda r: r.growth)),
+                            max(2, opts.fe_points // 2), ((0, "growth"), (1, "re_z")))
         a1.plot(qs, lk.growth_rate_dilatational_physical(qs, p), ":", color=c, lw=1.4)
         zl = np.where(lk.growth_rate_dilatational(qs, p) > 0, lk.z_linear(qs, p, "unstable"),
                       lk.z_linear(qs, p, "stable"))
@@ -130,7 +377,7 @@ def fig_comparison(opts: argparse.Namespace):  # noqa: ANN201
                  "q": [qs[0], qs[-1], len(qs)]}
 
 
-def fig_gaps(opts: argparse.Namespace):  # noqa: ANN201
+def fig_gaps(opts: argparse.Namespace, fe: list[FETask]):  # noqa: ANN201
     """Appendix C: roots of s (solid) and of s~ (dashed) join into continuous curves."""
     import matplotlib.pyplot as plt
 
@@ -144,6 +391,10 @@ def fig_gaps(opts: argparse.Namespace):  # noqa: ANN201
                 color="tab:green", lw=2)
         ax.plot(qs, [r.growth for r in tr[b]], "-", color=c, lw=0.6, alpha=0.8,
                 label=f"continued root, kappa_d function '{b}'")
+        for sheet, col in (("physical", "tab:red"), ("s_tilde", "tab:green")):
+            halfspace_tasks(fe, "gaps", f"{b} ({sheet})", col, p, tr[b],
+                            np.isfinite(physical_curve(tr[b], lambda r: r.growth, sheet)),
+                            max(2, opts.fe_points // 2))
     ax.plot([], [], "-", color="tab:red", lw=2, label="roots of s (physical sheet)")
     ax.plot([], [], "--", color="tab:green", lw=2, label="roots of s~ (Eq. spectrum_dimless_gap)")
     ax.axhline(0, color="k", lw=0.6)
@@ -156,7 +407,7 @@ def fig_gaps(opts: argparse.Namespace):  # noqa: ANN201
     return fig, {**p.as_dict(), "q": [qs[0], qs[-1], len(qs)]}
 
 
-def fig_both(opts: argparse.Namespace):  # noqa: ANN201
+def fig_both(opts: argparse.Namespace, fe: list[FETask]):  # noqa: ANN201
     """Fig. both: dilatational and shear growth rates at small Delta, gamma = 0.25."""
     import matplotlib.pyplot as plt
 
@@ -175,6 +426,10 @@ def fig_both(opts: argparse.Namespace):  # noqa: ANN201
                        else np.nan for r in she])
         ax.plot(qs, gd, "-", color=f"C{i}", lw=1.6, label=f"Delta = {d:g} dilatational")
         ax.plot(qs, gs, "--", color=f"C{i}", lw=1.6, label=f"Delta = {d:g} shear")
+        halfspace_tasks(fe, "both", f"Delta = {d:g} dilatational", f"C{i}", p, dil,
+                        np.isfinite(gd), opts.fe_points)
+        halfspace_tasks(fe, "both", f"Delta = {d:g} shear", f"C{i}", p, she, np.isfinite(gs),
+                        opts.fe_points)
     qc = lk.qc_shear(gamma, f, beta)
     ax.annotate(f"q_c^(s) = {qc:.3f}", xy=(qc, 0), xytext=(0.6 * qc, 6e-4),
                 arrowprops={"arrowstyle": "->"}, ha="center", fontsize=8)
@@ -192,12 +447,13 @@ def fig_both(opts: argparse.Namespace):  # noqa: ANN201
                  "delta_m": dm}
 
 
-def _modified(opts: argparse.Namespace, name: str, key: str, values: tuple[float, ...]):  # noqa: ANN202
+def _modified(opts: argparse.Namespace, fe: list[FETask], name: str, key: str,  # noqa: ANN202
+              values: tuple[float, ...]):
     import matplotlib.pyplot as plt
 
     qs = np.logspace(-2, 3, opts.n_q)
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.6))
-    for ax, gamma in zip(axes, (3.2, 4.0), strict=True):
+    for panel, (ax, gamma) in enumerate(zip(axes, (3.2, 4.0), strict=True)):
         for i, v in enumerate(values):
             p = Params(f=0.3, beta=0.5, Delta=0.7, gamma=gamma, **{key: v})
             roots = hs.follow("dilatational", qs, p)
@@ -206,10 +462,12 @@ def _modified(opts: argparse.Namespace, name: str, key: str, values: tuple[float
             ax.plot(qs, ex, "-", color=f"C{i}", lw=2.2, label=f"{key} = {v:g} exact")
             ax.plot(qs, np.where(an > 0, an, np.nan), "-", color=f"C{i}", lw=0.8,
                     label=f"{key} = {v:g} Eq. kappa_d2")
+            halfspace_tasks(fe, name, f"gamma = {gamma}, {key} = {v:g}", f"C{i}", p, roots,
+                            np.isfinite(ex), opts.fe_points, ((panel, "growth"),))
         overlay(ax, name, opts, 0 if gamma == 3.2 else 1)
         ax.set(xscale="log", xlabel="q", ylabel=r"Re $\lambda$ > 0")
         ax.set_title(f"gamma = {gamma} (Gamma = {0.3 * gamma:.2f}), f = 0.3, beta = 0.5, "
-                     "Delta = 0.7; thick: exact, thin: Eq. kappa_d2", fontsize=10)
+                     "Delta = 0.7\nthick: exact, thin: Eq. kappa_d2", fontsize=10)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
     fig.tight_layout()
@@ -217,18 +475,18 @@ def _modified(opts: argparse.Namespace, name: str, key: str, values: tuple[float
                  "q": [qs[0], qs[-1], len(qs)]}
 
 
-def fig_modified1(opts: argparse.Namespace):  # noqa: ANN201
+def fig_modified1(opts: argparse.Namespace, fe: list[FETask]):  # noqa: ANN201
     """Fig. modified1: alpha_PC (alpha_LD = 0)."""
-    return _modified(opts, "modified1", "alpha_pc", (0.0, 0.5, 1.0, 2.0, 5.0))
+    return _modified(opts, fe, "modified1", "alpha_pc", (0.0, 0.5, 1.0, 2.0, 5.0))
 
 
-def fig_modified2(opts: argparse.Namespace):  # noqa: ANN201
+def fig_modified2(opts: argparse.Namespace, fe: list[FETask]):  # noqa: ANN201
     """Fig. modified2: alpha_LD (alpha_PC = 0), including alpha_LD > f."""
-    return _modified(opts, "modified2", "alpha_ld", (0.0, 0.1, 0.2, 0.4))
+    return _modified(opts, fe, "modified2", "alpha_ld", (0.0, 0.1, 0.2, 0.4))
 
 
-def fig_phase_diagram(opts: argparse.Namespace):  # noqa: ANN201
-    """Fig. stability_diagram, computed with workflows/phase_diagram.py's functions."""
+def fig_phase_diagram(opts: argparse.Namespace, fe: list[FETask]):  # noqa: ANN201, ARG001
+    """Fig. stability_diagram, from workflows/phase_diagram.py (analytic spectrum, no FE)."""
     args = phase_diagram.parse(["--n-gamma", str(opts.n_gamma)])
     rows = phase_diagram.check(args)
     grid = phase_diagram.gamma_grid(args.gamma_min, args.gamma_max, args.n_gamma)
@@ -262,7 +520,17 @@ def _unstable_branch(follow_branch, p: Params, n: int, hk: np.ndarray):  # noqa:
     return best
 
 
-def fig_finiteH(opts: argparse.Namespace):  # noqa: ANN201, N802
+def finite_h_tasks(fe: list[FETask], figure: str, curve: str, color: str, p: Params, n: int,
+                   res, panel: int, count: int) -> None:  # noqa: ANN001
+    """Append cross-section tasks at up to ``count`` trusted points of a finite-H branch."""
+    lam = np.asarray(res.Lambda)
+    for i in sample(np.asarray(res.ok) & np.isfinite(lam), count):
+        fe.append(FETask(figure, curve, color, "cross_section", p, float(res.k[i]),
+                         complex(lam[i]), float(res.k[i] * p.H), ((panel, "H_growth"),),
+                         n_max=n))
+
+
+def fig_finiteH(opts: argparse.Namespace, fe: list[FETask]):  # noqa: ANN201, N802
     """Fig. finiteH: H Re Lambda vs Hk; left: gamma f and n (H = 0.5), right: H (n = 0)."""
     import matplotlib.pyplot as plt
 
@@ -274,23 +542,29 @@ def fig_finiteH(opts: argparse.Namespace):  # noqa: ANN201, N802
     signs = {}
     for i, gf in enumerate(gfs):
         p = base.replace(gamma=gf / base.f)
-        g, sign, _ = _unstable_branch(follow_branch, p, 0, hk)
+        g, sign, res = _unstable_branch(follow_branch, p, 0, hk)
         signs[f"gf={gf}"] = sign
         a1.plot(hk, g, "-", color=f"C{i}", lw=1.6, label=f"gamma f = {gf:g}, n = 0")
+        finite_h_tasks(fe, "finiteH", f"gamma f = {gf:g}, n = 0", f"C{i}", p, 0, res, 0,
+                       opts.fe_points)
         a1.plot(hk[hk < 0.8], p.H * lambda_smallk(hk[hk < 0.8] / p.H, 0, sign, p).real, "--",
                 color="k", lw=0.8)
     p = base.replace(gamma=0.9 / base.f)
     for n, ls in ((1, "--"), (2, ":")):
-        g, sign, _ = _unstable_branch(follow_branch, p, n, hk)
+        g, sign, res = _unstable_branch(follow_branch, p, n, hk)
         a1.plot(hk, g, ls, color="C2", lw=1.6, label=f"gamma f = 0.9, n = {n}")
+        finite_h_tasks(fe, "finiteH", f"gamma f = 0.9, n = {n}", "C2", p, n, res, 0,
+                       opts.fe_points)
         a1.plot(hk[hk < 0.8], p.H * lambda_smallk(hk[hk < 0.8] / p.H, n, sign, p).real, "--",
                 color="k", lw=0.8)
     a1.plot([], [], "--", color="k", lw=0.8, label="Eq. Hspectrum (small k)")
     hs_ = (0.5, 1.0, 2.0, 5.0, 10.0)
     for i, h in enumerate(hs_):
         p = base.replace(H=h, gamma=3.0)
-        g, _, _ = _unstable_branch(follow_branch, p, 0, hk)
+        g, _, res = _unstable_branch(follow_branch, p, 0, hk)
         a2.plot(hk, g, "-", color=f"C{i}", lw=1.6, label=f"H = {h:g}")
+        finite_h_tasks(fe, "finiteH", f"H = {h:g}, n = 0", f"C{i}", p, 0, res, 1,
+                       opts.fe_points)
     for ax, title in ((a1, "H = 0.5: several gamma f (n = 0) and n (gamma f = 0.9)"),
                       (a2, "n = 0, gamma = 3: several H (saturation at large H)")):
         ax.axhline(0, color="k", lw=0.6)
@@ -307,7 +581,7 @@ def fig_finiteH(opts: argparse.Namespace):  # noqa: ANN201, N802
                  "gamma_right": 3.0, "Hk": [hk[0], hk[-1], len(hk)], "signs": signs}
 
 
-def fig_stress_top(opts: argparse.Namespace):  # noqa: ANN201
+def fig_stress_top(opts: argparse.Namespace, fe: list[FETask]):  # noqa: ANN201
     """Appendix B figure: velocity vs stress top, gamma f = 0.9, n = 0, H = 0.5."""
     import matplotlib.pyplot as plt
 
@@ -317,9 +591,10 @@ def fig_stress_top(opts: argparse.Namespace):  # noqa: ANN201
     params = {}
     for bc, c in (("velocity", "tab:red"), ("stress", "tab:green")):
         p = Params(f=0.3, beta=0.5, Delta=0.7, H=0.5, gamma=3.0, bc=bc)
-        g, sign, _ = _unstable_branch(follow_branch, p, 0, hk)
+        g, sign, res = _unstable_branch(follow_branch, p, 0, hk)
         ax.plot(hk, g, "-", color=c, lw=1.8,
                 label=f"{bc} controlled top (branch 0{'+-'[sign < 0]})")
+        finite_h_tasks(fe, "stress_top", f"{bc} top", c, p, 0, res, 0, opts.fe_points)
         params[bc] = p.as_dict()
     overlay(ax, "stress_top", opts)
     ax.axhline(0, color="k", lw=0.6)
@@ -348,6 +623,10 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--n-gamma", type=int, default=16, help="Gamma points, phase diagram")
     ap.add_argument("--overlay", default=None,
                     help="folder with <figure>.csv (x, y, label[, panel]) to overlay")
+    ap.add_argument("--fe-points", type=int, default=10,
+                    help="FE points per curve (%(default)s)")
+    ap.add_argument("--no-fe", action="store_true",
+                    help="analytic curves only (no FE points)")
     return ap.parse_args(argv)
 
 
@@ -361,6 +640,7 @@ def check(opts: argparse.Namespace) -> list[str]:
                              f" allowed: {', '.join(FIGURES)}")
     _cli.positive_int("--n-q", opts.n_q, minimum=10, maximum=100000)
     _cli.positive_int("--n-gamma", opts.n_gamma, minimum=2, maximum=2000)
+    _cli.positive_int("--fe-points", opts.fe_points, minimum=2, maximum=1000)
     if os.path.exists(opts.out) and not os.path.isdir(opts.out):
         raise ParameterError(f"--out = {opts.out!r} exists and is not a folder")
     if opts.overlay is not None and not os.path.isdir(opts.overlay):
@@ -369,38 +649,71 @@ def check(opts: argparse.Namespace) -> list[str]:
 
 
 def main(comm: MPI.Comm = MPI.COMM_WORLD, argv: list[str] | None = None) -> int:
-    """Make the figures (split over ranks); rank 0 writes ``figures.json``."""
+    """Make the figures and their FE points (both split over ranks); rank 0 writes the index."""
     opts = parse(argv)
     names = check(opts)  # every rank: same input, same verdict, before any collective
     if comm.rank == 0:
         os.makedirs(opts.out, exist_ok=True)
     comm.Barrier()
-    done = {}
+    t_start = time.perf_counter()
+    done, figs = {}, {}
+    tasks: list[FETask] = []
     for name in names[comm.rank::comm.size]:
-        path = os.path.join(opts.out, f"{name}.png")
+        fe: list[FETask] = []
         try:
-            fig, params = MAKERS[name](opts)
+            figs[name] = MAKERS[name](opts, fe)
         except Skipped as why:
             done[name] = {"status": "skipped", "reason": str(why)}
             continue
-        import matplotlib.pyplot as plt
+        tasks += fe
+    t_analytic = time.perf_counter() - t_start
+    # FE: every rank sees every figure's tasks and solves its share (collective).
+    all_tasks = [] if opts.no_fe else [t for part in comm.allgather(tasks) for t in part]
+    results = solve_fe(comm, all_tasks) if all_tasks else []
+    t_fe = time.perf_counter() - t_start - t_analytic
+    import matplotlib.pyplot as plt
 
-        command = " ".join([sys.executable] + sys.argv)
-        phase_diagram.save_png(fig, path, {"figure": name, **params}, command)
+    command = " ".join([sys.executable] + sys.argv)
+    for name, (fig, params) in figs.items():
+        if opts.no_fe:
+            fe_info: dict | str = "off (--no-fe)"
+        else:
+            mine = [(t, r) for t, r in zip(all_tasks, results, strict=True) if t.figure == name]
+            fe_info = (draw_fe(fig, [t for t, _ in mine], [r for _, r in mine]) if mine else
+                       "none: no FE counterpart (the boundaries come from the spectrum)"
+                       if name == "phase_diagram" else "none: no curve points to check")
+        path = os.path.join(opts.out, f"{name}.png")
+        meta = {"figure": name, **params}
+        if isinstance(fe_info, dict):
+            meta["fe"] = {k: v for k, v in fe_info.items() if k != "skipped"}
+        phase_diagram.save_png(fig, path, meta, command)
         plt.close(fig)
         done[name] = {"status": "written", "file": os.path.basename(path),
-                      "parameters": params}
+                      "parameters": params, "fe": fe_info}
     parts = comm.gather(done, root=0)
+    times = comm.gather((t_analytic, t_fe), root=0)
     if comm.rank == 0:
         index = {k: v for part in parts for k, v in part.items()}
+        wall = time.perf_counter() - t_start
         with open(os.path.join(opts.out, "figures.json"), "w") as fh:
-            json.dump({"command": " ".join([sys.executable] + sys.argv),
-                       "versions": phase_diagram.versions(), "figures": index}, fh, indent=2,
-                      default=str)
+            json.dump({"command": command, "versions": phase_diagram.versions(),
+                       "ranks": comm.size, "fe_points_per_curve": opts.fe_points,
+                       "fe": not opts.no_fe,
+                       "seconds": {"wall": wall,
+                                   "analytic_per_rank": [t[0] for t in times],
+                                   "fe_per_rank": [t[1] for t in times]},
+                       "figures": index}, fh, indent=2, default=str)
         for k in names:
             v = index[k]
-            print(f"{k}: {v['status']}" + (f" ({v['reason']})" if "reason" in v else ""),
-                  flush=True)
+            line = f"{k}: {v['status']}" + (f" ({v['reason']})" if "reason" in v else "")
+            if isinstance(v.get("fe"), dict):
+                fe_info = v["fe"]
+                dev = fe_info["max_rel_deviation"]
+                line += (f"; FE {fe_info['points']}/{fe_info['requested']} points, max rel. "
+                         f"deviation {dev:.1e}" if dev is not None else
+                         f"; FE 0/{fe_info['requested']} points")
+            print(line, flush=True)
+        print(f"wall time {wall:.1f} s on {comm.size} rank(s)", flush=True)
     return 0
 
 

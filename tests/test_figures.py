@@ -70,6 +70,7 @@ def test_figures_fe_points_on_exact_curves(tmp_path, nproc):
     for name, bound in FE_DEVIATION.items():
         fe = index["figures"][name]["fe"]
         assert fe["points"] >= 0.7 * fe["requested"] > 0, (name, fe)
+        assert fe["points"] + len(fe["skipped"]) == fe["requested"], (name, fe)
         assert fe["max_rel_deviation"] < bound, (name, fe)
 
 

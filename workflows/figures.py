@@ -20,6 +20,14 @@ Figures (``--only`` takes a comma list of these names):
 Every PNG carries its command line and parameters in the PNG metadata (``Description``,
 ``Comment``); ``DIR/figures.json`` lists what was made (or skipped, and why).
 
+FE points: every figure except the phase diagram gets FE eigenvalues computed here, at up to
+``--fe-points`` points per curve, with the exact root as reference: the cross-section model
+(finite H) and the PML half-space model (``forms.pml.solve_halfspace``, including
+``alpha_PC``/``alpha_LD``: the friction row carries them). Only points the FE itself trusts
+are drawn (cross-section: converged, backward error < 1e-10; PML: no flag); ``figures.json``
+lists per figure the number of points, the largest relative deviation from the exact root and
+every skipped point with its reason. ``--no-fe``: analytic curves only.
+
 Overlaying other data (e.g. FE eigenvalues): with ``--overlay DIR``, a file
 ``DIR/<figure>.csv`` with columns ``x, y, label`` (and optionally ``panel``, 0-based) is plotted
 as markers on that figure (``x, y`` in the figure's axes units: ``q`` or ``Hk``, growth rate).

@@ -3,30 +3,17 @@
 import csv
 import json
 import os
-import shutil
-import subprocess
-import sys
 
 import pytest
+from _workflows import run_workflow
 
 from analytic import largek as lk
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SCRIPT = os.path.join(ROOT, "workflows", "phase_diagram.py")
 TINY = ["--f", "0.3", "--n-gamma", "2", "--gamma-min", "1e-4", "--gamma-max", "0.5"]
 
 
 def run(args, nproc=1):
-    cmd = [sys.executable, SCRIPT, *args]
-    if nproc > 1:
-        mpirun = shutil.which("mpirun")
-        if mpirun is None:
-            pytest.skip("mpirun not available")
-        cmd = [mpirun, "-n", str(nproc), sys.executable, "-m", "mpi4py", SCRIPT, *args]
-    # os.environ is the start-up environment: a singleton MPI_Init in this process (any test
-    # that imports mpi4py) adds PMIX_/OMPI_ variables at C level that would confuse mpirun.
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("PMIX_", "OMPI_COMM_"))}
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=300, cwd=ROOT, env=env)
+    return run_workflow("phase_diagram.py", args, nproc)
 
 
 def read(out):

@@ -6,24 +6,17 @@ Launched once (serial pass); the MPI run is a subprocess.
 import csv
 import json
 import os
-import subprocess
-import sys
 
 import pytest
+from _workflows import run_workflow
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SCRIPT = os.path.join(ROOT, "workflows", "halfspace_modes.py")
 TINY = ["--k", "0.3,1.0", "--H-trunc", "50", "--bc-trunc", "velocity", "--degree", "3"]
 
 pytestmark = pytest.mark.serial
 
 
 def _run(args, out, n=1):
-    cmd = [sys.executable, SCRIPT, *args, "--out", str(out)]
-    if n > 1:
-        cmd = ["mpirun", "-n", str(n), *cmd]
-    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    return subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
+    return run_workflow("halfspace_modes.py", [*args, "--out", str(out)], n)
 
 
 def _rows(out):

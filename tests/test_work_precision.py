@@ -6,23 +6,15 @@ The workflow runs are subprocesses, launched once (serial pass).
 
 import csv
 import json
-import os
-import subprocess
-import sys
 
 import pytest
+from _workflows import run_workflow
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SCRIPT = os.path.join(ROOT, "workflows", "work_precision.py")
 CHECK_VALUE = 0.2716852879456 - 6.5866951866228j  # DESIGN.md section 4
 
 
 def _run(args, out, n=1):
-    cmd = [sys.executable, SCRIPT, *args, "--out", str(out)]
-    if n > 1:
-        cmd = ["mpirun", "-n", str(n), *cmd]
-    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    return subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
+    return run_workflow("work_precision.py", [*args, "--out", str(out)], n)
 
 
 @pytest.mark.serial

@@ -9,6 +9,7 @@
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 from collections.abc import Callable
@@ -25,6 +26,25 @@ from analytic.cli import (  # noqa: E402, F401
 from analytic.params import ParameterError, Params, check_k  # noqa: E402, F401
 
 EXIT_USAGE = 2
+
+
+def parse_with_petsc_options(parser: argparse.ArgumentParser,
+                              argv: list[str] | None = None
+                              ) -> tuple[argparse.Namespace, list[str]]:
+    """Parse ``argv``, letting single-dash PETSc/SLEPc options (and their values) through.
+
+    Returns:
+        ``(args, petsc_args)``; ``petsc_args`` is meant for ``slepc4py.init``.
+
+    An unknown ``--option`` or a stray leading word is a usage error (argparse's, exit 2).
+    """
+    args, petsc_args = parser.parse_known_args(argv)
+    bad = [a for a in petsc_args if a.startswith("--")]
+    if petsc_args and not petsc_args[0].startswith("-"):
+        bad.insert(0, petsc_args[0])
+    if bad:
+        parser.error(f"unrecognized arguments: {' '.join(bad)}")
+    return args, petsc_args
 
 
 def run(main: Callable[[], int | None]) -> None:

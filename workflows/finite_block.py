@@ -165,13 +165,7 @@ def plot_convergence(rows: list[dict], lam_inf: complex, k_inf: float, out_png: 
 
 def main(comm=None, argv: list[str] | None = None) -> int:
     """Run the scan over block lengths; exit code 1 if some length had no converged mode."""
-    parser = build_parser()
-    args, petsc_args = parser.parse_known_args(argv)
-    bad = [a for a in petsc_args if a.startswith("--")]
-    if petsc_args and not petsc_args[0].startswith("-"):
-        bad.insert(0, petsc_args[0])
-    if bad:
-        parser.error(f"unrecognized arguments: {' '.join(bad)}")
+    args, petsc_args = _cli.parse_with_petsc_options(build_parser(), argv)
     params, lengths, branches, k_scan = validate(args)
 
     import slepc4py

@@ -340,14 +340,8 @@ def _write_outputs(args, meta: dict, title: str, u, params, length: float, k: fl
 
 def main(comm=None, argv: list[str] | None = None) -> int:
     """Run the workflow; returns the exit code (0, or 1 if no suitable mode converged)."""
-    parser = build_parser()
-    args, petsc_args = parser.parse_known_args(argv)
-    # Left over: PETSc/SLEPc options (single dash, e.g. -strip_pep_ncv 40) and their values.
-    bad = [a for a in petsc_args if a.startswith("--")]
-    if petsc_args and not petsc_args[0].startswith("-"):
-        bad.insert(0, petsc_args[0])
-    if bad:
-        parser.error(f"unrecognized arguments: {' '.join(bad)}")
+    # PETSc/SLEPc options (single dash, e.g. -strip_pep_ncv 40) pass through.
+    args, petsc_args = _cli.parse_with_petsc_options(build_parser(), argv)
     params, branch, k_scan = validate(args)
 
     import slepc4py

@@ -89,7 +89,14 @@ def positive_int(name: str, value: int, minimum: int = 1, maximum: int | None = 
 
 
 class OneLineParser(argparse.ArgumentParser):
-    """argparse whose usage errors are a :class:`ParameterError` (one line, exit 2)."""
+    """argparse whose usage errors are a :class:`ParameterError` (one line, exit 2).
+
+    Prefix abbreviations of long options (``--be`` for ``--beta``) are not accepted.
+    """
+
+    def __init__(self, *args, **kwargs) -> None:  # noqa: ANN002, ANN003
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> None:  # noqa: D102 - argparse hook
         raise ParameterError(message)

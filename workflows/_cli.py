@@ -69,7 +69,6 @@ import signal
 import socket
 import subprocess
 import sys
-import threading
 import time
 import traceback
 from collections.abc import Callable, Iterable, Sequence
@@ -516,6 +515,7 @@ class RunFolder:
         if verdict is not None:
             raise ParameterError(verdict)
         _STATE["folder"] = self
+        _tell_watcher("folder", os.path.abspath(self.path), "1" if self.resumable else "0")
         return self
 
     def close(self) -> None:
@@ -645,77 +645,88 @@ class RunFolder:
 
 
 # ------------------------------------------------------------------------------ entry point
-def _resume_hint() -> str:
-    folder = _STATE.get("folder")
-    if folder is None:
-        return ""
-    if folder.resumable:
-        return (f"; the finished part is in {folder.path}: run the same command with --resume "
-                "to continue")
-    return f"; {folder.path} may hold incomplete files (this workflow writes them at its end)"
-
-
-def _stopped(signum: int) -> str:
-    name = signal.Signals(signum).name
-    return (f"rank {rank()}: stopped by {name} (mpirun stops every rank when one of them fails "
-            f"or is killed, or the job was interrupted){_resume_hint()}")
-
-
-def _install_signal_watch() -> None:
-    """SIGTERM/SIGHUP: one line saying what happened, then exit, even inside a blocking MPI call.
-
-    Python runs signal handlers in the main thread only between bytecodes, which a rank waiting
-    in an MPI collective never reaches; the C-level wake-up fd is read by a thread instead.
-    """
-    if threading.current_thread() is not threading.main_thread():
-        return
-    r, w = os.pipe()
-    os.set_blocking(w, False)
+#: The watcher: a tiny process per rank that outlives it. It reads what the rank tells it
+#: (its output folder, a signal, "done") and, if the rank ends without "done" (killed, or
+#: stopped by mpirun because another rank died), says so in one line (rank 0's watcher only)
+#: and removes the rank's lock. A Python signal handler cannot do this: a rank blocked in a
+#: PETSc/MPI call holds the GIL until mpirun's SIGKILL.
+_WATCHER = r"""
+import json, os, sys
+rank, parent, launcher = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
+err = 2
+if launcher:  # mpirun's own stderr: the rank's pipe to mpirun dies with mpirun
     try:
-        signal.set_wakeup_fd(w, warn_on_full_buffer=False)
-    except ValueError:
+        err = os.open("/proc/%d/fd/2" % launcher, os.O_WRONLY | os.O_APPEND)
+    except OSError:
+        pass
+folder, resumable, why = None, False, None
+for line in sys.stdin:
+    key, _, rest = line.rstrip("\n").partition("\t")
+    if key == "done":
+        sys.exit(0)
+    if key == "folder":
+        folder, _, res = rest.rpartition("\t")
+        resumable = res == "1"
+    if key == "why":
+        why = rest
+if folder:
+    lock = os.path.join(folder, "run.lock")
+    try:
+        with open(lock) as fh:
+            if json.load(fh).get("pid") == parent:
+                os.remove(lock)
+    except (OSError, ValueError):
+        pass
+if rank != 0:
+    sys.exit(0)
+if why is None:
+    why = ("stopped: the run ended without finishing (killed or interrupted; under mpirun"
+           " every rank is stopped when one of them fails or is killed)")
+if folder and resumable:
+    why += ("; the finished part is in " + folder + ": run the same command with --resume"
+            " to continue")
+elif folder:
+    why += "; " + folder + " may hold incomplete files (this workflow writes them at its end)"
+os.write(err, ("\n" + why + "\n").encode())
+"""
+_WATCH: dict[str, Any] = {"proc": None}
+
+
+def _tell_watcher(*fields: str) -> None:
+    proc = _WATCH["proc"]
+    if proc is None or proc.stdin is None or proc.stdin.closed:
         return
-    terminate = (signal.SIGTERM, signal.SIGHUP)
-
-    def on_term(signum: int, frame: object) -> None:  # main thread, if it gets there first
-        _exit_on_signal(signum)
-
-    for s in terminate:
-        signal.signal(s, on_term)
-
-    def watch() -> None:
-        while True:
-            try:
-                data = os.read(r, 64)
-            except OSError:
-                return
-            for signum in data:
-                if signum in terminate:
-                    _exit_on_signal(signum)
-                if signum == signal.SIGINT:
-                    # Ctrl-C: the main thread raises KeyboardInterrupt when it can; a rank stuck
-                    # in a collective cannot, so the message and exit come from here after 5 s.
-                    time.sleep(5.0)
-                    _exit_on_signal(signum)
-
-    threading.Thread(target=watch, daemon=True, name="signal-watch").start()
+    with contextlib.suppress(OSError, ValueError):
+        proc.stdin.write("\t".join(fields) + "\n")
+        proc.stdin.flush()
 
 
-_EXITING = threading.Lock()
-
-
-def _exit_on_signal(signum: int) -> None:
-    if not _EXITING.acquire(blocking=False):
+def _start_watcher() -> None:
+    if _WATCH["proc"] is not None:
         return
-    folder = _STATE.get("folder")
-    if folder is not None:
-        folder.close()
-    if signum == signal.SIGINT:
-        msg = f"interrupted (Ctrl-C){_resume_hint()}"
-        if rank() == 0:
-            print(msg, file=sys.stderr, flush=True)
-    else:
-        print(_stopped(signum), file=sys.stderr, flush=True)
+    try:
+        _WATCH["proc"] = subprocess.Popen(
+            [sys.executable, "-S", "-E", "-c", _WATCHER, str(rank()), str(os.getpid()),
+             str(os.getppid() if world_size() > 1 else 0)],
+            stdin=subprocess.PIPE, text=True, start_new_session=True)
+    except OSError:
+        _WATCH["proc"] = None
+
+
+def _watcher_done() -> None:
+    _tell_watcher("done")
+    proc = _WATCH["proc"]
+    if proc is not None and proc.stdin is not None:
+        with contextlib.suppress(OSError):
+            proc.stdin.close()
+
+
+def _on_terminate(signum: int, frame: object) -> None:
+    """SIGTERM/SIGHUP reaching Python: the watcher says it (see :data:`_WATCHER`)."""
+    name = signal.Signals(signum).name
+    _tell_watcher("why", f"stopped by {name} (under mpirun: every rank is stopped when one of "
+                         "them fails or is killed, or the job was interrupted)")
+    _close_folder()
     os._exit(128 + signum)
 
 
@@ -724,42 +735,47 @@ def run(main: Callable[..., int | None]) -> None:
 
     - :class:`ParameterError` (bad input): ``error: <one line>`` on rank 0, exit 2.
     - Ctrl-C: one line (what happened, whether ``--resume`` continues), exit 130.
-    - SIGTERM (under ``mpirun``: another rank died or was killed): one line per stopped rank,
-      exit 143.
+    - A rank killed, or stopped by ``mpirun`` because another one failed: one line from rank
+      0's watcher process (what happened, whether ``--resume`` continues); its lock removed.
     - Any other exception: its traceback, then, with several ranks, ``MPI_Abort`` so that no
       rank is left waiting in a collective.
     """
-    _install_signal_watch()
+    _start_watcher()
+    for s in (signal.SIGTERM, signal.SIGHUP):
+        with contextlib.suppress(ValueError):
+            signal.signal(s, _on_terminate)
     try:
         code = main()
     except ParameterError as err:
         _close_folder()
         if rank() == 0:
             print(f"error: {err}", file=sys.stderr, flush=True)
+        _watcher_done()
         sys.exit(EXIT_USAGE)
     except KeyboardInterrupt:
-        _exit_on_signal(signal.SIGINT)
-        raise
+        _tell_watcher("why", "interrupted (Ctrl-C)")
+        _close_folder()
+        os._exit(130)
     except SystemExit:
         _close_folder()
+        _watcher_done()
         raise
     except BaseException as err:  # noqa: BLE001 - reported, then every rank is stopped
         _close_folder()
         traceback.print_exc()
+        _tell_watcher("why", f"stopped: rank {rank()} failed ({type(err).__name__}: {err})")
         if world_size() > 1:
-            print(f"rank {rank()}: {type(err).__name__}: {err}; stopping all ranks"
-                  f"{_resume_hint()}", file=sys.stderr, flush=True)
             from mpi4py import MPI
 
             MPI.COMM_WORLD.Abort(1)
-        sys.exit(1)
+        os._exit(1)
     _close_folder()
+    _watcher_done()
     sys.exit(int(code or 0))
 
 
 def _close_folder() -> None:
     folder = _STATE.get("folder")
     if folder is not None:
+        _tell_watcher("folder", folder.path, "1" if folder.resumable else "0")
         folder.close()
-
-

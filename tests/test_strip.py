@@ -172,7 +172,7 @@ def test_follow_branch_stays_on_stress_top_0plus():
     The branch peaks at Re Lambda = 0.23294 near k = 1.545 (checked against the exact root).
     """
     from analytic.branches import polish_root
-    from forms.strip import follow_branch
+    from forms.cross_section_continuation import follow_branch
     from forms.tracking import Branch, waveguide_lambda
 
     params = Params(bc="stress")

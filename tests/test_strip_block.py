@@ -16,12 +16,9 @@ slepc4py.init(sys.argv[:1])
 from mpi4py import MPI  # noqa: E402
 
 from analytic.params import Params  # noqa: E402
-from forms.strip import (  # noqa: E402
-    build_strip_problem,
-    interface_stresses,
-    kulikovskii_limit,
-    solve_modes,
-)
+from forms.mode_postprocessing import interface_stresses  # noqa: E402
+from forms.spatial_stability import kulikovskii_limit  # noqa: E402
+from forms.strip import build_strip_problem, solve_modes  # noqa: E402
 from meshes.strip import strip_mesh  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))

@@ -463,7 +463,7 @@ class TruncatedResult:
 
 def solve_truncated(comm: MPI.Comm, params: Params, k: float, H: float, bc: str,
                     target: complex, *, degree: int = 4, tol: float = 1e-8) -> TruncatedResult:
-    """The half-space approximated by a plain strip of height ``H`` (B's cross-section model).
+    """The half-space approximated by a plain strip of height ``H`` (the cross-section model).
 
     The check is the reflection estimate: a root is only trusted if both partial waves have
     decayed by ``tol`` on the way to the top and back.

@@ -6,7 +6,7 @@ mesh from :mod:`meshes.strip`:
 - ``stiffness``: ``inner(sigma(u), eps(w)) dx``; ``mass``: ``inner(u, w) dx``;
 - ``interface_mass``: ``inner(u_x, w_x) ds(INTERFACE)``, the consistent boundary mass that turns
   the friction law's pointwise ``u_x`` term into a nodal one matching the consistent reaction
-  ``R = (K + Lambda^2 M) u`` (DESIGN.md section 5).
+  ``R = (K + Lambda^2 M) u`` (docs/design.md section 5).
 
 On a Bloch cell (wavenumber ``k``), the three matrices are reduced by ``P^H A P``
 (:mod:`forms.periodic`) *before* any row operation, so every reduced row is the row of a node of

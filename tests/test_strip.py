@@ -17,7 +17,7 @@ from forms.periodic import bloch_map  # noqa: E402
 from forms.strip import build_strip_problem, solve_modes  # noqa: E402
 from meshes.strip import LEFT, RIGHT, edge_dofs, strip_mesh, wavelength  # noqa: E402
 
-# DESIGN.md section 4: velocity top, paper defaults, H = 0.5, k = 1, branch 0- (exact root).
+# docs/design.md section 4: velocity top, paper defaults, H = 0.5, k = 1, branch 0- (exact root).
 CHECK_VALUE = 0.2716852879456 - 6.5866951866228j
 COMM = MPI.COMM_WORLD
 

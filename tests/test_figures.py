@@ -47,6 +47,7 @@ def test_figures_smoke(tmp_path, nproc):
 FE_DEVIATION = {"finiteH": 5e-10, "stress_top": 5e-10, "both": 5e-10, "gaps": 1e-9}
 
 
+@pytest.mark.slow  # measured 13 .. 35 s per case (2026-11-22, one file at a time, serial pass)
 @pytest.mark.serial
 @pytest.mark.parametrize("nproc", [1, 2])
 def test_figures_fe_points_on_exact_curves(tmp_path, nproc):

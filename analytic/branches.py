@@ -23,6 +23,7 @@ A branch ``(n, sign)`` (label ``"0-"``, ``"1+"``, ...) starts at
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -31,6 +32,9 @@ from analytic.finite_h import cutoff, det_M
 from analytic.params import ParameterError, Params, check_k
 from analytic.roots import ContourError, Root, count_zeros, polish, zeros_in_box
 from analytic.smallk import slope
+
+#: ``skip(k, Lambda_predicted, uncertainty) -> bool`` (see :func:`follow_branch`).
+Skip = Callable[[float, complex, float], bool]
 
 
 def branch_label(n: int, sign: int) -> str:
@@ -175,6 +179,7 @@ def follow_branch(
     k_start: float | None = None,
     dk_min: float | None = None,
     max_steps: int = 20000,
+    skip: Skip | None = None,
 ) -> BranchResult:
     """Follow branch ``(n, sign)`` from its cut-off to every requested ``k``.
 
@@ -187,6 +192,9 @@ def follow_branch(
         dk_min: Smallest step before a point is accepted as ``"ambiguous"`` (default
             ``1e-6 * max(k_max, 1/H)``).
         max_steps: Safety limit on the number of continuation steps.
+        skip: ``skip(k, Lambda_predicted, uncertainty)`` True when the root is not wanted at a
+            requested ``k`` (e.g. predicted far outside a region): no value there (flag
+            ``"outside"``), and no continuation step has to end there.
 
     Returns:
         A :class:`BranchResult`.
@@ -216,12 +224,82 @@ def follow_branch(
     if root is None:
         return BranchResult(label, n, sign, ks, out_L, out_res, out_cond, out_ok, flags,
                             np.array(k_path), np.array(L_path, dtype=complex), note)
-    k_cur, L_cur = k_start, root.value
-    k_prev, L_prev = 0.0, cutoff(n, sign, p)  # the cut-off is the k = 0 point of the branch
-    k_path += [0.0, k_cur]
-    L_path += [L_prev, L_cur]
-    dk = k_start
-    good_h = k_start  # last step accepted without doubt
+    # the cut-off is the k = 0 point of the branch
+    return _continue(p, label, n, sign, ks, (0.0, cutoff(n, sign, p)), (k_start, root.value),
+                     dk_min, max_steps, skip)
+
+
+def follow_root(
+    p: Params,
+    label: str,
+    k0: float,
+    Lambda0: complex,
+    k_values: float | np.ndarray,
+    *,
+    dk_min: float | None = None,
+    max_steps: int = 20000,
+    skip: Skip | None = None,
+) -> BranchResult:
+    """Follow the root at ``(k0, Lambda0)`` to every requested ``k >= k0``.
+
+    As :func:`follow_branch` (same step control, root count at every step), for a root that
+    does not start at a waveguide cut-off. The root is polished at ``k0``, and a first point at
+    ``k0 (1 - 1e-3)`` gives the secant predictor. Requested ``k < k0`` are reported lost.
+
+    Returns:
+        A :class:`BranchResult` with ``n = -1``, ``sign = 0``.
+    """
+    ks = np.unique(check_k(k_values))
+    if dk_min is None:
+        dk_min = 1e-6 * max(float(ks[-1]), 1.0 / p.H)
+    fun = spectrum_function(p, k0)
+    r0 = polish(fun, complex(Lambda0))
+    k_a = k0 * (1.0 - 1e-3)
+    r_a = polish(spectrum_function(p, k_a), r0.value)
+    nan = np.full(ks.shape, np.nan + 0j)
+    if not (r0.converged and r_a.converged and abs(r_a.value - r0.value) < 1e-2 * max(
+            1.0, abs(r0.value))):
+        return BranchResult(label, -1, 0, ks, nan, np.full(ks.shape, np.nan),
+                            np.full(ks.shape, np.nan), np.zeros(ks.shape, bool),
+                            ["lost"] * ks.size, note=f"{label}: no root near {Lambda0} at k0")
+    first = int(np.searchsorted(ks, k0))
+    res = _continue(p, label, -1, 0, ks[first:], (k_a, r_a.value), (k0, r0.value),
+                    dk_min, max_steps, skip)
+    if first == 0:
+        return res
+    pad = ks[:first]
+
+    def cat(a: np.ndarray, fill: object) -> np.ndarray:
+        return np.concatenate([np.full(pad.shape, fill, dtype=np.asarray(a).dtype), a])
+
+    return BranchResult(label, -1, 0, ks, cat(res.Lambda, np.nan), cat(res.residual, np.nan),
+                        cat(res.cond, np.nan), cat(res.ok, False),
+                        ["lost"] * first + list(res.flag), res.k_path, res.Lambda_path,
+                        res.note)
+
+
+def _continue(p: Params, label: str, n: int, sign: int, ks: np.ndarray,
+              prev: tuple[float, complex], cur: tuple[float, complex], dk_min: float,
+              max_steps: int, skip: Skip | None = None) -> BranchResult:
+    """The continuation loop shared by :func:`follow_branch` and :func:`follow_root`.
+
+    ``skip(k, Lambda_predicted, uncertainty)`` True: the requested ``k`` is not needed (flag
+    ``"outside"``, no value); the continuation then does not stop there.
+    """
+    out_L = np.full(ks.shape, np.nan + 0j)
+    out_res = np.full(ks.shape, np.nan)
+    out_cond = np.full(ks.shape, np.nan)
+    out_ok = np.zeros(ks.shape, dtype=bool)
+    flags = ["lost"] * ks.size
+    k_prev, L_prev = prev
+    k_cur, L_cur = cur
+    k_path = [k_prev, k_cur]
+    L_path = [L_prev, L_cur]
+    dk = k_cur - k_prev if k_prev > 0 else k_cur
+    if ks.size == 0:
+        return BranchResult(label, n, sign, ks, out_L, out_res, out_cond, out_ok, flags,
+                            np.array(k_path), np.array(L_path, dtype=complex), "")
+    good_h = dk  # last step accepted without doubt
     hist: tuple[float, complex] | None = None
     target_i = 0
     notes: list[str] = []
@@ -256,8 +334,14 @@ def follow_branch(
         return r, ok, corr, dL
 
     while target_i < ks.size and steps < max_steps:
-        steps += 1
         k_target = float(ks[target_i])
+        if skip is not None and k_target > k_cur:
+            d1 = (L_cur - L_prev) / (k_cur - k_prev)
+            if skip(k_target, L_cur + d1 * (k_target - k_cur), abs(d1) * (k_target - k_cur)):
+                flags[target_i] = "outside"
+                target_i += 1
+                continue
+        steps += 1
         # the step ends on a requested k (may be short; never leave a sliver before it)
         clamped = k_cur + dk * (1.0 + 1e-6) >= k_target
         k_new = k_target if clamped else k_cur + dk

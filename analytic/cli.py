@@ -1,10 +1,13 @@
 """Command line of the ``analytic`` package, and the parameter plumbing shared with workflows.
 
 ``python -m analytic branch --k 0.5,1,2 --H 0.5 --bc velocity --branches 2`` prints CSV
-``k,branch,re_lambda,im_lambda,residual`` for branches ``0+, 0-, 1+, 1-, ...`` followed in k
-from their cut-offs. ``python -m analytic units ...`` converts physical data.
-``python -m analytic dispersion --out DIR`` writes the analytic dispersion curve (CSV, JSON,
-PNG). Bad input: one line on stderr naming the parameter, exit code 2.
+``k,branch,re_lambda,im_lambda,residual,flag`` for branches ``0+, 0-, 1+, 1-, ...`` followed in
+k from their cut-offs; ``flag`` is empty for a trusted root, else why not (``lost``,
+``ambiguous``, ...), and any flagged row makes the exit code 1 (with a warning on stderr).
+``python -m analytic units ...`` converts physical data. ``python -m analytic dispersion --out
+DIR`` writes the analytic dispersion curve (CSV, JSON, PNG). Bad input: one line on stderr
+naming the parameter, exit code 2. Under ``mpirun`` every rank computes the same thing and only
+rank 0 prints or writes.
 
 :func:`add_param_arguments`, :func:`params_from_args`, :func:`parse_k`, :func:`positive_int`
 are also used by ``workflows/_cli.py`` (which re-exports them).
@@ -13,6 +16,7 @@ are also used by ``workflows/_cli.py`` (which re-exports them).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import json
 import math
@@ -25,6 +29,15 @@ import numpy as np
 from analytic.params import ParameterError, Params, check_k
 
 EXIT_USAGE = 2
+EXIT_FLAGGED = 1
+
+
+def _rank() -> int:
+    """Rank under mpirun, from its environment (this package does not use MPI itself)."""
+    for var in ("OMPI_COMM_WORLD_RANK", "PMIX_RANK", "PMI_RANK"):
+        if var in os.environ:
+            return int(os.environ[var])
+    return 0
 
 
 def add_param_arguments(parser: argparse.ArgumentParser, defaults: Params | None = None) -> None:
@@ -60,23 +73,27 @@ def parse_k(spec: str, name: str = "--k") -> np.ndarray:
         ParameterError: On malformed input or a non-positive / non-finite value.
     """
     s = spec.strip()
-    try:
-        if ":" in s:
-            parts = s.split(":")
-            if len(parts) != 3:
-                raise ValueError
+    malformed = ParameterError(
+        f"{name} = {spec!r} is neither 'start:stop:count' nor a comma list of numbers")
+    if ":" in s:
+        parts = s.split(":")
+        if len(parts) != 3:
+            raise malformed
+        try:
             start, stop, count = float(parts[0]), float(parts[1]), int(parts[2])
-            if count < 1:
-                raise ParameterError(f"{name} = {spec!r}: count must be >= 1")
-            if count > 1 and not stop > start:
-                raise ParameterError(f"{name} = {spec!r}: stop must be larger than start")
-            values = np.linspace(start, stop, count)
-        else:
+        except ValueError:
+            raise malformed from None
+        if count < 1:
+            raise ParameterError(f"{name} = {spec!r}: count must be >= 1")
+        if count > 1 and not stop > start:
+            raise ParameterError(f"{name} = {spec!r}: stop = {parts[1]} must be larger than "
+                                 f"start = {parts[0]}")
+        values = np.linspace(start, stop, count)
+    else:
+        try:
             values = np.array([float(v) for v in s.split(",") if v.strip()])
-    except ValueError:
-        raise ParameterError(
-            f"{name} = {spec!r} is neither 'start:stop:count' nor a comma list of numbers"
-        ) from None
+        except ValueError:
+            raise malformed from None
     return check_k(values, name=name.lstrip("-"))
 
 
@@ -89,7 +106,14 @@ def positive_int(name: str, value: int, minimum: int = 1, maximum: int | None = 
 
 
 class OneLineParser(argparse.ArgumentParser):
-    """argparse whose usage errors are a :class:`ParameterError` (one line, exit 2)."""
+    """argparse whose usage errors are a :class:`ParameterError` (one line, exit 2).
+
+    Prefix abbreviations of long options (``--be`` for ``--beta``) are not accepted.
+    """
+
+    def __init__(self, *args, **kwargs) -> None:  # noqa: ANN002, ANN003
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> None:  # noqa: D102 - argparse hook
         raise ParameterError(message)
@@ -110,16 +134,26 @@ def _branch(args: argparse.Namespace) -> int:
     positive_int("--branches", args.branches, 1, 50)
     results = follow_branches(p, args.branches, k)
     w = csv.writer(sys.stdout, lineterminator="\n")
-    w.writerow(["k", "branch", "re_lambda", "im_lambda", "residual"])
+    w.writerow(["k", "branch", "re_lambda", "im_lambda", "residual", "flag"])
     kk = results[0].k
+    flagged = 0
     for i, kv in enumerate(kk):
         for r in results:
             L = r.Lambda[i]
+            flag = r.flag[i] if i < len(r.flag) else ""
+            if not flag and not (r.ok[i] and np.isfinite(L)):
+                flag = "not converged" if np.isfinite(L) else "lost"
+            flagged += bool(flag)
             w.writerow([f"{kv:.12g}", r.label, f"{L.real:.16g}", f"{L.imag:.16g}",
-                        f"{r.residual[i]:.3e}"])
+                        f"{r.residual[i]:.3e}", flag])
+    sys.stdout.flush()
     for r in results:
         if r.note:
             print(f"note: {r.note}", file=sys.stderr)
+    if flagged:
+        print(f"warning: {flagged} of {len(kk) * len(results)} rows flagged (not trusted: see"
+              " the flag column); exit code 1", file=sys.stderr, flush=True)
+        return EXIT_FLAGGED
     return 0
 
 
@@ -148,6 +182,8 @@ def _dispersion(args: argparse.Namespace) -> int:
     positive_int("--branches", args.branches, 1, 20)
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise ParameterError(f"--out = {args.out!r} exists and is not a directory")
+    if _rank() != 0:
+        return 0  # every rank checked the input; rank 0 writes
     files = write_dispersion(p, k, args.branches, args.out)
     for f in files:
         print(f)
@@ -191,10 +227,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point: returns the exit code (2 on bad input, one line on stderr)."""
+    """Entry point: returns the exit code (2 on bad input, one line on stderr; 1 if flagged)."""
+    quiet = _rank() != 0
     try:
-        args = build_parser().parse_args(argv)
-        return int(args.func(args) or 0)
+        with open(os.devnull, "w") as null, contextlib.redirect_stdout(null if quiet else
+                                                                           sys.stdout), \
+                contextlib.redirect_stderr(null if quiet else sys.stderr):
+            args = build_parser().parse_args(argv)
+            return int(args.func(args) or 0)
     except ParameterError as err:
-        print(f"error: {err}", file=sys.stderr, flush=True)
+        if not quiet:
+            print(f"error: {err}", file=sys.stderr, flush=True)
         return EXIT_USAGE

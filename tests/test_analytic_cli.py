@@ -25,7 +25,8 @@ def test_branch_csv_contains_the_check_value():
     r = _run("branch", "--k", "0.5,1,2", "--H", "0.5", "--bc", "velocity", "--branches", "2")
     assert r.returncode == 0, r.stderr
     rows = list(csv.DictReader(io.StringIO(r.stdout)))
-    assert list(rows[0]) == ["k", "branch", "re_lambda", "im_lambda", "residual"]
+    assert list(rows[0]) == ["k", "branch", "re_lambda", "im_lambda", "residual", "flag"]
+    assert all(row["flag"] == "" for row in rows)
     assert len(rows) == 3 * 4
     assert sorted({row["branch"] for row in rows}) == ["0+", "0-", "1+", "1-"]
     row = next(x for x in rows if x["branch"] == "0-" and float(x["k"]) == 1.0)

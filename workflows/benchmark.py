@@ -21,32 +21,34 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import logging
 import os
 import subprocess
 import sys
 import tempfile
 import time
-from typing import TYPE_CHECKING
 
 import _cli
 import numpy as np
 
-if TYPE_CHECKING:
-    from mpi4py import MPI
+from mpi4py import MPI
 
-    from analytic.params import Params
+from analytic.branches import follow_branch, polish_root
+from analytic.params import Params
+from forms.cross_section import CrossSectionModel
+from forms.solvers import PolynomialSolver
+from forms.tracking import branches, track_branch, waveguide_lambda
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 CHECK_VALUE = 0.2716852879456 - 6.5866951866228j  # docs/design.md section 4
+#: Options prefixes of the SLEPc objects ("": the cross-section solves use the default prefix).
+PETSC_PREFIXES = ("",)
+OUTPUTS = ("benchmark.json", "accuracy.csv", "convergence.csv", "convergence.png")
 CONVERGENCE_CELLS = {1: (32, 64, 128, 256), 2: (6, 8, 12, 16, 24), 3: (3, 4, 6, 8, 12),
                      4: (2, 3, 4, 6)}
 
 
 def exact_reference(p: Params, k: float, guess: complex) -> tuple[complex, str]:
     """Exact root near ``guess`` (``analytic.branches.polish_root``), else the check value."""
-    from analytic.branches import polish_root
-
     root = polish_root(p, k, guess)
     if root.converged:
         return complex(root.value), "analytic.branches.polish_root"
@@ -56,12 +58,6 @@ def exact_reference(p: Params, k: float, guess: complex) -> tuple[complex, str]:
 def accuracy_and_cost(comm: MPI.Comm, out: str) -> dict:
     """Default sweep: FE errors vs exact, FE per-k cost vs analytic continuation per-k cost."""
     import sweep_k
-
-    from analytic.branches import follow_branch, polish_root
-    from analytic.params import Params
-    from forms.cross_section import CrossSectionModel
-    from forms.solvers import PolynomialSolver
-    from forms.tracking import branches, track_branch, waveguide_lambda
 
     p = Params()
     k = _cli.parse_k(sweep_k.DEFAULT_K)
@@ -148,10 +144,6 @@ def mpi_speedup(n_k: int) -> dict:
 
 def convergence(comm: MPI.Comm, out: str) -> dict:
     """Relative error at the check point for P1..P4 on uniform meshes; observed orders."""
-    from analytic.params import Params
-    from forms.cross_section import CrossSectionModel
-    from forms.solvers import PolynomialSolver
-
     p = Params()
     ref, source = exact_reference(p, 1.0, CHECK_VALUE)
     rows = []
@@ -195,24 +187,35 @@ def convergence(comm: MPI.Comm, out: str) -> dict:
     ax.grid(True, which="both", lw=0.3)
     fig.tight_layout()
     fig.savefig(os.path.join(out, "convergence.png"), dpi=130,
-                metadata={"Title": "h-convergence of the cross-section model",
-                          "Software": "workflows/benchmark.py"})
+                metadata=_cli.png_metadata({"cells": CONVERGENCE_CELLS, "reference": source},
+                                           "h-convergence of the cross-section model"))
     plt.close(fig)
     return {"reference": source, "rows": rows}
 
 
-def main(comm: MPI.Comm) -> int:
-    """Run the benchmark (rank 0 prints)."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default=os.path.join("out", "benchmark"))
-    ap.add_argument("--mpi-k", type=int, default=400)
-    ap.add_argument("--skip-mpi", action="store_true")
-    args = ap.parse_args()
+def build_parser() -> argparse.ArgumentParser:
+    """Command-line options."""
+    ap = _cli.make_parser(__doc__, PETSC_PREFIXES)
+    ap.add_argument("--out", default=os.path.join("out", "benchmark"), help="output folder")
+    ap.add_argument("--mpi-k", type=int, default=400, help="k values of the MPI timing")
+    ap.add_argument("--skip-mpi", action="store_true", help="skip the MPI timing")
+    return ap
+
+
+def main(comm: MPI.Comm | None = None, argv: list[str] | None = None) -> int:
+    """Run the benchmark (one rank; it launches mpirun itself)."""
+    args, comm = _cli.start(build_parser(), argv, comm)
     _cli.positive_int("--mpi-k", args.mpi_k, 2)
     if comm.size != 1:
         raise _cli.ParameterError("run benchmark.py on one rank (it launches mpirun itself)")
-    os.makedirs(args.out, exist_ok=True)
-    report = {"machine": {"cpus": os.cpu_count(), "load_average_at_start": os.getloadavg()}}
+    parameters = {"mpi_k": args.mpi_k, "mpi": not args.skip_mpi}
+    with _cli.RunFolder(comm, args.out, "benchmark", parameters, outputs=OUTPUTS):
+        return _run(comm, args)
+
+
+def _run(comm: MPI.Comm, args: argparse.Namespace) -> int:
+    report = {"machine": {"cpus": os.cpu_count(), "load_average_at_start": os.getloadavg()},
+              "command": _cli.command(), "versions": _cli.versions()}
     report["accuracy_and_cost"] = accuracy_and_cost(comm, args.out)
     report["convergence"] = conv = convergence(comm, args.out)
     if not args.skip_mpi:
@@ -232,10 +235,4 @@ def main(comm: MPI.Comm) -> int:
 
 
 if __name__ == "__main__":
-    import slepc4py
-
-    slepc4py.init(sys.argv)
-    logging.disable(logging.INFO)
-    from mpi4py import MPI
-
-    _cli.run(lambda: main(MPI.COMM_SELF))
+    _cli.run(main)

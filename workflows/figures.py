@@ -39,27 +39,31 @@ import argparse
 import csv
 import json
 import os
-import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import _cli
 import numpy as np
+import phase_diagram
 
 from mpi4py import MPI
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from analytic import halfspace as hs
+from analytic import largek as lk
+from analytic.branches import follow_branch
+from analytic.params import ParameterError, Params
+from analytic.smallk import lambda_smallk
+from forms.cross_section import CrossSectionModel
+from forms.pml import design_layer, solve_halfspace
+from forms.solvers import PolynomialSolver, shift_off
 
-import _cli  # noqa: E402
-import phase_diagram  # noqa: E402
-
-from analytic import halfspace as hs  # noqa: E402
-from analytic import largek as lk  # noqa: E402
-from analytic.branches import follow_branch  # noqa: E402
-from analytic.params import ParameterError, Params  # noqa: E402
-from analytic.smallk import lambda_smallk  # noqa: E402
-
+#: Options prefixes of the SLEPc objects: cross-section solves, PML solves.
+PETSC_PREFIXES = ("gallery_cs_", "pml_")
+#: Rough cost of each figure's analytic part, for sharing the figures over ranks (measured
+#: order of magnitude: the phase diagram and the finite-H continuations are the slow ones).
+FIGURE_COST = {"finiteH": 6.0, "comparison": 2.0, "both": 2.0, "phase_diagram": 8.0,
+               "modified1": 2.0, "modified2": 2.0, "stress_top": 3.0, "gaps": 2.0}
 FIGURES = ("finiteH", "comparison", "both", "phase_diagram", "modified1", "modified2",
            "stress_top", "gaps")
 
@@ -173,9 +177,6 @@ def _fail(err: Exception) -> str:
 
 def solve_cross_section(comm: MPI.Comm, tasks: list[FETask]) -> list[dict]:
     """FE eigenvalues of tasks sharing one parameter set, on one cross-section mesh."""
-    from forms.cross_section import CrossSectionModel
-    from forms.solvers import PolynomialSolver, shift_off
-
     t0 = time.perf_counter()
     model = CrossSectionModel(comm, tasks[0].params, degree=CS_DEGREE,
                               k_max=max(t.k for t in tasks), n_max=max(t.n_max for t in tasks))
@@ -214,8 +215,6 @@ def solve_cross_section(comm: MPI.Comm, tasks: list[FETask]) -> list[dict]:
 
 def solve_pml(comm: MPI.Comm, task: FETask) -> dict:
     """FE half-space root near the exact one (PML, with its own failure checks)."""
-    from forms.pml import solve_halfspace
-
     t0 = time.perf_counter()
     try:
         r = solve_halfspace(comm, task.params, task.k, task.target, degree=PML_DEGREE,
@@ -235,8 +234,6 @@ def fe_units(tasks: list[FETask]) -> list[tuple[float, list[int]]]:
     One unit per cross-section curve (one mesh), one per PML point (cost from the size of the
     layer :func:`forms.pml.design_layer` would build).
     """
-    from forms.pml import design_layer
-
     units: list[tuple[float, list[int]]] = []
     curves: dict[tuple, list[int]] = {}
     for i, t in enumerate(tasks):
@@ -254,14 +251,9 @@ def fe_units(tasks: list[FETask]) -> list[tuple[float, list[int]]]:
 
 
 def distribute(units: list[tuple[float, list[int]]], size: int) -> list[list[int]]:
-    """Longest-first greedy split of the work units over ``size`` ranks (deterministic)."""
-    load = [0.0] * size
-    share: list[list[int]] = [[] for _ in range(size)]
-    for cost, idx in sorted(units, key=lambda u: (-u[0], u[1])):
-        r = int(np.argmin(load))
-        load[r] += cost
-        share[r].extend(idx)
-    return share
+    """The work units' task indices over ``size`` ranks (:func:`_cli.share_by_cost`)."""
+    share = _cli.share_by_cost([u[0] for u in units], size)
+    return [[i for j in part for i in units[j][1]] for part in share]
 
 
 def solve_fe(comm: MPI.Comm, tasks: list[FETask]) -> list[dict]:
@@ -604,9 +596,9 @@ MAKERS: dict[str, Callable] = {
 
 
 # -------------------------------------------------------------------------------------- main
-def parse(argv: list[str] | None = None) -> argparse.Namespace:
+def build_parser() -> argparse.ArgumentParser:
     """Command line."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = _cli.make_parser(__doc__, PETSC_PREFIXES, formatter_class=argparse.HelpFormatter)
     ap.add_argument("--out", default="out/figures", help="output folder")
     ap.add_argument("--only", default=None, help=f"comma list of {', '.join(FIGURES)}")
     ap.add_argument("--n-q", type=int, default=240, help="wavenumbers per curve")
@@ -617,7 +609,7 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
                     help="FE points per curve (%(default)s)")
     ap.add_argument("--no-fe", action="store_true",
                     help="analytic curves only (no FE points)")
-    return ap.parse_args(argv)
+    return ap
 
 
 def check(opts: argparse.Namespace) -> list[str]:
@@ -631,24 +623,28 @@ def check(opts: argparse.Namespace) -> list[str]:
     _cli.positive_int("--n-q", opts.n_q, minimum=10, maximum=100000)
     _cli.positive_int("--n-gamma", opts.n_gamma, minimum=2, maximum=2000)
     _cli.positive_int("--fe-points", opts.fe_points, minimum=2, maximum=1000)
-    if os.path.exists(opts.out) and not os.path.isdir(opts.out):
-        raise ParameterError(f"--out = {opts.out!r} exists and is not a folder")
     if opts.overlay is not None and not os.path.isdir(opts.overlay):
         raise ParameterError(f"--overlay = {opts.overlay!r} is not a folder")
     return names
 
 
-def main(comm: MPI.Comm = MPI.COMM_WORLD, argv: list[str] | None = None) -> int:
+def main(comm: MPI.Comm | None = None, argv: list[str] | None = None) -> int:
     """Make the figures and their FE points (both split over ranks); rank 0 writes the index."""
-    opts = parse(argv)
+    opts, comm = _cli.start(build_parser(), argv, comm)
     names = check(opts)  # every rank: same input, same verdict, before any collective
-    if comm.rank == 0:
-        os.makedirs(opts.out, exist_ok=True)
-    comm.Barrier()
+    parameters = {"figures": names, "n_q": opts.n_q, "n_gamma": opts.n_gamma,
+                  "overlay": opts.overlay, "fe_points": opts.fe_points, "fe": not opts.no_fe}
+    with _cli.RunFolder(comm, opts.out, "figures", parameters,
+                        outputs=("*.png", "figures.json")):
+        return _run(comm, opts, names)
+
+
+def _run(comm: MPI.Comm, opts: argparse.Namespace, names: list[str]) -> int:
     t_start = time.perf_counter()
     done, figs = {}, {}
     tasks: list[FETask] = []
-    for name in names[comm.rank::comm.size]:
+    mine = _cli.my_share(comm, [FIGURE_COST[n] for n in names])
+    for name in [names[i] for i in mine]:
         fe: list[FETask] = []
         figs[name] = MAKERS[name](opts, fe)
         tasks += fe
@@ -659,7 +655,7 @@ def main(comm: MPI.Comm = MPI.COMM_WORLD, argv: list[str] | None = None) -> int:
     t_fe = time.perf_counter() - t_start - t_analytic
     import matplotlib.pyplot as plt
 
-    command = " ".join([sys.executable] + sys.argv)
+    command = _cli.command()
     for name, (fig, params) in figs.items():
         if opts.no_fe:
             fe_info: dict | str = "off (--no-fe)"
@@ -672,7 +668,7 @@ def main(comm: MPI.Comm = MPI.COMM_WORLD, argv: list[str] | None = None) -> int:
         meta = {"figure": name, **params}
         if isinstance(fe_info, dict):
             meta["fe"] = {k: v for k, v in fe_info.items() if k != "skipped"}
-        phase_diagram.save_png(fig, path, meta, command)
+        fig.savefig(path, dpi=130, metadata=_cli.png_metadata(meta, os.path.basename(path)))
         plt.close(fig)
         done[name] = {"status": "written", "file": os.path.basename(path),
                       "parameters": params, "fe": fe_info}
@@ -682,7 +678,7 @@ def main(comm: MPI.Comm = MPI.COMM_WORLD, argv: list[str] | None = None) -> int:
         index = {k: v for part in parts for k, v in part.items()}
         wall = time.perf_counter() - t_start
         with open(os.path.join(opts.out, "figures.json"), "w") as fh:
-            json.dump({"command": command, "versions": phase_diagram.versions(),
+            json.dump({"command": command, "versions": _cli.versions(),
                        "ranks": comm.size, "fe_points_per_curve": opts.fe_points,
                        "fe": not opts.no_fe,
                        "seconds": {"wall": wall,
@@ -704,4 +700,4 @@ def main(comm: MPI.Comm = MPI.COMM_WORLD, argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    _cli.run(lambda: main(MPI.COMM_WORLD))
+    _cli.run(main)

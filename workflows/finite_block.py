@@ -40,15 +40,24 @@ import mode_shape  # imports pyvista before dolfinx (see there)
 import numpy as np
 
 from analytic.branches import parse_branch_label
+from forms.cross_section_continuation import follow_branch, most_unstable_k
+from forms.mode_postprocessing import interface_stresses, normalise
+from forms.spatial_stability import kulikovskii_limit
+from forms.strip import build_strip_problem, solve_modes
+from forms.tracking import Branch, waveguide_lambda
+from meshes.strip import strip_mesh
 
+#: Options prefixes of the SLEPc objects: block solves, cross-section model, spatial roots.
+PETSC_PREFIXES = ("block_", "xs_", "kroots_")
+#: Files this workflow writes.
+OUTPUTS = ("finite_block.csv", "finite_block.png", "block_mode.png", "finite_block.json")
 COLUMNS = ["L", "re_lambda", "im_lambda", "residual", "candidates", "re_lambda_inf",
            "im_lambda_inf", "k_inf"]
 
 
 def build_parser() -> argparse.ArgumentParser:
     """Command-line options."""
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0],
-                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p = _cli.make_parser(__doc__, PETSC_PREFIXES)
     _cli.add_param_arguments(p)
     p.add_argument("--lengths", default="2,4,8,16,32,64,128", help="block lengths L (comma list)")
     p.add_argument("--lateral", choices=("free", "roller", "clamped"), default="free",
@@ -66,7 +75,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--nev", type=int, default=6, help="eigenpairs per target")
     p.add_argument("--no-kulikovskii", action="store_true",
                    help="skip the long-block limit from the cross-section model")
-    p.add_argument("--resume", action="store_true", help="keep the rows already in the CSV")
+    p.add_argument("--resume", action="store_true",
+                   help="keep the rows already in the CSV (same parameters required; --lengths"
+                        " may differ: only the missing lengths are computed)")
     p.add_argument("--out", default="out/finite_block", help="output directory")
     return p
 
@@ -162,31 +173,32 @@ def plot_convergence(rows: list[dict], lam_inf: complex, k_inf: float, out_png: 
     ax.legend(fontsize=8)
     ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
-    fig.savefig(out_png, dpi=130, metadata={"Title": title, "Description": json.dumps(meta)})
+    fig.savefig(out_png, dpi=130, metadata=_cli.png_metadata(meta, title))
     plt.close(fig)
+
+
+def run_parameters(args: argparse.Namespace, params, branches) -> dict:
+    """What determines the rows (the folder's record; ``--resume`` must match it).
+
+    Not ``--lengths``: every row is one length, so a resumed run may add lengths.
+    """
+    return {"params": params.as_dict(), "lateral": args.lateral,
+            "branches": [list(b) for b in branches], "k_scan": args.k_scan,
+            "cells_per_unit": args.cells_per_unit, "ny": args.ny, "degree": args.degree,
+            "targets": args.targets, "nev": args.nev}
 
 
 def main(comm=None, argv: list[str] | None = None) -> int:
     """Run the scan over block lengths; exit code 1 if some length had no converged mode."""
-    args, petsc_args = _cli.parse_with_petsc_options(build_parser(), argv)
+    args, comm = _cli.start(build_parser(), argv, comm)
     params, lengths, branches, k_scan = validate(args)
+    with _cli.RunFolder(comm, args.out, "finite_block", run_parameters(args, params, branches),
+                        resume=args.resume, resumable=True, outputs=OUTPUTS) as run:
+        return _run(comm, args, run, params, lengths, branches, k_scan)
 
-    import slepc4py
 
-    slepc4py.init(sys.argv[:1] + petsc_args)
-    import logging
-
-    from mpi4py import MPI
-
-    from forms.cross_section_continuation import follow_branch, most_unstable_k
-    from forms.mode_postprocessing import normalise
-    from forms.spatial_stability import kulikovskii_limit
-    from forms.strip import build_strip_problem, solve_modes
-    from forms.tracking import Branch, waveguide_lambda
-    from meshes.strip import strip_mesh
-
-    logging.getLogger().setLevel(logging.WARNING)
-    comm = comm or MPI.COMM_WORLD
+def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, branches,
+         k_scan) -> int:
     t_start = time.perf_counter()
     # Infinite strip, per branch: most unstable k on the grid, refined on a finer grid; the
     # reference is the most unstable branch. The block's operators are real, so its spectrum is
@@ -226,10 +238,9 @@ def main(comm=None, argv: list[str] | None = None) -> int:
     label, k_inf, lam_inf, targets = comm.bcast((label, k_inf, lam_inf, targets), root=0)
 
     csv_path = os.path.join(args.out, "finite_block.csv")
-    done = _read_done(csv_path) if (args.resume and comm.rank == 0) else {}
+    done = _read_done(csv_path) if (run.resumed and comm.rank == 0) else {}
     done = comm.bcast(done, root=0)
     if comm.rank == 0:
-        os.makedirs(args.out, exist_ok=True)
         if not done:
             with open(csv_path, "w", newline="") as f:
                 csv.writer(f).writerow(COLUMNS)
@@ -294,13 +305,11 @@ def main(comm=None, argv: list[str] | None = None) -> int:
             "k_inf": k_inf, "lambda_inf": [lam_inf.real, lam_inf.imag],
             "targets": [[t.real, t.imag] for t in targets], "cells_per_unit": args.cells_per_unit,
             "ny": args.ny, "degree": args.degree, "ranks": comm.size, "timings": timings,
-            "versions": mode_shape.versions(), "command": " ".join(sys.argv)}
+            "versions": _cli.versions(), "command": _cli.command()}
     title = (f"finite block ({args.lateral} ends, bc = {params.bc}, H = {params.H:g}),"
              f" P{args.degree} strip FE")
     interface = None
     if last is not None:
-        from forms.mode_postprocessing import interface_stresses
-
         interface = interface_stresses(last[0], params.lame_lambda, params.H)
     if comm.rank == 0:
         rows = list(_read_done(csv_path).values())

@@ -25,15 +25,21 @@ import argparse
 import csv
 import dataclasses
 import json
-import logging
 import math
 import os
-import platform
-import sys
 import time
 
 import _cli
 import numpy as np
+
+from mpi4py import MPI
+
+from analytic.halfspace import follow
+from analytic.params import Params
+from forms.pml import solve_halfspace, solve_truncated
+
+#: Options prefixes of the SLEPc objects: the PML solves and the truncated strips.
+PETSC_PREFIXES = ("pml_", "trunc_")
 
 OUTPUT_FILES = ("halfspace_modes.csv", "summary.json", "halfspace_modes.png")
 FAMILIES = ("dilatational", "shear")
@@ -44,14 +50,9 @@ COLUMNS = ("k", "family", "branch", "method", "bc", "H", "re_lambda", "im_lambda
            "reflection", "decay_length_s", "decay_length_d", "dofs", "seconds", "trusted", "flags")
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # noqa: D102
-        raise _cli.ParameterError(message)
-
-
 def build_parser() -> argparse.ArgumentParser:
     """Command-line options (``--H`` and ``--bc`` of the shared group are ignored)."""
-    ap = _Parser(description="Half-space modes: PML vs truncated strips vs s(z, q) roots.")
+    ap = _cli.make_parser(__doc__, PETSC_PREFIXES, formatter_class=argparse.HelpFormatter)
     _cli.add_param_arguments(ap)
     ap.add_argument("--family", choices=FAMILIES, default="dilatational")
     ap.add_argument("--branch", default="unstable",
@@ -79,8 +80,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _check(args: argparse.Namespace) -> tuple:
     """Validate everything before any output or collective call."""
-    from analytic.params import Params
-
     base = _cli.params_from_args(args)
     p = Params(f=base.f, gamma=base.gamma, beta=base.beta, Delta=base.Delta, H=math.inf,
                alpha_pc=base.alpha_pc, alpha_ld=base.alpha_ld)
@@ -117,8 +116,6 @@ def _growth_rel(a: complex, b: complex) -> float:
 
 def solve_k(comm, p, k: float, root, args, hs, bcs) -> list[dict]:
     """All rows of one ``k`` (PML + truncated strips) on ``comm``."""
-    from forms.pml import solve_halfspace, solve_truncated
-
     exact = root.Lambda
     base = {"k": k, "family": args.family, "branch": root.branch or "-",
             "re_lambda_exact": exact.real, "im_lambda_exact": exact.imag, "sheet_exact": root.sheet,
@@ -201,26 +198,29 @@ def plot(rows: list[dict], roots: list, path: str, title: str, meta: dict) -> No
     ax2.set_title("filled: trusted by the code; hollow: flagged", fontsize=9)
     ax2.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=110, metadata={"Title": title, "Description": json.dumps(meta)})
+    fig.savefig(path, dpi=110, metadata=_cli.png_metadata(meta, title))
     plt.close(fig)
 
 
-def main(comm=None) -> int:
+def main(comm=None, argv: list[str] | None = None) -> int:
     """Entry point (``comm``: communicator whose ranks share the k values)."""
-    args = build_parser().parse_args()
+    args, comm = _cli.start(build_parser(), argv, comm)
     p, ks, hs, bcs, branches = _check(args)
-    import slepc4py
+    parameters = {"params": dataclasses.asdict(p), "family": args.family, "branches": branches,
+                  "k": ks.tolist(), "degree": args.degree, "attenuation": args.attenuation,
+                  "H_trunc": hs.tolist(), "bc_trunc": bcs, "tol": args.tol,
+                  "silent_rtol": args.silent_rtol, "overlay_name": args.overlay_name}
+    outputs = (*OUTPUT_FILES, f"{args.overlay_name}.csv")
+    with _cli.RunFolder(comm, args.out, "halfspace_modes", parameters, outputs=outputs):
+        return _run(comm, args, p, ks, hs, bcs, branches)
 
-    slepc4py.init(sys.argv[:1])
-    from mpi4py import MPI
 
-    from analytic.halfspace import follow
-
-    comm = comm or MPI.COMM_WORLD
-    logging.disable(logging.INFO)
+def _run(comm, args: argparse.Namespace, p: Params, ks, hs, bcs, branches) -> int:
     roots = [r for b in branches for r in follow(args.family, ks, p, branch=b)]
+    # cost of one k: the PML solve (two layer settings) plus one solve per truncated strip
+    costs = [2.0 + len(hs) * len(bcs) for _ in roots]
     mine = []
-    for i in range(comm.rank, len(roots), comm.size):
+    for i in _cli.my_share(comm, costs):
         mine.extend(solve_k(MPI.COMM_SELF, p, roots[i].q, roots[i], args, hs, bcs))
     parts = comm.gather(mine, root=0)
     code = 0
@@ -228,7 +228,6 @@ def main(comm=None) -> int:
         rows = sorted((r for part in parts for r in part),
                       key=lambda r: (r["branch"], r["k"], r["method"], r["bc"], r["H"]))
         silent = [r for r in rows if r["trusted"] and not r["rel_error"] <= args.silent_rtol]
-        os.makedirs(args.out, exist_ok=True)
         with open(os.path.join(args.out, OUTPUT_FILES[0]), "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=COLUMNS)
             w.writeheader()
@@ -240,17 +239,12 @@ def main(comm=None) -> int:
             for r in rows:
                 if r["method"] == "pml" and r["trusted"]:
                     w.writerow([r["k"], r["re_lambda"], f"FE P{args.degree} + PML (trusted)"])
-        import dolfinx
-        import slepc4py as sl
-
-        meta = {"command": " ".join(sys.argv), "params": dataclasses.asdict(p),
+        meta = {"command": _cli.command(), "params": dataclasses.asdict(p),
                 "family": args.family, "branches": branches, "k": ks.tolist(),
                 "degree": args.degree,
                 "attenuation": args.attenuation, "H_trunc": hs.tolist(), "bc_trunc": bcs,
                 "tol": args.tol, "silent_rtol": args.silent_rtol, "ranks": comm.size,
-                "machine": platform.platform(), "python": platform.python_version(),
-                "dolfinx": dolfinx.__version__, "slepc4py": sl.__version__,
-                "numpy": np.__version__}
+                "versions": _cli.versions()}
         meta["params"] = {k: (v if not isinstance(v, float) or math.isfinite(v) else str(v))
                           for k, v in meta["params"].items()}
         summary = {**meta, "rows": len(rows),

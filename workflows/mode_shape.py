@@ -43,15 +43,36 @@ import pyvista  # noqa: E402, F401, I001
 
 import _cli  # noqa: E402
 
+import dolfinx.fem  # noqa: E402
+import dolfinx.io  # noqa: E402
+import dolfinx.plot  # noqa: E402
+import ufl  # noqa: E402
+
 from analytic.branches import parse_branch_label  # noqa: E402
+from forms.cross_section_continuation import (  # noqa: E402
+    cross_section_mode,
+    follow_branch,
+    most_unstable_k,
+)
+from forms.elasticity import sigma  # noqa: E402
+from forms.mode_postprocessing import interface_stresses, normalise  # noqa: E402
+from forms.strip import build_strip_problem, solve_modes  # noqa: E402
+from forms.tracking import Branch, waveguide_lambda  # noqa: E402
+from meshes.interval import grading_ratio  # noqa: E402
+from meshes.strip import strip_mesh, wavelength  # noqa: E402
 
 DEFAULT_K = 1.0
+#: Options prefixes of the SLEPc objects: the strip solve and the cross-section model.
+PETSC_PREFIXES = ("strip_", "xs_")
+#: Files this workflow writes (an older run's folder holding only these may be overwritten).
+OUTPUTS = ("mode.xdmf", "mode.h5", "mode_p2.pvd", "mode_p2*.vtu", "mode_p2*.pvtu",
+           "mode_shape.png", "mode_phases.png", "interface_tractions.png", "interface.csv",
+           "mode.json")
 
 
 def build_parser() -> argparse.ArgumentParser:
     """Command-line options."""
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0],
-                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p = _cli.make_parser(__doc__, PETSC_PREFIXES)
     _cli.add_param_arguments(p)
     p.add_argument("--k", type=float, default=DEFAULT_K, help="wavenumber k > 0")
     p.add_argument("--most-unstable", action="store_true",
@@ -104,22 +125,8 @@ def validate(args: argparse.Namespace):
     return params, branch, k_scan
 
 
-def _add_png_metadata(path: str, meta: dict[str, str]) -> None:
-    from PIL import Image
-    from PIL.PngImagePlugin import PngInfo
-
-    info = PngInfo()
-    for key, value in meta.items():
-        info.add_text(key, value)
-    with Image.open(path) as im:
-        im.load()
-        im.save(path, pnginfo=info)
-
-
 def _gather_grid(V, point_arrays: dict[str, np.ndarray], comm):
     """Gather the Lagrange VTK grid of ``V`` and nodal arrays on rank 0 (``None`` elsewhere)."""
-    import dolfinx.plot
-
     topology, cell_types, x = dolfinx.plot.create_vtk_mesh(V)
     npc = topology[0] + 1
     cells = topology.reshape(-1, npc)
@@ -232,14 +239,17 @@ def render_mode(grid, out_png: str, title: str, color: str, lam: complex, k: flo
 
 
 def plot_interface(data: dict[str, np.ndarray], out_png: str, title: str, meta: dict) -> None:
-    """Shear/normal stress perturbation and slip along the interface at phase 0 (rank 0)."""
+    """Shear/normal stress perturbation and slip along the interface at phase 0 (rank 0).
+
+    The legends stand right of the axes, so they never hide a peak.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     x = data["x"]
-    fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    fig, axes = plt.subplots(2, 1, figsize=(11.5, 6), sharex=True)
     ax = axes[0]
     for key, label, col in (("sxy", r"shear $\delta\sigma_{xy}$", "tab:blue"),
                             ("syy", r"normal $\delta\sigma_{yy}$", "tab:red")):
@@ -247,7 +257,7 @@ def plot_interface(data: dict[str, np.ndarray], out_png: str, title: str, meta: 
         ax.plot(x, np.abs(data[key]), color=col, ls=":", lw=1, label=label + " envelope")
     ax.axhline(0, color="k", lw=0.5)
     ax.set_ylabel(r"stress / $\max|u|$ ($\mu = 1$)")
-    ax.legend(fontsize=8, ncol=2, loc="upper right")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     ax.set_title(title, fontsize=10)
     ax = axes[1]
     ax.plot(data["x_slip"], data["ux"].real, color="k", label=r"slip $\delta u_x$ (Re)")
@@ -255,39 +265,15 @@ def plot_interface(data: dict[str, np.ndarray], out_png: str, title: str, meta: 
     ax.axhline(0, color="k", lw=0.5)
     ax.set_xlabel(r"$x$ (units $c_s t_0$)")
     ax.set_ylabel(r"$\delta u_x(y=0)$")
-    ax.legend(fontsize=8, loc="upper right")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     fig.tight_layout()
-    fig.savefig(out_png, dpi=130, metadata={"Title": title, "Description": json.dumps(meta)})
+    fig.savefig(out_png, dpi=130, metadata=_cli.png_metadata(meta, title))
     plt.close(fig)
-
-
-def versions() -> dict[str, str]:
-    """Versions of the numerical stack."""
-    import dolfinx
-    import petsc4py
-    import slepc4py
-
-    out = {"python": sys.version.split()[0], "numpy": np.__version__,
-           "dolfinx": dolfinx.__version__, "petsc4py": petsc4py.__version__,
-           "slepc4py": slepc4py.__version__}
-    try:
-        import pyvista
-
-        out["pyvista"] = pyvista.__version__
-    except ImportError:
-        pass
-    return out
 
 
 def _write_outputs(args, meta: dict, title: str, u, params, length: float, k: float,
                    lam: complex) -> None:
     """XDMF/PVD files (collective), then CSV, PNGs and JSON on rank 0."""
-    import dolfinx.fem
-    import dolfinx.io
-
-    from forms.elasticity import sigma
-    from forms.mode_postprocessing import interface_stresses
-
     V = u.function_space
     msh = V.mesh
     comm = msh.comm
@@ -323,43 +309,36 @@ def _write_outputs(args, meta: dict, title: str, u, params, length: float, k: fl
             f.write(f"{row[0]:.12g},{row[1].real:.12g},{row[1].imag:.12g},"
                     f"{row[2].real:.12g},{row[2].imag:.12g},{row[3].real:.12g},"
                     f"{row[3].imag:.12g}\n")
-    png_meta = {"Title": title, "Description": json.dumps(meta)}
     plot_interface(data, os.path.join(args.out, "interface_tractions.png"), title, meta)
     if grid is not None:
         for name, fractions in (("mode_shape.png", (0.0,)),
                                 ("mode_phases.png", (0.0, 0.25, 0.5, 0.75))):
             path = os.path.join(args.out, name)
             render_mode(grid, path, title, args.color, lam, k, params.H, length, fractions)
-            _add_png_metadata(path, png_meta)
+            _cli.add_png_metadata(path, meta, title)
+
+
+def run_parameters(args: argparse.Namespace, params, branch: tuple[int, int]) -> dict:
+    """Everything that determines the numbers (the folder's record)."""
+    return {"params": params.as_dict(), "k": args.k, "most_unstable": args.most_unstable,
+            "k_scan": args.k_scan if args.most_unstable else None, "branch": list(branch),
+            "target": None if args.target is None else [args.target.real, args.target.imag],
+            "source": args.source, "wavelengths": args.wavelengths,
+            "cells_per_wavelength": args.cells_per_wavelength, "ny": args.ny,
+            "grading": args.grading, "degree": args.degree, "nev": args.nev,
+            "phases": args.phases, "color": args.color, "render": not args.no_render}
 
 
 def main(comm=None, argv: list[str] | None = None) -> int:
     """Run the workflow; returns the exit code (0, or 1 if no suitable mode converged)."""
-    # PETSc/SLEPc options (single dash, e.g. -strip_pep_ncv 40) pass through.
-    args, petsc_args = _cli.parse_with_petsc_options(build_parser(), argv)
+    args, comm = _cli.start(build_parser(), argv, comm)
     params, branch, k_scan = validate(args)
+    with _cli.RunFolder(comm, args.out, "mode_shape", run_parameters(args, params, branch),
+                        outputs=OUTPUTS):
+        return _run(comm, args, params, branch, k_scan)
 
-    import slepc4py
 
-    slepc4py.init(sys.argv[:1] + petsc_args)  # PETSc/SLEPc options, e.g. -strip_pep_ncv 40
-    import logging
-
-    import dolfinx.fem
-    from mpi4py import MPI
-
-    from forms.cross_section_continuation import (
-        cross_section_mode,
-        follow_branch,
-        most_unstable_k,
-    )
-    from forms.mode_postprocessing import normalise
-    from forms.strip import build_strip_problem, solve_modes
-    from forms.tracking import Branch, waveguide_lambda
-    from meshes.interval import grading_ratio
-    from meshes.strip import strip_mesh, wavelength
-
-    logging.getLogger().setLevel(logging.WARNING)  # quiet the JIT compiler's INFO lines
-    comm = comm or MPI.COMM_WORLD
+def _run(comm, args: argparse.Namespace, params, branch: tuple[int, int], k_scan) -> int:
     t_start = time.perf_counter()
     b = Branch(*branch)
 
@@ -396,8 +375,8 @@ def main(comm=None, argv: list[str] | None = None) -> int:
         "workflow": "mode_shape", "params": params.as_dict(), "k": k, "branch": b.label,
         "most_unstable": bool(args.most_unstable), "length": length,
         "wavelengths": args.wavelengths, "cells": [nx, args.ny], "grading": grading,
-        "degree": args.degree, "ranks": comm.size, "versions": versions(),
-        "command": " ".join(sys.argv),
+        "degree": args.degree, "ranks": comm.size, "versions": _cli.versions(),
+        "command": _cli.command(),
     }
     if xs is not None:
         meta["cross_section"] = {"eigenvalue": [xs.eigenvalue.real, xs.eigenvalue.imag],
@@ -442,8 +421,6 @@ def main(comm=None, argv: list[str] | None = None) -> int:
             m.vector.destroy()
         problem.destroy()
     else:
-        import ufl
-
         lam = xs.eigenvalue
         V = dolfinx.fem.FunctionSpace(strip.mesh, ufl.VectorElement(
             "Lagrange", strip.mesh.ufl_cell(), args.degree))
@@ -458,9 +435,6 @@ def main(comm=None, argv: list[str] | None = None) -> int:
         title = (f"cross-section model (1D FE, P3) as Re(u_hat(y) exp(-ikx)), k = {k:.4g},"
                  f" branch {b.label}: Lambda = {lam.real:.6f} {lam.imag:+.6f}i")
 
-    if comm.rank == 0:
-        os.makedirs(args.out, exist_ok=True)
-    comm.barrier()
     normalise(u)
     _write_outputs(args, meta, title, u, params, length, k, lam)
     if comm.rank == 0:

@@ -27,23 +27,17 @@ import csv
 import json
 import math
 import os
-import platform
-import subprocess
 import sys
 import time
 
+import _cli
 import numpy as np
 
 from mpi4py import MPI
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-
-import _cli  # noqa: E402
-
-from analytic import halfspace as hs  # noqa: E402
-from analytic import largek as lk  # noqa: E402
-from analytic.params import ParameterError, Params  # noqa: E402
+from analytic import halfspace as hs
+from analytic import largek as lk
+from analytic.params import ParameterError, Params
 
 PAPER_ROWS = ((0.3, 0.45), (0.3, 0.6))
 FAMILIES = ("dilatational", "shear", "quasistatic")
@@ -51,31 +45,9 @@ COLORS = {"dilatational": "tab:blue", "shear": "tab:red", "quasistatic": "tab:gr
 
 
 # ----------------------------------------------------------------------------- run metadata
-def versions() -> dict[str, str]:
-    """Versions of the pieces that produced a result (for JSON and PNG metadata)."""
-    import matplotlib
-    import scipy
-
-    out = {"python": platform.python_version(), "numpy": np.__version__,
-           "scipy": scipy.__version__, "matplotlib": matplotlib.__version__,
-           "mpi4py": MPI.Get_library_version().splitlines()[0].strip(),
-           "machine": f"{platform.machine()} {platform.node()} ({os.cpu_count()} cores)"}
-    try:
-        root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-        out["git"] = subprocess.run(["git", "-C", root, "rev-parse", "--short", "HEAD"],
-                                    capture_output=True, text=True, timeout=10).stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        out["git"] = "unknown"
-    return out
-
-
-def save_png(fig, path: str, parameters: dict, command: str | None = None) -> None:  # noqa: ANN001
-    """Save a matplotlib figure as PNG with its command and parameters in the metadata."""
-    meta = {"Title": os.path.basename(path),
-            "Software": "bimaterial-stability " + json.dumps(versions()),
-            "Description": command or " ".join([sys.executable] + sys.argv),
-            "Comment": json.dumps(parameters, default=str)}
-    fig.savefig(path, dpi=130, metadata=meta)
+def save_png(fig, path: str, parameters: dict) -> None:  # noqa: ANN001
+    """Save a matplotlib figure as PNG with :func:`_cli.png_metadata` (command, parameters)."""
+    fig.savefig(path, dpi=130, metadata=_cli.png_metadata(parameters, os.path.basename(path)))
 
 
 # ------------------------------------------------------------------------------- the physics
@@ -243,9 +215,9 @@ def measured_differences(records: list[dict], rows: list[tuple[float, float]]) -
 
 
 # -------------------------------------------------------------------------------------- main
-def parse(argv: list[str] | None = None) -> argparse.Namespace:
-    """Command line."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def build_parser() -> argparse.ArgumentParser:
+    """Command-line options (no PETSc/SLEPc object here: single-dash options are errors)."""
+    ap = _cli.make_parser(__doc__, petsc=False)
     ap.add_argument("--f", type=str, default=None,
                     help="friction coefficient(s) f > 0, comma list (default: paper rows)")
     ap.add_argument("--beta", type=str, default=None,
@@ -257,7 +229,12 @@ def parse(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--n-gamma", type=int, default=24,
                     help="log-spaced Gamma points per boundary (plus n/2 linear ones)")
     ap.add_argument("--out", default="out/phase_diagram", help="output folder")
-    return ap.parse_args(argv)
+    return ap
+
+
+def parse(argv: list[str] | None = None) -> argparse.Namespace:
+    """Command line (usage errors raise :class:`ParameterError`)."""
+    return build_parser().parse_args(argv)
 
 
 def rows_from(opts: argparse.Namespace) -> list[tuple[float, float]]:
@@ -301,19 +278,26 @@ def check(opts: argparse.Namespace) -> list[tuple[float, float]]:
     if opts.delta_min >= opts.delta_max:
         raise ParameterError(f"--delta-min = {opts.delta_min} must be < --delta-max = "
                              f"{opts.delta_max}")
-    if os.path.exists(opts.out) and not os.path.isdir(opts.out):
-        raise ParameterError(f"--out = {opts.out!r} exists and is not a folder")
     _cli.positive_int("--n-gamma", opts.n_gamma, minimum=2, maximum=2000)
     return rows
 
 
-def main(comm: MPI.Comm = MPI.COMM_WORLD, argv: list[str] | None = None) -> int:
+def main(comm: MPI.Comm | None = None, argv: list[str] | None = None) -> int:
     """Compute and (rank 0) write the phase diagram; returns 0."""
-    opts = parse(argv)
+    opts, comm = _cli.start(build_parser(), argv, comm)
     rows = check(opts)  # every rank validates the same input: all raise or none
+    parameters = {"rows": [[f, b] for f, b in rows], "gamma_min": opts.gamma_min,
+                  "gamma_max": opts.gamma_max, "delta_min": opts.delta_min,
+                  "delta_max": opts.delta_max, "n_gamma": opts.n_gamma}
+    with _cli.RunFolder(comm, opts.out, "phase_diagram", parameters,
+                        outputs=("boundaries.csv", "phase_diagram.json", "phase_diagram.png")):
+        return _run(comm, opts, rows)
+
+
+def _run(comm: MPI.Comm, opts: argparse.Namespace, rows: list[tuple[float, float]]) -> int:
     grid = gamma_grid(opts.gamma_min, opts.gamma_max, opts.n_gamma)
     tasks = [(f, b, fam, float(g)) for f, b in rows for fam in FAMILIES for g in grid]
-    mine = tasks[comm.rank::comm.size]
+    mine = [tasks[i] for i in _cli.my_share(comm, [1.0] * len(tasks))]
     t0 = time.perf_counter()
     cap = opts.delta_max
     iterator = mine
@@ -334,7 +318,6 @@ def main(comm: MPI.Comm = MPI.COMM_WORLD, argv: list[str] | None = None) -> int:
     records = sorted((r for r in everything if "dropped" not in r),
                      key=lambda r: (r["f"], r["beta"], FAMILIES.index(r["boundary"]),
                                     r["source"], r["Gamma"]))
-    os.makedirs(opts.out, exist_ok=True)
     with open(os.path.join(opts.out, "boundaries.csv"), "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=["boundary", "source", "f", "beta", "Gamma", "Delta"])
         w.writeheader()
@@ -347,8 +330,8 @@ def main(comm: MPI.Comm = MPI.COMM_WORLD, argv: list[str] | None = None) -> int:
                   "method": "Brent bisection in Delta on the sign of max_q of the unstable margin"
                             " (analytic.halfspace.max_growth, q grids of"
                             " analytic.halfspace.default_qgrid)"}
-    summary = {"parameters": parameters, "versions": versions(),
-               "command": " ".join([sys.executable] + sys.argv),
+    summary = {"parameters": parameters, "versions": _cli.versions(),
+               "command": _cli.command(),
                "wall_time_s": elapsed,
                "closed_form_vs_numerical": measured_differences(records, rows),
                "dropped_numerical_points": dropped,
@@ -368,4 +351,4 @@ def main(comm: MPI.Comm = MPI.COMM_WORLD, argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    _cli.run(lambda: main(MPI.COMM_WORLD))
+    _cli.run(main)

@@ -14,45 +14,49 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 
 import _cli
 
+from mpi4py import MPI
+
+from analytic.params import Params
+from forms.friction import FrictionLaw, apply_dirichlet, friction_operator
+from forms.solvers import PolynomialSolver
+from forms.strip import DIRICHLET_DIAGONAL, build_strip_problem
+from meshes.strip import strip_mesh, wavelength
+
 CHECK_VALUE = 0.2716852879456 - 6.5866951866228j
+#: Options prefix of the SLEPc object (the PEP solve of every level).
+PETSC_PREFIXES = ("bench_",)
 
 
-def main(comm=None, argv: list[str] | None = None) -> int:
-    """Run the benchmark."""
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def build_parser() -> argparse.ArgumentParser:
+    """Command-line options."""
+    p = _cli.make_parser(__doc__, PETSC_PREFIXES)
     p.add_argument("--levels", type=int, default=4, help="mesh levels (cells double each)")
     p.add_argument("--nx0", type=int, default=16, help="cells along x on the coarsest mesh")
     p.add_argument("--ny0", type=int, default=4, help="cells along y on the coarsest mesh")
     p.add_argument("--out", default="out/strip_benchmark", help="output directory")
-    args = p.parse_args(argv)
+    return p
+
+
+def main(comm=None, argv: list[str] | None = None) -> int:
+    """Run the benchmark."""
+    args, comm = _cli.start(build_parser(), argv, comm)
     _cli.positive_int("--levels", args.levels, 1, 8)
     _cli.positive_int("--nx0", args.nx0, 2)
     _cli.positive_int("--ny0", args.ny0, 1)
+    parameters = {"levels": args.levels, "nx0": args.nx0, "ny0": args.ny0}
+    with _cli.RunFolder(comm, args.out, "strip_benchmark", parameters,
+                        outputs=("strip_benchmark_np*.csv",)):
+        return _run(comm, args)
 
-    import slepc4py
 
-    slepc4py.init(sys.argv[:1])
-    import logging
-
-    from mpi4py import MPI
-
-    from analytic.params import Params
-    from forms.friction import FrictionLaw, apply_dirichlet, friction_operator
-    from forms.solvers import PolynomialSolver
-    from forms.strip import DIRICHLET_DIAGONAL, build_strip_problem
-    from meshes.strip import strip_mesh, wavelength
-
-    logging.getLogger().setLevel(logging.WARNING)
-    comm = comm or MPI.COMM_WORLD
+def _run(comm, args: argparse.Namespace) -> int:
     params, k = Params(), 1.0
     rows = []
     header = ("dofs", "assemble", "bloch_map", "reduce", "friction_rows", "solve", "rel_error")
     if comm.rank == 0:
-        os.makedirs(args.out, exist_ok=True)
         print(f"ranks = {comm.size}; times in s")
         print(" ".join(f"{h:>13}" for h in header), flush=True)
     for level in range(args.levels):

@@ -31,15 +31,26 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import logging
 import math
 import os
-import platform
-import sys
 import time
 
 import _cli
 import numpy as np
+import scipy.linalg
+
+from mpi4py import MPI
+
+from analytic.branches import polish_root
+from analytic.halfspace import dilatational_root
+from analytic.largek import z_linear
+from analytic.params import Params
+from forms.cross_section import CrossSectionModel
+from forms.pml import RESOLUTION, HalfSpaceModel, design_layer
+from forms.solvers import PolynomialSolver, SplitSolver
+
+#: Options prefixes of the SLEPc objects (PEP and NEP solvers).
+PETSC_PREFIXES = ("wp_pep_", "wp_nep_")
 
 OUTPUT_FILES = ("work_precision.csv", "summary.json", "work_precision.png")
 COLUMNS = ("case", "method", "degree", "cells", "dofs", "seconds", "rel_error", "re_lambda",
@@ -61,14 +72,9 @@ PARETO_SLACK = 1.25
 DENSE_MAX = 900
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # noqa: D102
-        raise _cli.ParameterError(message)
-
-
 def build_parser() -> argparse.ArgumentParser:
     """Command-line options."""
-    ap = _Parser(description="Work-precision diagram of the eigenvalue computations.")
+    ap = _cli.make_parser(__doc__, PETSC_PREFIXES)
     ap.add_argument("--out", default="out/work_precision", help="output folder")
     ap.add_argument("--repeats", type=int, default=3, help="timing repeats, best kept")
     ap.add_argument("--tiny", action="store_true", help="a few points only (smoke test)")
@@ -99,8 +105,6 @@ def dense_companion_eig(op, target: complex) -> complex:
     (serial). First companion form: ``L B z = A z`` with ``z = (x, L x, ..., L^(d-1) x)``,
     ``A = [[0, I, ...], ..., [-A_0, -A_1, ..., -A_(d-1)]]``, ``B = diag(I, ..., I, A_d)``.
     """
-    import scipy.linalg
-
     mats = []
     for a in op.matrices:
         d = a.copy().convert("dense")
@@ -125,9 +129,6 @@ def dense_companion_eig(op, target: complex) -> complex:
 def finite_points(comm, p, cells: dict, repeats: int, dense: bool, lam_ref: complex,
                   dense_max: int = DENSE_MAX) -> list[dict]:
     """FE points of the finite-H case: every (degree, cells), PEP, NEP, dense."""
-    from forms.cross_section import CrossSectionModel
-    from forms.solvers import PolynomialSolver, SplitSolver
-
     rows = []
     for deg, cell_list in cells.items():
         for n in cell_list:
@@ -161,9 +162,6 @@ def finite_points(comm, p, cells: dict, repeats: int, dense: bool, lam_ref: comp
 def half_points(comm, p, scales: dict, repeats: int, dense: bool, lam_ref: complex,
                 target: complex, dense_max: int = DENSE_MAX) -> list[dict]:
     """FE points of the half-space case: PML model per (degree, cell-size factor)."""
-    from forms.pml import RESOLUTION, HalfSpaceModel, design_layer
-    from forms.solvers import PolynomialSolver, SplitSolver
-
     rows = []
     for deg, factors in scales.items():
         for c in factors:
@@ -258,27 +256,29 @@ def plot(rows: list[dict], path: str, meta: dict) -> None:
     fig.suptitle(f"{meta['machine']}, {meta['ranks']} rank(s); errors clipped at 1e-16",
                  fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110, metadata={"Title": "work-precision",
-                                         "Description": json.dumps(meta)})
+    fig.savefig(path, dpi=110, metadata=_cli.png_metadata(meta, "work-precision"))
     plt.close(fig)
 
 
-def main(comm=None) -> int:
+def job_cost(kind: str, degree: int, sub: tuple) -> float:
+    """Rough cost of one job for :func:`_cli.share_by_cost` (unknowns; PML layers are larger)."""
+    if kind == "finite":
+        return 2.0 * (degree * sub[0] + 1)
+    if kind == "half":
+        return 400.0 * degree / sub[0]
+    return 1.0
+
+
+def main(comm=None, argv: list[str] | None = None) -> int:
     """Entry point; the points are shared out over the ranks of ``comm`` (one rank each)."""
-    args = build_parser().parse_args()
+    args, comm = _cli.start(build_parser(), argv, comm)
     _cli.positive_int("--repeats", args.repeats, 1, 100)
-    import slepc4py
+    parameters = {"repeats": args.repeats, "tiny": args.tiny, "dense": not args.no_dense}
+    with _cli.RunFolder(comm, args.out, "work_precision", parameters, outputs=OUTPUT_FILES):
+        return _run(comm, args)
 
-    slepc4py.init(sys.argv[:1])
-    from mpi4py import MPI
 
-    from analytic.branches import polish_root
-    from analytic.halfspace import dilatational_root
-    from analytic.largek import z_linear
-    from analytic.params import Params
-
-    comm = comm or MPI.COMM_WORLD
-    logging.disable(logging.INFO)
+def _run(comm, args: argparse.Namespace) -> int:
     p_fin = Params()
     p_half = Params(H=math.inf)
     ref_fin = polish_root(p_fin, K_FINITE, TARGET_FINITE)
@@ -292,7 +292,7 @@ def main(comm=None) -> int:
     jobs += [("half", d, (c,)) for d, cs in scales.items() for c in cs]
     jobs += [("analytic", 0, ())]
     mine: list[dict] = []
-    for i in range(comm.rank, len(jobs), comm.size):
+    for i in _cli.my_share(comm, [job_cost(*job) for job in jobs]):
         kind, d, sub = jobs[i]
         if kind == "finite":
             mine += finite_points(MPI.COMM_SELF, p_fin, {d: sub}, args.repeats,
@@ -317,20 +317,13 @@ def main(comm=None) -> int:
         rows.sort(key=lambda r: (r["case"], r["method"], r["degree"], r["dofs"]))
         mark_pareto(rows)
         mark_pareto(rows, "pareto_fe", fe_only=True)
-        os.makedirs(args.out, exist_ok=True)
         with open(os.path.join(args.out, OUTPUT_FILES[0]), "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=COLUMNS)
             w.writeheader()
             for r in rows:
                 w.writerow(r)
-        import scipy
-
-        import dolfinx
-
-        meta = {"command": " ".join(sys.argv), "machine": f"{platform.platform()}, "
-                f"{os.cpu_count()} cores", "ranks": comm.size, "python": platform.python_version(),
-                "dolfinx": dolfinx.__version__, "slepc4py": slepc4py.__version__,
-                "numpy": np.__version__, "scipy": scipy.__version__, "repeats": args.repeats,
+        meta = {"command": _cli.command(), **_cli.versions(), "ranks": comm.size,
+                "repeats": args.repeats,
                 "finite_H": {"params": "paper defaults, H=0.5, bc=velocity", "k": K_FINITE,
                              "target": str(TARGET_FINITE), "reference": str(lam_fin)},
                 "halfspace": {"params": "paper defaults, H=inf", "k": K_HALF,

@@ -42,15 +42,19 @@ def branch_label(n: int, sign: int) -> str:
     return f"{n}{'+' if sign > 0 else '-'}"
 
 
-def parse_branch_label(label: str) -> tuple[int, int]:
-    """Inverse of :func:`branch_label`: ``"1+" -> (1, +1)``.
+def parse_branch_label(label: str, name: str = "branch") -> tuple[int, int]:
+    """Inverse of :func:`branch_label`: ``"1+" -> (1, +1)``. The one parser of branch labels.
+
+    Args:
+        label: ``"<n>+"`` or ``"<n>-"`` (surrounding blanks ignored).
+        name: What the error message calls the input (e.g. ``"--branch"``).
 
     Raises:
         ParameterError: On a malformed label.
     """
     s = label.strip()
     if len(s) < 2 or s[-1] not in "+-" or not s[:-1].isdigit():
-        raise ParameterError(f"branch = {label!r} is not of the form '<n>+' or '<n>-' (n >= 0)")
+        raise ParameterError(f"{name} = {label!r} is not of the form '<n>+' or '<n>-' (n >= 0)")
     return int(s[:-1]), (1 if s[-1] == "+" else -1)
 
 

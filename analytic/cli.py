@@ -43,7 +43,7 @@ def _rank() -> int:
 def add_param_arguments(parser: argparse.ArgumentParser, defaults: Params | None = None) -> None:
     """Add ``--f --gamma --beta --Delta --H --bc --alpha-pc --alpha-ld`` to ``parser``."""
     d = defaults or Params()
-    g = parser.add_argument_group("physical parameters (dimensionless, DESIGN.md section 2)")
+    g = parser.add_argument_group("physical parameters (dimensionless, docs/design.md section 2)")
     g.add_argument("--f", type=float, default=d.f, help="friction coefficient f >= 0 (%(default)s)")
     g.add_argument("--gamma", type=float, default=d.gamma,
                    help="gamma = mu/(c_s sigma0 d_v f) > 0 (%(default)s)")

@@ -1,6 +1,6 @@
 """Half-space (``kH -> infinity``) spectrum ``s(z, q) = 0`` and its roots (paper section 5, App. C).
 
-Variables (DESIGN.md section 2: in code units ``k`` is the paper's ``q`` and ``Lambda`` its
+Variables (docs/design.md section 2: in code units ``k`` is the paper's ``q`` and ``Lambda`` its
 ``lambda``): ``z = -Lambda / (i q)``, i.e. ``Lambda = -i q z``; ``Re Lambda = q Im z``, so a root
 with ``Im z > 0`` is unstable.
 

@@ -1,4 +1,4 @@
-"""Dimensionless parameters of the problem and their validation (DESIGN.md section 2).
+"""Dimensionless parameters of the problem and their validation (docs/design.md section 2).
 
 Units: ``c_s = mu = rho = 1``; time unit ``t0 = D / (|g'(1)| v0)``; length unit ``c_s t0``.
 Every part of the project (analytic roots, finite elements, workflows) takes a :class:`Params`.

@@ -1,4 +1,4 @@
-"""Physical units in and out (DESIGN.md section 2).
+"""Physical units in and out (docs/design.md section 2).
 
 Standard rate-and-state friction with the aging law::
 

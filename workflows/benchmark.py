@@ -10,7 +10,8 @@
    run (one rank).
 3. MPI: wall time of ``sweep_k.py`` on ``--mpi-k`` k values with ``mpirun -n 1`` and ``-n 2``
    (subprocesses; the sweep's own ``wall_time_s`` and the whole process).
-4. Convergence in h for P1..P4 at the DESIGN check point (k = 1, branch 0-): table, CSV, PNG.
+4. Convergence in h for P1..P4 at the check point of docs/design.md section 4 (k = 1, branch
+   0-): table, CSV, PNG.
 
 Writes ``benchmark.json``, ``convergence.csv``, ``convergence.png`` in ``--out``.
 """
@@ -31,13 +32,14 @@ import numpy as np
 
 from mpi4py import MPI
 
+from analytic.branches import follow_branch, polish_root
 from analytic.params import Params
 from forms.cross_section import CrossSectionModel
 from forms.solvers import PolynomialSolver
 from forms.tracking import branches, track_branch, waveguide_lambda
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-CHECK_VALUE = 0.2716852879456 - 6.5866951866228j  # DESIGN.md section 4
+CHECK_VALUE = 0.2716852879456 - 6.5866951866228j  # docs/design.md section 4
 #: Options prefixes of the SLEPc objects ("": the cross-section solves use the default prefix).
 PETSC_PREFIXES = ("",)
 OUTPUTS = ("benchmark.json", "accuracy.csv", "convergence.csv", "convergence.png")
@@ -46,16 +48,11 @@ CONVERGENCE_CELLS = {1: (32, 64, 128, 256), 2: (6, 8, 12, 16, 24), 3: (3, 4, 6, 
 
 
 def exact_reference(p: Params, k: float, guess: complex) -> tuple[complex, str]:
-    """Exact root near ``guess`` (analytic.branches.polish_root) or the DESIGN check value."""
-    try:
-        from analytic.branches import polish_root
-
-        root = polish_root(p, k, guess)
-        if root.converged:
-            return complex(root.value), "analytic.branches.polish_root"
-    except ImportError:
-        pass
-    return CHECK_VALUE, "DESIGN.md check value (13 digits)"
+    """Exact root near ``guess`` (``analytic.branches.polish_root``), else the check value."""
+    root = polish_root(p, k, guess)
+    if root.converged:
+        return complex(root.value), "analytic.branches.polish_root"
+    return CHECK_VALUE, "docs/design.md check value (13 digits)"
 
 
 def accuracy_and_cost(comm: MPI.Comm, out: str) -> dict:
@@ -80,11 +77,6 @@ def accuracy_and_cost(comm: MPI.Comm, out: str) -> dict:
     result = {"k": sweep_k.DEFAULT_K, "branches": [b.label for b in blist], "degree": 3,
               "cells": cells, "fe_per_k_s": t_fe}
     errors = {}
-    try:
-        from analytic.branches import follow_branch, polish_root
-    except ImportError as err:
-        result["exact"] = f"not available ({err})"
-        return result
     for j, b in enumerate(blist):
         vals = [d["values"][d["owner"] == j] for d in data]
         vecs = [d["vectors"][d["owner"] == j] for d in data]

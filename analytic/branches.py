@@ -31,6 +31,7 @@ from analytic.finite_h import cutoff, det_M
 from analytic.params import ParameterError, Params, check_k
 from analytic.roots import ContourError, Root, count_zeros, polish, zeros_in_box
 from analytic.smallk import slope
+from analytic.twobody import det_twobody
 
 
 def branch_label(n: int, sign: int) -> str:
@@ -87,14 +88,22 @@ class BranchResult:
 
 
 def spectrum_function(p: Params, k: float):
-    """``Lambda -> det_M(Lambda, k, p)`` (vectorised), the function all root finding uses."""
+    """``Lambda -> det_M(Lambda, k, p)`` (vectorised), the function all root finding uses.
+
+    For a deformable substrate (``p.two_body``, finite ``mu2``) it is
+    :func:`analytic.twobody.det_twobody` instead (same properties: single-valued for finite
+    ``H, H2``, no poles, modulus a relative residual).
+    """
+    if p.two_body:
+        return lambda L: det_twobody(L, k, p)
     return lambda L: det_M(L, k, p)
 
 
 def polish_root(p: Params, k: float, Lambda_guess: complex, *, tol: float = 1e-14) -> Root:
     """Polish an arbitrary guess (e.g. a finite-element eigenvalue) onto the exact root.
 
-    Newton on :func:`analytic.finite_h.det_M` (residual = ``|det_M|``, a relative residual).
+    Newton on :func:`analytic.finite_h.det_M` (residual = ``|det_M|``, a relative residual);
+    on :func:`analytic.twobody.det_twobody` for a deformable substrate (``p.two_body``).
     It converges to the root nearest the guess when the guess is closer to it than to any
     other root, roughly; use :func:`roots_in_box` when that is in doubt.
 
@@ -115,16 +124,27 @@ def roots_in_box(p: Params, k: float, box: tuple[float, float, float, float]) ->
     """Every eigenvalue inside ``box = (re_min, re_max, im_min, im_max)`` at wavenumber ``k``.
 
     Checked by the argument principle (:func:`analytic.roots.zeros_in_box`); ``det_M`` has no
-    poles. Keep the box edges off ``Lambda = 0``.
+    poles. Keep the box edges off ``Lambda = 0`` (rigid substrate). Two bodies
+    (``p.two_body``): :func:`analytic.twobody.det_twobody`; with ``H`` or ``H2`` infinite the
+    box must not cross the imaginary axis beyond ``min(c_s1, c_s2) k`` (the physical sheet's
+    cuts).
     """
     kk = float(check_k(k)[0])
     return zeros_in_box(spectrum_function(p, kk), box, n_initial=_n_initial(p, box))
 
 
 def _n_initial(p: Params, box: tuple[float, float, float, float]) -> int:
-    """Initial contour samples per side: ``det_M`` turns by about ``H (1 + beta)`` per unit."""
+    """Initial contour samples per side: ``det_M`` turns by about ``H (1 + beta)`` per unit.
+
+    Two bodies: plus ``H2 (1 + beta2) / c_s2`` for a finite substrate; a half-space (either
+    body) counts as height 1 (its function has no such rotation).
+    """
     side = max(box[1] - box[0], box[3] - box[2])
-    return 8 + int(math.ceil(2.0 * p.H * (1.0 + p.beta) * side))
+    turn = (p.H if math.isfinite(p.H) else 1.0) * (1.0 + p.beta)
+    if p.two_body:
+        m2 = p.substrate
+        turn += (p.H2 if math.isfinite(p.H2) else 1.0) * (1.0 + m2.beta) / m2.c_s
+    return 8 + int(math.ceil(2.0 * turn * side))
 
 
 def _box_around(z: complex, r: float) -> tuple[float, float, float, float]:

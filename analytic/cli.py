@@ -28,7 +28,11 @@ EXIT_USAGE = 2
 
 
 def add_param_arguments(parser: argparse.ArgumentParser, defaults: Params | None = None) -> None:
-    """Add ``--f --gamma --beta --Delta --H --bc --alpha-pc --alpha-ld`` to ``parser``."""
+    """Add the physical parameters to ``parser``.
+
+    ``--f --gamma --beta --Delta --H --bc --alpha-pc --alpha-ld`` and the substrate's
+    ``--mu2 --rho2 --beta2 --H2 --bc2`` (issue 9; default ``--mu2 inf``: rigid).
+    """
     d = defaults or Params()
     g = parser.add_argument_group("physical parameters (dimensionless, DESIGN.md section 2)")
     g.add_argument("--f", type=float, default=d.f, help="friction coefficient f >= 0 (%(default)s)")
@@ -45,12 +49,27 @@ def add_param_arguments(parser: argparse.ArgumentParser, defaults: Params | None
                    help="Prakash-Clifton alpha_PC >= 0 (%(default)s)")
     g.add_argument("--alpha-ld", type=float, default=d.alpha_ld,
                    help="Linker-Dieterich alpha_LD >= 0 (%(default)s)")
+    s = parser.add_argument_group("substrate (body 2, -H2 < y < 0; units of body 1)")
+    s.add_argument("--mu2", type=float, default=d.mu2,
+                   help="shear modulus mu2/mu1 > 0; inf: rigid substrate (%(default)s)")
+    s.add_argument("--rho2", type=float, default=d.rho2,
+                   help="density rho2/rho1 > 0 (%(default)s)")
+    s.add_argument("--beta2", type=float, default=d.beta2,
+                   help="beta2 = c_s2/c_d2 in (0, 1/sqrt 2); default: equal to --beta")
+    s.add_argument("--H2", type=float, default=d.H2,
+                   help="substrate height H2 > 0; inf: half-space (%(default)s)")
+    s.add_argument("--bc2", choices=("velocity", "stress"), default=d.bc2,
+                   help="bottom condition at y = -H2 (%(default)s)")
 
 
 def params_from_args(args: argparse.Namespace) -> Params:
     """Build (and validate) :class:`Params` from parsed arguments."""
+    d = Params()
     return Params(f=args.f, gamma=args.gamma, beta=args.beta, Delta=args.Delta, H=args.H,
-                  bc=args.bc, alpha_pc=args.alpha_pc, alpha_ld=args.alpha_ld)
+                  bc=args.bc, alpha_pc=args.alpha_pc, alpha_ld=args.alpha_ld,
+                  mu2=getattr(args, "mu2", d.mu2), rho2=getattr(args, "rho2", d.rho2),
+                  beta2=getattr(args, "beta2", d.beta2), H2=getattr(args, "H2", d.H2),
+                  bc2=getattr(args, "bc2", d.bc2))
 
 
 def parse_k(spec: str, name: str = "--k") -> np.ndarray:

@@ -31,7 +31,7 @@ from analytic.finite_h import cutoff, det_M
 from analytic.params import ParameterError, Params, check_k
 from analytic.roots import ContourError, Root, count_zeros, polish, zeros_in_box
 from analytic.smallk import slope
-from analytic.twobody import det_twobody
+from analytic.twobody import cutoff_twobody, det_twobody
 
 
 def branch_label(n: int, sign: int) -> str:
@@ -163,12 +163,27 @@ def _count(p: Params, k: float, z: complex, r: float) -> int:
     return -1
 
 
+def branch_cutoff(n: int, sign: int, p: Params) -> complex:
+    """The ``k -> 0`` start of branch ``(n, sign)``.
+
+    Rigid substrate: :func:`analytic.finite_h.cutoff`; two bodies:
+    :func:`analytic.twobody.cutoff_twobody` (the composite rod's ``n``-th mode).
+    """
+    return cutoff_twobody(n, sign, p) if p.two_body else cutoff(n, sign, p)
+
+
 def _start(p: Params, n: int, sign: int, k0: float) -> tuple[Root | None, str]:
     """The single root near the cut-off at small k0, isolated by counting."""
-    L0 = cutoff(n, sign, p)
-    guess = L0 + slope(n, sign, p) * k0
+    L0 = branch_cutoff(n, sign, p)
     fun = spectrum_function(p, k0)
-    spacing = math.pi / (p.beta * p.H)  # distance between neighbouring cut-offs
+    if p.two_body:
+        guess = L0
+        # distance to the nearest other cut-off (or to the flexural root at 0)
+        others = [0.0] + [branch_cutoff(m, sign, p) for m in (n - 1, n + 1) if m >= 0]
+        spacing = min(abs(L0 - z) for z in others)
+    else:
+        guess = L0 + slope(n, sign, p) * k0
+        spacing = math.pi / (p.beta * p.H)  # distance between neighbouring cut-offs
     r = 0.3 * spacing
     for _ in range(12):
         try:
@@ -194,8 +209,13 @@ def follow_branch(
 ) -> BranchResult:
     """Follow branch ``(n, sign)`` from its cut-off to every requested ``k``.
 
+    Two bodies (``p.two_body``, finite ``H2``): the branch starts at
+    :func:`analytic.twobody.cutoff_twobody` and is followed on
+    :func:`analytic.twobody.det_twobody` with the same checks. The flexural branch (from
+    ``Lambda = 0`` at ``k = 0``) is not one of these; :func:`roots_in_box` finds it.
+
     Args:
-        p: Parameters (finite ``H``; any ``bc`` and friction model).
+        p: Parameters (finite ``H``; any ``bc`` and friction model; finite ``H2`` if two bodies).
         n: Cut-off index ``n >= 0``.
         sign: ``+1`` or ``-1``.
         k_values: Wavenumbers ``> 0`` where the root is wanted (sorted internally).
@@ -212,7 +232,7 @@ def follow_branch(
     """
     if not math.isfinite(p.H):
         raise ParameterError("H = inf: branches start at finite-H cut-offs; use a finite H")
-    cutoff(n, sign, p)  # validates n and sign
+    branch_cutoff(n, sign, p)  # validates n and sign (and H2 for two bodies)
     ks = np.unique(check_k(k_values))
     k_max = float(ks[-1])
     label = branch_label(n, sign)
@@ -233,7 +253,7 @@ def follow_branch(
         return BranchResult(label, n, sign, ks, out_L, out_res, out_cond, out_ok, flags,
                             np.array(k_path), np.array(L_path, dtype=complex), note)
     k_cur, L_cur = k_start, root.value
-    k_prev, L_prev = 0.0, cutoff(n, sign, p)  # the cut-off is the k = 0 point of the branch
+    k_prev, L_prev = 0.0, branch_cutoff(n, sign, p)  # the k = 0 point of the branch
     k_path += [0.0, k_cur]
     L_path += [L_prev, L_cur]
     dk = k_start

@@ -4,7 +4,10 @@
 ``k,branch,re_lambda,im_lambda,residual`` for branches ``0+, 0-, 1+, 1-, ...`` followed in k
 from their cut-offs. ``python -m analytic units ...`` converts physical data.
 ``python -m analytic dispersion --out DIR`` writes the analytic dispersion curve (CSV, JSON,
-PNG). Bad input: one line on stderr naming the parameter, exit code 2.
+PNG). ``python -m analytic gr --mu2 2 --rho2 1 --beta 0.5`` prints the generalized Rayleigh
+wave of two half-spaces as JSON ``{"exists": ..., "speed": c/c_s1 or null}``;
+``python -m analytic grmap --out DIR`` maps where it exists over ``(mu2, rho2)``.
+Bad input: one line on stderr naming the parameter, exit code 2.
 
 :func:`add_param_arguments`, :func:`params_from_args`, :func:`parse_k`, :func:`positive_int`
 are also used by ``workflows/_cli.py`` (which re-exports them).
@@ -173,6 +176,26 @@ def _dispersion(args: argparse.Namespace) -> int:
     return 0
 
 
+def _gr(args: argparse.Namespace) -> int:
+    from analytic.twobody import generalized_rayleigh
+
+    g = generalized_rayleigh(args.mu2, args.rho2, args.beta, args.beta2)
+    print(json.dumps(g.as_dict()))
+    return 0
+
+
+def _grmap(args: argparse.Namespace) -> int:
+    from analytic.twobody import write_gr_map
+
+    Params(beta=args.beta, beta2=args.beta2)  # validates
+    positive_int("--n", args.n, 3, 1000)
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise ParameterError(f"--out = {args.out!r} exists and is not a directory")
+    for f in write_gr_map(args.out, args.beta, args.beta2, n=args.n):
+        print(f)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``python -m analytic`` argument parser."""
     from analytic.units import PMMA_ON_STEEL as X
@@ -192,6 +215,20 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--branches", type=int, default=2, help="cut-off indices n (%(default)s)")
     add_param_arguments(d)
     d.set_defaults(func=_dispersion)
+
+    gr = sub.add_parser("gr", help="generalized Rayleigh wave of two half-spaces (JSON)")
+    gr.add_argument("--mu2", type=float, required=True, help="mu2/mu1 > 0")
+    gr.add_argument("--rho2", type=float, default=1.0, help="rho2/rho1 > 0 (%(default)s)")
+    gr.add_argument("--beta", type=float, default=0.5, help="body 1 c_s/c_d (%(default)s)")
+    gr.add_argument("--beta2", type=float, default=None, help="body 2 c_s/c_d (default: --beta)")
+    gr.set_defaults(func=_gr)
+
+    gm = sub.add_parser("grmap", help="where the generalized Rayleigh wave exists: CSV/JSON/PNG")
+    gm.add_argument("--out", required=True, help="output directory (created)")
+    gm.add_argument("--beta", type=float, default=0.5, help="body 1 c_s/c_d (%(default)s)")
+    gm.add_argument("--beta2", type=float, default=None, help="body 2 c_s/c_d (default: --beta)")
+    gm.add_argument("--n", type=int, default=121, help="grid points per axis (%(default)s)")
+    gm.set_defaults(func=_grmap)
 
     u = sub.add_parser("units", help="physical data (SI) -> dimensionless parameters and units")
     u.add_argument("--mu", type=float, default=X.mu, help="shear modulus [Pa] (%(default)s)")

@@ -359,77 +359,52 @@ def det_twobody_propagator(Lambda: complex, k: float, p: Params) -> complex:
 # --------------------------------------------------------------------------------------------
 # k = 0 cut-offs
 # --------------------------------------------------------------------------------------------
-def _rod_function(Lambda: np.ndarray, p: Params) -> np.ndarray:
-    """The k = 0 dilatational factor: ``Z1 sinh(t1) cosh(t2) + Z2 cosh(t1) sinh(t2)``.
-
-    ``t1 = beta Lambda H`` (``c_d1 = 1/beta``), ``t2 = Lambda H2 / c_d2``, impedances
-    ``Z1 = 1/beta``, ``Z2 = rho2 c_d2``: the composite rod (free ends: ``s_yy = 0`` on both
-    outer boundaries for every ``bc``/``bc2``) whose modes are the waveguide cut-offs.
-    """
-    m2 = p.substrate
-    z1, z2 = 1.0 / p.beta, m2.rho * m2.c_d
-    t1 = p.beta * Lambda * p.H
-    if math.isfinite(p.H2):
-        t2 = Lambda * p.H2 / m2.c_d
-        return z1 * np.sinh(t1) * np.cosh(t2) + z2 * np.cosh(t1) * np.sinh(t2)
-    return z1 * np.sinh(t1) + z2 * np.cosh(t1)  # outgoing into the half-space
-
-
 def cutoff_twobody(n: int, sign: int, p: Params) -> complex:
-    """Cut-off ``Lambda_0`` of branch ``(n, sign)`` at ``k -> 0`` for two bodies.
+    """Cut-off ``Lambda_0`` of branch ``(n, sign)`` at ``k -> 0`` for two bodies (finite ``H2``).
 
     The ``n``-th root (``n = 0, 1, ...``, by increasing ``|Im|``, with ``sign Im > 0``) of the
-    composite-rod factor :func:`_rod_function`, excluding ``Lambda = 0`` (the rigid translation
-    of the stack in ``y``, which becomes the flexural branch for ``k > 0``). For finite ``H2``
-    the roots are imaginary, interlaced with body 1's quarter- and half-wave frequencies:
-    ``beta H |Im Lambda_0| in ((2n+1) pi/2, (n+1) pi)`` when ``t2`` stays small (stiff or thin
-    substrate). For ``H2 = inf`` (radiation into the substrate) they have ``Re Lambda_0 < 0``:
-    ``tanh(beta Lambda H) = -Z2/Z1``. ``mu2 -> inf`` at fixed ``k > 0`` gives the rigid roots,
-    but these cut-offs are those of body 1 on a *free rigid mass* ``rho2 H2`` (the rigid
-    substrate limit is not uniform at ``k -> 0``).
+    composite-rod factor :func:`_rod_function` on the imaginary axis, ``Lambda = 0`` excluded
+    (the rigid translation of the stack in ``y``, which becomes the flexural branch for
+    ``k > 0``). At ``k = 0`` the dilatational fields decouple (``s_yy = 0`` on both outer
+    boundaries for every ``bc``/``bc2``; ``u_y``, ``s_yy`` continuous at ``y = 0``): a free-free
+    composite rod, ``Z1 sin(beta H w) cos(H2 w / c_d2) + Z2 cos(beta H w) sin(H2 w / c_d2) = 0``
+    (``Z1 = 1/beta``, ``Z2 = rho2 c_d2``). A stiff thin substrate (``H2 w / c_d2`` small) acts as
+    a free rigid mass ``rho2 H2``: ``beta H w_n in ((2n+1) pi/2, (n+1) pi)``. So ``mu2 -> inf`` at
+    fixed ``k > 0`` gives the rigid roots, but the cut-offs (``k = 0``) stay those of the
+    mass-loaded rod: the rigid limit is not uniform in ``k``.
 
     Raises:
-        ParameterError: On ``n < 0``, ``sign`` not +-1, a rigid substrate or ``H = inf``.
+        ParameterError: On ``n < 0``, ``sign`` not +-1, a rigid substrate, ``H = inf`` or
+            ``H2 = inf`` (a half-space substrate radiates at ``k = 0``: its cut-offs are leaky,
+            off the physical sheet).
     """
+    from scipy.optimize import brentq
+
     _require_two_body(p)
     if int(n) != n or n < 0:
         raise ParameterError(f"n = {n!r} is outside its allowed range n >= 0 (integer)")
     if sign not in (1, -1):
         raise ParameterError(f"sign = {sign!r} must be +1 or -1")
-    if not math.isfinite(p.H):
-        raise ParameterError("H = inf: branches start at finite-H cut-offs; use a finite H")
+    if not (math.isfinite(p.H) and math.isfinite(p.H2)):
+        raise ParameterError("H = inf or H2 = inf: branches start at the cut-offs of finite "
+                             "layers; use finite H and H2")
     m2 = p.substrate
     z1, z2 = 1.0 / p.beta, m2.rho * m2.c_d
-    if not math.isfinite(p.H2):
-        # tanh(t) = -z2/z1: t = atanh(-r) (|r| < 1) or atanh(-1/r) + i pi/2 (|r| > 1), + i m pi
-        r = z2 / z1
-        if r == 1.0:
-            raise ParameterError("impedance-matched half-space substrate: no cut-offs (all "
-                                 "energy radiates at k = 0)")
-        base = complex(math.atanh(-r)) if r < 1 else complex(math.atanh(-1 / r), math.pi / 2)
-        t = base + 1j * math.pi * (n if (r > 1 or n == 0) else n)  # Im t >= 0 roots
-        if r < 1:
-            t = base + 1j * math.pi * (n + 1)  # exclude the real root t = atanh(-r) < 0
-        t = complex(t.real, sign * t.imag)
-        return t / (p.beta * p.H)
-    # imaginary roots Lambda = i w of  z1 sin(a w) cos(b w) + z2 cos(a w) sin(b w) = 0
     a, b = p.beta * p.H, p.H2 / m2.c_d
 
-    def g(w: np.ndarray) -> np.ndarray:
+    def g(w: np.ndarray | float) -> np.ndarray:
         return z1 * np.sin(a * w) * np.cos(b * w) + z2 * np.cos(a * w) * np.sin(b * w)
 
-    from scipy.optimize import brentq
-
-    # sample finely enough to separate neighbouring roots (spacing >= pi / (a + b) / 2)
+    # g is a sum of two sinusoids of frequencies a +- b: neighbouring roots are at least
+    # ~pi/(a+b)/2 apart; sample 20 points per pi/(a+b), skip the root at w = 0
     step = 0.05 * math.pi / (a + b)
     w_lo, found = 0.5 * step, 0
     while True:
-        w = w_lo + step * np.arange(4096)
+        w = w_lo + step * np.arange(4097)
         gw = g(w)
-        idx = np.nonzero(np.sign(gw[:-1]) * np.sign(gw[1:]) <= 0)[0]
-        for i in idx:
+        for i in np.nonzero(np.sign(gw[:-1]) * np.sign(gw[1:]) <= 0)[0]:
             if found == n:
-                root = brentq(g, w[i], w[i + 1], xtol=1e-15, rtol=4e-16)
+                root = brentq(g, w[i], w[i + 1], xtol=1e-15, rtol=1e-15)
                 return complex(0.0, sign * root)
             found += 1
         w_lo = float(w[-1])
@@ -514,7 +489,7 @@ def generalized_rayleigh(mu2: float, rho2: float, beta: float, beta2: float | No
         return GeneralizedRayleigh(False, None, c_max)
     i = int(idx[-1])
     speed = brentq(lambda x: float(_gr_function(np.array([x]), m1, m2)[0]), c[i], c[i + 1],
-                   xtol=1e-15, rtol=4e-16)
+                   xtol=1e-15, rtol=1e-15)
     return GeneralizedRayleigh(True, float(speed), c_max)
 
 
@@ -526,4 +501,80 @@ def rayleigh_speed(beta: float) -> float:
         s2 = s * s
         return (2.0 - s2) ** 2 - 4.0 * math.sqrt(1.0 - s2) * math.sqrt(1.0 - beta**2 * s2)
 
-    return float(brentq(R, 0.5, 1.0 - 1e-15, xtol=1e-15, rtol=4e-16))
+    return float(brentq(R, 0.5, 1.0 - 1e-15, xtol=1e-15, rtol=1e-15))
+
+
+def gr_existence_map(mu2s: np.ndarray, rho2s: np.ndarray, beta: float,
+                     beta2: float | None = None) -> np.ndarray:
+    """Generalized Rayleigh speed over the contrast plane (over ``c_s1``, NaN: no wave).
+
+    ``speed[i, j]`` is at ``(rho2s[i], mu2s[j])``.
+    """
+    out = np.full((len(rho2s), len(mu2s)), np.nan)
+    for i, r in enumerate(rho2s):
+        for j, m in enumerate(mu2s):
+            g = generalized_rayleigh(float(m), float(r), beta, beta2)
+            if g.exists:
+                out[i, j] = g.speed
+    return out
+
+
+def write_gr_map(out: str, beta: float = 0.5, beta2: float | None = None,
+                 mu2_range: tuple[float, float] = (0.01, 100.0),
+                 rho2_range: tuple[float, float] = (0.1, 10.0), n: int = 121) -> list[str]:
+    """Where the generalized Rayleigh wave exists in the ``(mu2, rho2)`` plane: CSV, JSON, PNG.
+
+    Log-spaced ``n x n`` grid; the colour is the speed relative to ``c_max = min(c_s1, c_s2)``
+    (1: the wave merges into the slower shear wave at the existence boundary); the lines of
+    equal shear wave speed (``mu2 = rho2``: speed = Rayleigh speed) and of equal shear
+    impedance (``mu2 rho2 = 1``) are drawn. Returns the written paths.
+    """
+    import csv
+    import json
+    import os
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    os.makedirs(out, exist_ok=True)
+    mu2s = np.logspace(math.log10(mu2_range[0]), math.log10(mu2_range[1]), n)
+    rho2s = np.logspace(math.log10(rho2_range[0]), math.log10(rho2_range[1]), n)
+    speed = gr_existence_map(mu2s, rho2s, beta, beta2)
+    c_max = np.minimum(1.0, np.sqrt(mu2s[None, :] / rho2s[:, None]))
+    paths = [os.path.join(out, f"gr_map.{ext}") for ext in ("csv", "json", "png")]
+    with open(paths[0], "w", newline="") as fh:
+        w = csv.writer(fh, lineterminator="\n")
+        w.writerow(["mu2", "rho2", "exists", "speed", "speed_over_cmax"])
+        for i, r in enumerate(rho2s):
+            for j, m in enumerate(mu2s):
+                s = speed[i, j]
+                w.writerow([f"{m:.8g}", f"{r:.8g}", int(np.isfinite(s)),
+                            "" if not np.isfinite(s) else f"{s:.12g}",
+                            "" if not np.isfinite(s) else f"{s / c_max[i, j]:.12g}"])
+    b2 = beta if beta2 is None else beta2
+    meta = {"beta": beta, "beta2": b2, "mu2_range": list(mu2_range),
+            "rho2_range": list(rho2_range), "n": n,
+            "fraction_exists": float(np.isfinite(speed).mean()),
+            "rayleigh_speed_body1": rayleigh_speed(beta),
+            "model": "two half-spaces, frictionless contact without opening (Weertman 1963)"}
+    with open(paths[1], "w") as fh:
+        json.dump(meta, fh, indent=2)
+    fig, ax = plt.subplots(figsize=(6.2, 5.0), constrained_layout=True)
+    pc = ax.pcolormesh(mu2s, rho2s, speed / c_max, shading="auto", cmap="viridis")
+    fig.colorbar(pc, ax=ax, label="GR speed / min(c_s1, c_s2)")
+    ax.plot(mu2s, mu2s, "w--", lw=1, label="c_s2 = c_s1")
+    ax.plot(mu2s, 1.0 / mu2s, "w:", lw=1, label="rho2 c_s2 = rho1 c_s1")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlim(*mu2_range)
+    ax.set_ylim(*rho2_range)
+    ax.set_xlabel("mu2 / mu1")
+    ax.set_ylabel("rho2 / rho1")
+    ax.set_title(f"generalized Rayleigh wave exists (coloured); beta = {beta:g}, beta2 = {b2:g}",
+                 fontsize=9)
+    ax.legend(loc="lower right", fontsize=8)
+    fig.savefig(paths[2], dpi=110)
+    plt.close(fig)
+    return paths

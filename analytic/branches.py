@@ -137,13 +137,16 @@ def _n_initial(p: Params, box: tuple[float, float, float, float]) -> int:
     """Initial contour samples per side: ``det_M`` turns by about ``H (1 + beta)`` per unit.
 
     Two bodies: plus ``H2 (1 + beta2) / c_s2`` for a finite substrate; a half-space (either
-    body) counts as height 1 (its function has no such rotation).
+    body) adds no such rotation (its partial waves carry no ``exp(i H Im k)`` phase): 32
+    samples per side then.
     """
     side = max(box[1] - box[0], box[3] - box[2])
-    turn = (p.H if math.isfinite(p.H) else 1.0) * (1.0 + p.beta)
-    if p.two_body:
+    turn = p.H * (1.0 + p.beta) if math.isfinite(p.H) else 0.0
+    if p.two_body and math.isfinite(p.H2):
         m2 = p.substrate
-        turn += (p.H2 if math.isfinite(p.H2) else 1.0) * (1.0 + m2.beta) / m2.c_s
+        turn += p.H2 * (1.0 + m2.beta) / m2.c_s
+    if not math.isfinite(p.H) or (p.two_body and not math.isfinite(p.H2)):
+        return 32 + int(math.ceil(2.0 * turn * side))
     return 8 + int(math.ceil(2.0 * turn * side))
 
 

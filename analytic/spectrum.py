@@ -98,9 +98,12 @@ def nudged_boxes(box: Box) -> list[Box]:
     """The box and slightly moved copies (used when a root sits on an edge)."""
     a, b, c, d = box
     out = [box]
+    # moves of 3 % of re_min (at least 3e-4) and 1e-4 of the height: a root closer than that
+    # to an edge makes the contour too expensive to resolve (seen at k = 76.5, H = 0.5: a root
+    # 1.3e-4 from Re = -0.01); the rectangle actually used is always reported
     for s in (1.0, -1.0, 2.0, -2.0):
-        da = 1e-4 * s * max(abs(a), 1e-2)
-        dw = 1e-5 * s * max(abs(c), abs(d))
+        da = 0.03 * s * max(abs(a), 1e-2)
+        dw = 1e-4 * s * max(abs(c), abs(d))
         out.append((a - da, b, c - dw, d + dw))
     return out
 

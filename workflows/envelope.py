@@ -24,6 +24,7 @@ import _cli
 import numpy as np
 
 from analytic import halfspace
+from analytic.roots import ContourError
 from analytic.spectrum import Region, fastest_root
 
 PETSC_PREFIXES: tuple[str, ...] = ()
@@ -86,7 +87,11 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         mine = _cli.my_share(comm, [region.im_max(p, kk) ** 1.5 for kk in k])
         local = {}
         for i in mine:
-            z, n, bx = fastest_root(p, float(k[i]), region)
+            try:
+                z, n, bx = fastest_root(p, float(k[i]), region)
+            except ContourError as err:  # reported, the run goes on
+                _cli.say(f"k = {k[i]:g}: no count ({err})", err=True)
+                z, n = None, -1
             local[i] = (z, n)
         rows = {}
         for part in comm.allgather(local):
@@ -98,7 +103,10 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         best = None
         if comm.rank == 0:
             def growth(kk: float) -> float:
-                z = fastest_root(p, kk, region)[0]
+                try:
+                    z = fastest_root(p, kk, region)[0]
+                except ContourError:
+                    return -np.inf
                 return z.real if z is not None else -np.inf
 
             kb, _ = refine(growth, ks, re)
@@ -115,7 +123,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                 for i, kk in enumerate(ks):
                     z, n = rows[i]
                     w.writerow([repr(kk), repr(kk * p.H), repr(z.real) if z else "",
-                                repr(z.imag) if z else "", n])
+                                repr(z.imag) if z else "", n])  # n = -1: count failed
             summary = {"parameters": p.as_dict(), "region": region.as_dict(p),
                        "global_max_on_grid": best,
                        "halfspace_dilatational_max": {"growth": hs.growth, "q": hs.q_growth},

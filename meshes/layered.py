@@ -1,4 +1,4 @@
-"""Interval meshes from explicit vertex coordinates (the cross-section model with a PML layer).
+"""Interval meshes from explicit vertex coordinates (PML layers, layered stacks of two bodies).
 
 :func:`interval_from_vertices` builds a dolfinx interval mesh whose vertices are given (rank 0
 of the communicator passes them, dolfinx distributes the cells); :func:`geometric_sizes` makes
@@ -75,3 +75,59 @@ def layer_count(length: float, h0: float, h_max: float, growth: float) -> int:
     if grown >= length:
         return max(1, math.ceil(math.log(1 + length * (growth - 1.0) / h0) / math.log(growth)))
     return n_grow + math.ceil((length - grown) / h_max)
+
+
+def progression_vertices(y0: float, y1: float, cells: int, ratio: float = 1.0) -> np.ndarray:
+    """Vertices of ``[min, max](y0, y1)`` with cells growing geometrically away from ``y0``.
+
+    The sizes are ``h0 r^i`` (``r = ratio^(1/(cells-1))``, so ``h_max/h_min = ratio``), as
+    gmsh's "Progression" in :func:`meshes.interval.interval_mesh`; returned in increasing order.
+
+    Args:
+        y0: End where the cells are smallest (the interface).
+        y1: Other end (``y1 != y0``).
+        cells: Number of cells ``>= 1``.
+        ratio: ``h_max / h_min >= 1``.
+    """
+    if cells < 1 or ratio < 1.0 or y0 == y1:
+        raise ValueError(f"bad progression: y0={y0}, y1={y1}, cells={cells}, ratio={ratio}")
+    r = ratio ** (1.0 / (cells - 1)) if cells > 1 else 1.0
+    i = np.arange(cells + 1, dtype=float)
+    t = i / cells if r == 1.0 else np.expm1(i * math.log(r)) / math.expm1(cells * math.log(r))
+    y = y0 + (y1 - y0) * t
+    y[0], y[-1] = y0, y1
+    return y if y1 > y0 else y[::-1].copy()
+
+
+def interval_from_pieces(comm: MPI.Comm, pieces: list[np.ndarray]) -> dolfinx.mesh.Mesh:
+    """Interval mesh made of disconnected pieces (read on rank 0 of ``comm``).
+
+    Each piece is a strictly increasing vertex array; consecutive pieces may touch (the last
+    vertex of one equal to the first of the next) but get *separate* vertices there, so a
+    continuous Lagrange space has two independent nodes at the common point (the two sides of
+    an interface that may slip).
+
+    Args:
+        comm: Communicator the mesh is distributed over.
+        pieces: Vertex arrays (only rank 0's are used).
+
+    Returns:
+        The dolfinx mesh (geometric dimension 1).
+    """
+    if comm.rank == 0:
+        coords, cells, start = [], [], 0
+        for piece in pieces:
+            x = np.asarray(piece, dtype=np.float64)
+            if x.ndim != 1 or len(x) < 2 or not np.all(np.diff(x) > 0):
+                raise ValueError("each piece must be a strictly increasing 1D array, length >= 2")
+            idx = start + np.arange(len(x))
+            cells.append(np.column_stack([idx[:-1], idx[1:]]))
+            coords.append(x)
+            start += len(x)
+        cell_arr = np.vstack(cells).astype(np.int64)
+        coord_arr = np.concatenate(coords).reshape(-1, 1)
+    else:
+        cell_arr = np.empty((0, 2), dtype=np.int64)
+        coord_arr = np.empty((0, 1), dtype=np.float64)
+    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.interval, 1, dim=1))
+    return dolfinx.mesh.create_mesh(comm, cell_arr, coord_arr, domain)

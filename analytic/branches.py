@@ -31,6 +31,7 @@ from analytic.finite_h import cutoff, det_M
 from analytic.params import ParameterError, Params, check_k
 from analytic.roots import ContourError, Root, count_zeros, polish, zeros_in_box
 from analytic.smallk import slope
+from analytic.twobody import cutoff_twobody, det_twobody
 
 
 def branch_label(n: int, sign: int) -> str:
@@ -87,14 +88,22 @@ class BranchResult:
 
 
 def spectrum_function(p: Params, k: float):
-    """``Lambda -> det_M(Lambda, k, p)`` (vectorised), the function all root finding uses."""
+    """``Lambda -> det_M(Lambda, k, p)`` (vectorised), the function all root finding uses.
+
+    For a deformable substrate (``p.two_body``, finite ``mu2``) it is
+    :func:`analytic.twobody.det_twobody` instead (same properties: single-valued for finite
+    ``H, H2``, no poles, modulus a relative residual).
+    """
+    if p.two_body:
+        return lambda L: det_twobody(L, k, p)
     return lambda L: det_M(L, k, p)
 
 
 def polish_root(p: Params, k: float, Lambda_guess: complex, *, tol: float = 1e-14) -> Root:
     """Polish an arbitrary guess (e.g. a finite-element eigenvalue) onto the exact root.
 
-    Newton on :func:`analytic.finite_h.det_M` (residual = ``|det_M|``, a relative residual).
+    Newton on :func:`analytic.finite_h.det_M` (residual = ``|det_M|``, a relative residual);
+    on :func:`analytic.twobody.det_twobody` for a deformable substrate (``p.two_body``).
     It converges to the root nearest the guess when the guess is closer to it than to any
     other root, roughly; use :func:`roots_in_box` when that is in doubt.
 
@@ -115,16 +124,27 @@ def roots_in_box(p: Params, k: float, box: tuple[float, float, float, float]) ->
     """Every eigenvalue inside ``box = (re_min, re_max, im_min, im_max)`` at wavenumber ``k``.
 
     Checked by the argument principle (:func:`analytic.roots.zeros_in_box`); ``det_M`` has no
-    poles. Keep the box edges off ``Lambda = 0``.
+    poles. Keep the box edges off ``Lambda = 0`` (rigid substrate). Two bodies
+    (``p.two_body``): :func:`analytic.twobody.det_twobody`; with ``H`` or ``H2`` infinite the
+    box must not cross the imaginary axis beyond ``min(c_s1, c_s2) k`` (the physical sheet's
+    cuts).
     """
     kk = float(check_k(k)[0])
     return zeros_in_box(spectrum_function(p, kk), box, n_initial=_n_initial(p, box))
 
 
 def _n_initial(p: Params, box: tuple[float, float, float, float]) -> int:
-    """Initial contour samples per side: ``det_M`` turns by about ``H (1 + beta)`` per unit."""
+    """Initial contour samples per side: ``det_M`` turns by about ``H (1 + beta)`` per unit.
+
+    Two bodies: plus ``H2 (1 + beta2) / c_s2`` for a finite substrate; a half-space (either
+    body) counts as height 1 (its function has no such rotation).
+    """
     side = max(box[1] - box[0], box[3] - box[2])
-    return 8 + int(math.ceil(2.0 * p.H * (1.0 + p.beta) * side))
+    turn = (p.H if math.isfinite(p.H) else 1.0) * (1.0 + p.beta)
+    if p.two_body:
+        m2 = p.substrate
+        turn += (p.H2 if math.isfinite(p.H2) else 1.0) * (1.0 + m2.beta) / m2.c_s
+    return 8 + int(math.ceil(2.0 * turn * side))
 
 
 def _box_around(z: complex, r: float) -> tuple[float, float, float, float]:
@@ -143,12 +163,27 @@ def _count(p: Params, k: float, z: complex, r: float) -> int:
     return -1
 
 
+def branch_cutoff(n: int, sign: int, p: Params) -> complex:
+    """The ``k -> 0`` start of branch ``(n, sign)``.
+
+    Rigid substrate: :func:`analytic.finite_h.cutoff`; two bodies:
+    :func:`analytic.twobody.cutoff_twobody` (the composite rod's ``n``-th mode).
+    """
+    return cutoff_twobody(n, sign, p) if p.two_body else cutoff(n, sign, p)
+
+
 def _start(p: Params, n: int, sign: int, k0: float) -> tuple[Root | None, str]:
     """The single root near the cut-off at small k0, isolated by counting."""
-    L0 = cutoff(n, sign, p)
-    guess = L0 + slope(n, sign, p) * k0
+    L0 = branch_cutoff(n, sign, p)
     fun = spectrum_function(p, k0)
-    spacing = math.pi / (p.beta * p.H)  # distance between neighbouring cut-offs
+    if p.two_body:
+        guess = L0
+        # distance to the nearest other cut-off (or to the flexural root at 0)
+        others = [0.0] + [branch_cutoff(m, sign, p) for m in (n - 1, n + 1) if m >= 0]
+        spacing = min(abs(L0 - z) for z in others)
+    else:
+        guess = L0 + slope(n, sign, p) * k0
+        spacing = math.pi / (p.beta * p.H)  # distance between neighbouring cut-offs
     r = 0.3 * spacing
     for _ in range(12):
         try:
@@ -174,8 +209,13 @@ def follow_branch(
 ) -> BranchResult:
     """Follow branch ``(n, sign)`` from its cut-off to every requested ``k``.
 
+    Two bodies (``p.two_body``, finite ``H2``): the branch starts at
+    :func:`analytic.twobody.cutoff_twobody` and is followed on
+    :func:`analytic.twobody.det_twobody` with the same checks. The flexural branch (from
+    ``Lambda = 0`` at ``k = 0``) is not one of these; :func:`roots_in_box` finds it.
+
     Args:
-        p: Parameters (finite ``H``; any ``bc`` and friction model).
+        p: Parameters (finite ``H``; any ``bc`` and friction model; finite ``H2`` if two bodies).
         n: Cut-off index ``n >= 0``.
         sign: ``+1`` or ``-1``.
         k_values: Wavenumbers ``> 0`` where the root is wanted (sorted internally).
@@ -192,7 +232,7 @@ def follow_branch(
     """
     if not math.isfinite(p.H):
         raise ParameterError("H = inf: branches start at finite-H cut-offs; use a finite H")
-    cutoff(n, sign, p)  # validates n and sign
+    branch_cutoff(n, sign, p)  # validates n and sign (and H2 for two bodies)
     ks = np.unique(check_k(k_values))
     k_max = float(ks[-1])
     label = branch_label(n, sign)
@@ -213,7 +253,7 @@ def follow_branch(
         return BranchResult(label, n, sign, ks, out_L, out_res, out_cond, out_ok, flags,
                             np.array(k_path), np.array(L_path, dtype=complex), note)
     k_cur, L_cur = k_start, root.value
-    k_prev, L_prev = 0.0, cutoff(n, sign, p)  # the cut-off is the k = 0 point of the branch
+    k_prev, L_prev = 0.0, branch_cutoff(n, sign, p)  # the k = 0 point of the branch
     k_path += [0.0, k_cur]
     L_path += [L_prev, L_cur]
     dk = k_start

@@ -4,7 +4,10 @@
 ``k,branch,re_lambda,im_lambda,residual`` for branches ``0+, 0-, 1+, 1-, ...`` followed in k
 from their cut-offs. ``python -m analytic units ...`` converts physical data.
 ``python -m analytic dispersion --out DIR`` writes the analytic dispersion curve (CSV, JSON,
-PNG). Bad input: one line on stderr naming the parameter, exit code 2.
+PNG). ``python -m analytic gr --mu2 2 --rho2 1 --beta 0.5`` prints the generalized Rayleigh
+wave of two half-spaces as JSON ``{"exists": ..., "speed": c/c_s1 or null}``;
+``python -m analytic grmap --out DIR`` maps where it exists over ``(mu2, rho2)``.
+Bad input: one line on stderr naming the parameter, exit code 2.
 
 :func:`add_param_arguments`, :func:`params_from_args`, :func:`parse_k`, :func:`positive_int`
 are also used by ``workflows/_cli.py`` (which re-exports them).
@@ -28,7 +31,11 @@ EXIT_USAGE = 2
 
 
 def add_param_arguments(parser: argparse.ArgumentParser, defaults: Params | None = None) -> None:
-    """Add ``--f --gamma --beta --Delta --H --bc --alpha-pc --alpha-ld`` to ``parser``."""
+    """Add the physical parameters to ``parser``.
+
+    ``--f --gamma --beta --Delta --H --bc --alpha-pc --alpha-ld`` and the substrate's
+    ``--mu2 --rho2 --beta2 --H2 --bc2`` (issue 9; default ``--mu2 inf``: rigid).
+    """
     d = defaults or Params()
     g = parser.add_argument_group("physical parameters (dimensionless, DESIGN.md section 2)")
     g.add_argument("--f", type=float, default=d.f, help="friction coefficient f >= 0 (%(default)s)")
@@ -45,12 +52,27 @@ def add_param_arguments(parser: argparse.ArgumentParser, defaults: Params | None
                    help="Prakash-Clifton alpha_PC >= 0 (%(default)s)")
     g.add_argument("--alpha-ld", type=float, default=d.alpha_ld,
                    help="Linker-Dieterich alpha_LD >= 0 (%(default)s)")
+    s = parser.add_argument_group("substrate (body 2, -H2 < y < 0; units of body 1)")
+    s.add_argument("--mu2", type=float, default=d.mu2,
+                   help="shear modulus mu2/mu1 > 0; inf: rigid substrate (%(default)s)")
+    s.add_argument("--rho2", type=float, default=d.rho2,
+                   help="density rho2/rho1 > 0 (%(default)s)")
+    s.add_argument("--beta2", type=float, default=d.beta2,
+                   help="beta2 = c_s2/c_d2 in (0, 1/sqrt 2); default: equal to --beta")
+    s.add_argument("--H2", type=float, default=d.H2,
+                   help="substrate height H2 > 0; inf: half-space (%(default)s)")
+    s.add_argument("--bc2", choices=("velocity", "stress"), default=d.bc2,
+                   help="bottom condition at y = -H2 (%(default)s)")
 
 
 def params_from_args(args: argparse.Namespace) -> Params:
     """Build (and validate) :class:`Params` from parsed arguments."""
+    d = Params()
     return Params(f=args.f, gamma=args.gamma, beta=args.beta, Delta=args.Delta, H=args.H,
-                  bc=args.bc, alpha_pc=args.alpha_pc, alpha_ld=args.alpha_ld)
+                  bc=args.bc, alpha_pc=args.alpha_pc, alpha_ld=args.alpha_ld,
+                  mu2=getattr(args, "mu2", d.mu2), rho2=getattr(args, "rho2", d.rho2),
+                  beta2=getattr(args, "beta2", d.beta2), H2=getattr(args, "H2", d.H2),
+                  bc2=getattr(args, "bc2", d.bc2))
 
 
 def parse_k(spec: str, name: str = "--k") -> np.ndarray:
@@ -154,6 +176,26 @@ def _dispersion(args: argparse.Namespace) -> int:
     return 0
 
 
+def _gr(args: argparse.Namespace) -> int:
+    from analytic.twobody import generalized_rayleigh
+
+    g = generalized_rayleigh(args.mu2, args.rho2, args.beta, args.beta2)
+    print(json.dumps(g.as_dict()))
+    return 0
+
+
+def _grmap(args: argparse.Namespace) -> int:
+    from analytic.twobody import write_gr_map
+
+    Params(beta=args.beta, beta2=args.beta2)  # validates
+    positive_int("--n", args.n, 3, 1000)
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise ParameterError(f"--out = {args.out!r} exists and is not a directory")
+    for f in write_gr_map(args.out, args.beta, args.beta2, n=args.n):
+        print(f)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``python -m analytic`` argument parser."""
     from analytic.units import PMMA_ON_STEEL as X
@@ -173,6 +215,20 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--branches", type=int, default=2, help="cut-off indices n (%(default)s)")
     add_param_arguments(d)
     d.set_defaults(func=_dispersion)
+
+    gr = sub.add_parser("gr", help="generalized Rayleigh wave of two half-spaces (JSON)")
+    gr.add_argument("--mu2", type=float, required=True, help="mu2/mu1 > 0")
+    gr.add_argument("--rho2", type=float, default=1.0, help="rho2/rho1 > 0 (%(default)s)")
+    gr.add_argument("--beta", type=float, default=0.5, help="body 1 c_s/c_d (%(default)s)")
+    gr.add_argument("--beta2", type=float, default=None, help="body 2 c_s/c_d (default: --beta)")
+    gr.set_defaults(func=_gr)
+
+    gm = sub.add_parser("grmap", help="where the generalized Rayleigh wave exists: CSV/JSON/PNG")
+    gm.add_argument("--out", required=True, help="output directory (created)")
+    gm.add_argument("--beta", type=float, default=0.5, help="body 1 c_s/c_d (%(default)s)")
+    gm.add_argument("--beta2", type=float, default=None, help="body 2 c_s/c_d (default: --beta)")
+    gm.add_argument("--n", type=int, default=121, help="grid points per axis (%(default)s)")
+    gm.set_defaults(func=_grmap)
 
     u = sub.add_parser("units", help="physical data (SI) -> dimensionless parameters and units")
     u.add_argument("--mu", type=float, default=X.mu, help="shear modulus [Pa] (%(default)s)")

@@ -164,34 +164,21 @@ class Stack:
         return list(reversed(self.substrate)) + list(self.slider)
 
 
-def substrate_fields(params: Params) -> dict[str, float | str]:
-    """``mu2, rho2, beta2, H2, bc2`` of ``params`` (defaults: rigid; the fields are optional).
-
-    ``Params`` gets these fields from the analytic side of issue 9; until then (and for a
-    ``Params`` without them) the substrate is rigid.
-    """
-    return {"mu2": float(getattr(params, "mu2", math.inf)),
-            "rho2": float(getattr(params, "rho2", 1.0)),
-            "beta2": float(getattr(params, "beta2", params.beta)),
-            "H2": float(getattr(params, "H2", math.inf)),
-            "bc2": str(getattr(params, "bc2", "stress"))}
-
-
 def stack_from_params(params: Params, degree: int = 3, cells: int | None = None,
                       cells2: int | None = None, k_max: float = 1.0, n_max: int = 0,
-                      ratio: float | None = None, ratio2: float | None = None,
-                      **substrate: float | str) -> Stack:
+                      ratio: float | None = None, ratio2: float | None = None) -> Stack:
     """The finite stack of ``params``: slider ``0 < y < H`` (+ substrate ``-H2 < y < 0``).
 
-    The slider mesh is the one of :class:`forms.cross_section.CrossSectionModel` (same cells
-    and grading towards ``y = 0``, :func:`meshes.interval.default_cells`,
-    :func:`meshes.interval.grading_ratio`). The substrate mesh is graded towards ``y = 0`` too;
-    its default cells are those of a slider of height ``H2`` scaled by ``1/c_s2``
-    (``c_s2 = sqrt(mu2/rho2)``: slower waves are shorter).
+    The slider mesh is exactly the one of :class:`forms.cross_section.CrossSectionModel` (the
+    same gmsh vertices: :func:`meshes.interval.interval_vertices`, default cells and grading
+    towards ``y = 0`` from :func:`meshes.interval.default_cells`,
+    :func:`meshes.interval.grading_ratio`). With ``params.two_body`` the substrate
+    (``mu2, rho2, beta2``, height ``H2``, bottom condition ``bc2``) is meshed the same way,
+    graded towards ``y = 0``; its default cells are those of a slider of height ``H2`` divided
+    by ``min(1, c_s2)`` (``c_s2 = sqrt(mu2/rho2)``: slower waves are shorter).
 
     Args:
-        params: Parameters (``H`` finite). ``mu2, rho2, beta2, H2, bc2`` are read from it when
-            present (:func:`substrate_fields`) and can be overridden by keyword.
+        params: Parameters (``H`` finite; ``H2`` finite when ``mu2`` is).
         degree: Lagrange degree (sets the default cells).
         cells: Slider cells.
         cells2: Substrate cells.
@@ -199,35 +186,28 @@ def stack_from_params(params: Params, degree: int = 3, cells: int | None = None,
         n_max: Highest waveguide branch wanted.
         ratio: Slider grading ``h_max/h_min``.
         ratio2: Substrate grading.
-        **substrate: Overrides of ``mu2, rho2, beta2, H2, bc2``.
 
     Raises:
-        ParameterError: ``H`` or (deformable substrate) ``H2`` infinite: use a PML layer
-            (:func:`pml_layers`) and build the :class:`Stack` directly.
+        ParameterError: ``H`` or (deformable substrate) ``H2`` infinite: build the
+            :class:`Stack` with a PML layer (:func:`pml_layers`) instead.
     """
     if not math.isfinite(params.H):
         raise ParameterError("H = inf: a layered stack from params needs a finite H "
                              "(half-space: add a PML layer with pml_layers)")
-    sub = substrate_fields(params)
-    unknown = set(substrate) - set(sub)
-    if unknown:
-        raise TypeError(f"unknown substrate fields {sorted(unknown)}")
-    sub.update(substrate)
     n1 = int(cells) if cells else default_cells(k_max, params.H, degree, n_max, params.beta)
     r1 = float(ratio) if ratio else grading_ratio(k_max, params.H)
     slider = Layer(interval_vertices(params.H, n1, r1), 1.0, 1.0, params.beta)
-    if not math.isfinite(float(sub["mu2"])):
+    if not params.two_body:
         return Stack((slider,), (), top=params.bc)
-    mu2, rho2, beta2, H2 = (float(sub[n]) for n in ("mu2", "rho2", "beta2", "H2"))
-    if not math.isfinite(H2):
+    if not math.isfinite(params.H2):
         raise ParameterError("H2 = inf: a layered stack from params needs a finite H2 "
                              "(half-space substrate: add a PML layer with pml_layers)")
-    c2 = math.sqrt(mu2 / rho2)
+    m2 = params.substrate
     n2 = int(cells2) if cells2 else math.ceil(
-        default_cells(k_max, H2, degree, n_max, params.beta) / min(1.0, c2))
-    r2 = float(ratio2) if ratio2 else grading_ratio(k_max, H2)
-    layer2 = Layer(-interval_vertices(H2, n2, r2)[::-1], mu2, rho2, beta2)
-    return Stack((slider,), (layer2,), top=params.bc, bottom=str(sub["bc2"]))
+        default_cells(k_max, params.H2, degree, n_max, params.beta) / min(1.0, m2.c_s))
+    r2 = float(ratio2) if ratio2 else grading_ratio(k_max, params.H2)
+    layer2 = Layer(-interval_vertices(params.H2, n2, r2)[::-1], m2.mu, m2.rho, m2.beta)
+    return Stack((slider,), (layer2,), top=params.bc, bottom=params.bc2)
 
 
 def pml_layers(design, side: str = "slider", mu: float = 1.0, rho: float = 1.0,  # noqa: ANN001

@@ -156,6 +156,15 @@ class CrossSectionModel:
         """Global number of unknowns."""
         return self._op.matrices[0].getSize()[0]
 
+    def k_parts(self) -> tuple[FrictionOperator, FrictionOperator, FrictionOperator]:
+        """``(T0, T1, T2)`` with ``T(L; k) = T0(L) + k T1(L) + k^2 T2(L)`` (owned by the model).
+
+        Friction and Dirichlet rows applied (the Dirichlet diagonal in ``T0`` only); one
+        nonzero pattern. For spatial roots ``k(Lambda)`` and anything else that needs the
+        ``k``-structure (:class:`forms.layered.LayeredModel` has the same method).
+        """
+        return tuple(self._parts)  # type: ignore[return-value]
+
     def operator(self, k: float) -> FrictionOperator:
         """``T(Lambda; k)`` as a :class:`FrictionOperator` (matrices reused between calls)."""
         k = float(k)

@@ -233,6 +233,30 @@ def pml_layers(design, side: str = "slider", mu: float = 1.0, rho: float = 1.0, 
     return (Layer(phys, mu, rho, beta), Layer(layer, mu, rho, beta, design.stretch))
 
 
+def layer_coefficients(msh: dolfinx.mesh.Mesh, stack: Stack, axis: int
+                       ) -> dict[str, dolfinx.fem.Function]:
+    """Cell-wise (DG0) ``mu, lmbda, rho, s`` (stretch) and ``chi1`` (1 in the slider).
+
+    Each cell takes the values of the layer its midpoint's coordinate ``x[axis]`` (``y``)
+    falls in. The one place where the stack's materials enter the forms.
+    """
+    Q = dolfinx.fem.FunctionSpace(msh, ("DG", 0))  # noqa: N806
+    mid = Q.tabulate_dof_coordinates()[:, axis]
+    coef = {name: dolfinx.fem.Function(Q) for name in ("mu", "lmbda", "rho", "s", "chi1")}
+    found = np.zeros(len(mid), dtype=bool)
+    for body, layers in ((1, stack.slider), (2, stack.substrate)):
+        for lay in layers:
+            inside = (mid > lay.bottom) & (mid < lay.top)
+            found |= inside
+            for name, value in (("mu", lay.mu), ("lmbda", lay.lame_lambda),
+                                ("rho", lay.rho), ("s", complex(lay.stretch)),
+                                ("chi1", 1.0 if body == 1 else 0.0)):
+                coef[name].x.array[inside] = value
+    if not found.all():
+        raise RuntimeError("a cell lies in no layer")
+    return coef
+
+
 @dataclass
 class _Reduction:
     """``u_full = P u_red`` for the two-body interface (see the module docstring)."""
@@ -313,21 +337,7 @@ class LayeredModel:
         self.mesh = msh = interval_from_pieces(comm, stack.pieces())
         self.V = V = dolfinx.fem.FunctionSpace(
             msh, ufl.VectorElement("Lagrange", msh.ufl_cell(), self.degree, dim=2))
-        # Cell-wise coefficients from the layer each cell midpoint falls in.
-        Q = dolfinx.fem.FunctionSpace(msh, ("DG", 0))  # noqa: N806
-        mid = Q.tabulate_dof_coordinates()[:, 0]
-        coef = {name: dolfinx.fem.Function(Q) for name in ("mu", "lmbda", "rho", "s", "chi1")}
-        found = np.zeros(len(mid), dtype=bool)
-        for body, layers in ((1, stack.slider), (2, stack.substrate)):
-            for lay in layers:
-                inside = (mid > lay.bottom) & (mid < lay.top)
-                found |= inside
-                for name, value in (("mu", lay.mu), ("lmbda", lay.lame_lambda),
-                                    ("rho", lay.rho), ("s", complex(lay.stretch)),
-                                    ("chi1", 1.0 if body == 1 else 0.0)):
-                    coef[name].x.array[inside] = value
-        if not found.all():
-            raise RuntimeError("a cell lies in no layer")
+        coef = layer_coefficients(msh, stack, axis=0)
         self.coefficients = coef
         mu, lm, rho, s, chi1 = (coef[n] for n in ("mu", "lmbda", "rho", "s", "chi1"))
 

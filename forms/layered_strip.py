@@ -226,3 +226,93 @@ class LayeredStrip:
         """Destroy the PETSc objects."""
         self.op.destroy()
         self.P.destroy()
+
+
+def mode_data(strip: LayeredStrip, u: dolfinx.fem.Function) -> dict[str, np.ndarray] | None:
+    """Gather a mode on rank 0: node ``x, y``, ``body`` (1 slider, 2 substrate), ``ux, uy``.
+
+    Returns ``None`` on the other ranks (collective call). The phase is normalised so that the
+    largest displacement component is real and positive.
+    """
+    V = strip.V
+    n_owned = V.dofmap.index_map.size_local
+    xy = V.tabulate_dof_coordinates()[:n_owned, :2]
+    vals = u.x.array.reshape(-1, 2)[:n_owned]
+    ind = dolfinx.fem.Function(V)
+    mid = dolfinx.mesh.compute_midpoints(
+        strip.mesh, 2, np.arange(strip.mesh.topology.index_map(2).size_local
+                                 + strip.mesh.topology.index_map(2).num_ghosts, dtype=np.int32))
+    ind.interpolate(lambda x: np.ones((2, x.shape[1])),
+                    cells=np.flatnonzero(mid[:, 1] > 0).astype(np.int32))
+    body = np.where(ind.x.array.reshape(-1, 2)[:n_owned, 0].real > 0.5, 1, 2)
+    parts = strip.comm.gather(np.column_stack([xy, body, vals]), root=0)
+    if strip.comm.rank != 0:
+        return None
+    a = np.concatenate(parts)
+    uv = a[:, 3:5]
+    big = uv.ravel()[np.argmax(np.abs(uv.ravel()))]
+    uv = uv * (abs(big) / big)
+    return {"x": a[:, 0].real, "y": a[:, 1].real, "body": a[:, 2].real.astype(int),
+            "ux": uv[:, 0], "uy": uv[:, 1]}
+
+
+def plot_mode(data: dict[str, np.ndarray], path: str, title: str, amplitude: float = 0.08
+              ) -> None:
+    """Picture of a two-body mode: deformed bodies coloured by ``Re u_y``, interface profiles.
+
+    Left: both bodies, nodes moved by ``amplitude * Re u / max|u|``, with deformed material
+    lines ``x = const`` (the slip shows as their offset at ``y = 0``). Right: ``Re`` of
+    ``u_x1``, ``u_x2``, the slip ``u_x1 - u_x2`` and ``u_y`` along the interface.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.tri import Triangulation
+
+    umax = float(np.max(np.hypot(np.abs(data["ux"]), np.abs(data["uy"]))))
+    scale = amplitude * (data["y"].max() - data["y"].min()) / umax
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(12, 4.5), constrained_layout=True,
+                                 gridspec_kw={"width_ratios": [1.4, 1]})
+    vmax = float(np.abs(data["uy"].real).max())
+    for b in (1, 2):
+        sel = data["body"] == b
+        if not sel.any():
+            continue
+        x, y = data["x"][sel], data["y"][sel]
+        tri = Triangulation(x, y)  # each body is a rectangle: Delaunay of its nodes is fine
+        xd = x + scale * data["ux"][sel].real
+        yd = y + scale * data["uy"][sel].real
+        tri_d = Triangulation(xd, yd, tri.triangles)
+        pc = ax.tripcolor(tri_d, data["uy"][sel].real, shading="gouraud", cmap="RdBu_r",
+                          vmin=-vmax, vmax=vmax)
+    # Deformed material lines x = const: the slip is their offset at y = 0.
+    xs_all, counts = np.unique(np.round(data["x"], 12), return_counts=True)
+    xs_all = xs_all[counts == counts.max()]  # full columns (mesh vertex lines) only
+    for x0 in xs_all[:: max(1, len(xs_all) // 12)]:
+        for b in (1, 2):
+            sel = np.flatnonzero((data["body"] == b) & np.isclose(data["x"], x0))
+            sel = sel[np.argsort(data["y"][sel])]
+            ax.plot(data["x"][sel] + scale * data["ux"][sel].real,
+                    data["y"][sel] + scale * data["uy"][sel].real, "k", lw=0.6)
+    ax.axhline(0.0, color="k", lw=0.6, ls=":")
+    ax.set_xlabel("x")
+    ax.set_ylabel("y  (slider y > 0, substrate y < 0)")
+    ax.set_title(f"deformed (x {scale:.2g}), colour Re u_y", fontsize=9)
+    fig.colorbar(pc, ax=ax, shrink=0.8)
+    i1 = np.flatnonzero((data["body"] == 1) & np.isclose(data["y"], 0.0))
+    i2 = np.flatnonzero((data["body"] == 2) & np.isclose(data["y"], 0.0))
+    i1, i2 = i1[np.argsort(data["x"][i1])], i2[np.argsort(data["x"][i2])]
+    xi = data["x"][i1]
+    bx.plot(xi, data["ux"][i1].real, label="Re u_x slider")
+    if len(i2):
+        bx.plot(data["x"][i2], data["ux"][i2].real, label="Re u_x substrate")
+        bx.plot(xi, (data["ux"][i1] - data["ux"][i2]).real, "k", lw=2, label="Re slip")
+        bx.plot(data["x"][i2], data["uy"][i2].real, "--", label="Re u_y substrate")
+    bx.plot(xi, data["uy"][i1].real, ":", lw=2, label="Re u_y slider")
+    bx.set_xlabel("x (interface y = 0)")
+    bx.legend(fontsize=8)
+    bx.set_title("interface: u_y continuous, u_x slips", fontsize=9)
+    fig.suptitle(title, fontsize=10)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -320,3 +320,32 @@ def test_two_body_strip_agrees_with_cross_section(case):
     # two bodies 1.4e-6, 2.4e-8: the x-discretisation error of the strip, falling with nx.
     assert errs[1] < 3e-7
     assert errs[0] / errs[1] > 10.0
+
+
+def test_two_body_strip_mode_picture(tmp_path_factory):
+    """Strip mode: u_y equal on both sides of y = 0 at every x, slip nonzero; PNG written."""
+    from forms.layered_strip import LayeredStrip, mode_data, plot_mode
+
+    p = TWO_BODY["vel-stress"]
+    comm = MPI.COMM_WORLD
+    stack = stack_from_params(p, degree=2, cells=4, cells2=4)
+    strip = LayeredStrip(comm, stack, p, 2 * math.pi, 8, 1.0, degree=2)
+    solver = PolynomialSolver(comm, nev=1)
+    res = solver.solve(strip.op, -0.1 - 1.95j)
+    data = mode_data(strip, strip.to_function(res.pairs[0].vector))
+    res.destroy()
+    solver.destroy()
+    strip.destroy()
+    if comm.rank == 0:
+        at0 = np.isclose(data["y"], 0.0)
+        i1 = np.flatnonzero(at0 & (data["body"] == 1))
+        i2 = np.flatnonzero(at0 & (data["body"] == 2))
+        i1, i2 = i1[np.argsort(data["x"][i1])], i2[np.argsort(data["x"][i2])]
+        assert len(i1) == len(i2) == 17  # P2, 8 cells along x, both ends
+        assert np.allclose(data["x"][i1], data["x"][i2])
+        umax = np.abs(np.concatenate([data["ux"], data["uy"]])).max()
+        assert np.abs(data["uy"][i1] - data["uy"][i2]).max() < 1e-13 * umax  # tied: exact
+        assert np.abs(data["ux"][i1] - data["ux"][i2]).max() > 0.1 * umax  # the bodies slip
+        path = tmp_path_factory.mktemp("mode") / "mode.png"
+        plot_mode(data, str(path), "test")
+        assert path.stat().st_size > 10_000

@@ -257,6 +257,40 @@ def layer_coefficients(msh: dolfinx.mesh.Mesh, stack: Stack, axis: int
     return coef
 
 
+def pml_stack(params: Params, k: float, target: complex, degree: int = 4,
+              cells: int | None = None, cells2: int | None = None,
+              attenuation: float = 16.0) -> Stack:
+    """The stack of ``params`` with a PML layer on every infinite side (``H`` and/or ``H2``).
+
+    Each layer is :func:`forms.pml.design_layer` for wavenumber ``k`` and ``target`` in the
+    body's own units (``target / c_s``, the body's ``beta``), ended by ``"clamped"``; finite
+    sides are meshed as in :func:`stack_from_params`. With ``H`` and ``H2`` finite this *is*
+    :func:`stack_from_params`. The layer is designed for one ``k`` and one target: use a new
+    stack for other ``k`` (see :func:`forms.pml.solve_halfspace` for the checks a root
+    computed with a PML needs).
+    """
+    from forms.pml import design_layer
+
+    finite = {"H": params.H if math.isfinite(params.H) else 1.0,
+              "H2": params.H2 if math.isfinite(params.H2) else 1.0}
+    base = stack_from_params(params.replace(**finite) if params.two_body
+                             else params.replace(H=finite["H"]),
+                             degree=degree, cells=cells, cells2=cells2, k_max=k)
+    slider, top = base.slider, base.top
+    if not math.isfinite(params.H):
+        d = design_layer(k, complex(target), params.beta, degree, attenuation=attenuation)
+        slider, top = pml_layers(d, "slider", 1.0, 1.0, params.beta), "clamped"
+    if not params.two_body:
+        return Stack(slider, (), top=top)
+    substrate, bottom = base.substrate, base.bottom
+    if not math.isfinite(params.H2):
+        m2 = params.substrate
+        d = design_layer(k, complex(target) / m2.c_s, m2.beta, degree, attenuation=attenuation)
+        substrate = pml_layers(d, "substrate", m2.mu, m2.rho, m2.beta)
+        bottom = "clamped"
+    return Stack(slider, substrate, top=top, bottom=bottom)
+
+
 @dataclass
 class _Reduction:
     """``u_full = P u_red`` for the two-body interface (see the module docstring)."""

@@ -19,7 +19,14 @@ from analytic.params import Params
 from analytic.roots import polish
 from analytic.twobody import det_twobody
 from forms.cross_section import CrossSectionModel
-from forms.layered import Layer, LayeredModel, Stack, pml_layers, stack_from_params
+from forms.layered import (
+    Layer,
+    LayeredModel,
+    Stack,
+    pml_layers,
+    pml_stack,
+    stack_from_params,
+)
 from forms.pml import HalfSpaceModel, design_layer
 from forms.solvers import PolynomialSolver, SplitSolver
 from forms.tracking import normalized
@@ -204,23 +211,33 @@ def test_stretched_layer_is_the_halfspace_model(comm_name):
     lm.destroy()
 
 
-def test_halfspace_substrate_with_pml_layer():
-    """Finite slider on a half-space substrate (H2 = inf): a PML layer below y = 0."""
-    p = Params(mu2=2.0, rho2=1.5, beta2=0.55, H2=math.inf)
-    k, target = 1.0, -1.2 + 0.0j
-    m2 = p.substrate
-    design = design_layer(k, target / m2.c_s, m2.beta, 4)
-    slider = stack_from_params(p.replace(H2=1.0), degree=4, cells=6).slider
-    stack = Stack(slider, pml_layers(design, "substrate", m2.mu, m2.rho, m2.beta),
-                  top=p.bc, bottom="clamped")
+HALF_SPACES = {
+    "substrate": (Params(mu2=2.0, rho2=1.5, beta2=0.55, H2=math.inf), -1.2 + 0j),
+    "slider": (Params(H=math.inf, mu2=2.0, rho2=1.5, beta2=0.55, H2=0.7, bc2="stress"),
+               -1.2 + 0j),
+    "both": (Params(H=math.inf, mu2=2.0, rho2=1.5, beta2=0.55, H2=math.inf), -1.2 + 0j),
+    "both-soft": (Params(H=math.inf, mu2=0.6, rho2=1.0, H2=math.inf, gamma=1.0), -0.5 - 0.5j),
+}
+
+
+@pytest.mark.parametrize("name", list(HALF_SPACES))
+def test_halfspaces_with_pml_layers(name):
+    """H and/or H2 infinite: PML layers (pml_stack) vs det_twobody, root nearest the target."""
+    p, target = HALF_SPACES[name]
+    k = 1.0
+    stack = pml_stack(p, k, target)
+    assert (stack.top == "clamped") == (not math.isfinite(p.H))
+    assert (stack.bottom == "clamped") == (not math.isfinite(p.H2))
     model = LayeredModel(MPI.COMM_WORLD, stack, p, 4)
     solver = PolynomialSolver(MPI.COMM_WORLD, nev=1)
     res = solver.solve(model.operator(k), target)
     lam = res.pairs[0].value
     root = polish(lambda L: det_twobody(L, k, p), lam)
     assert root.converged
-    # measured 4.1e-11 (P4, default layer for the substrate's waves), 2026-11-22.
-    assert abs(lam - root.value) < 1e-9 * abs(root.value)
+    # measured 4.1e-11, 1.1e-10, 1.2e-10, 2.7e-9 (P4, default layers designed for the
+    # target), serial and 2 ranks, 2026-11-22. Roots far from the target are not resolved
+    # by a layer designed for it (measured 1e-7 .. 1e-3): only the nearest is checked.
+    assert abs(lam - root.value) < 1e-8 * abs(root.value)
     res.destroy()
     solver.destroy()
     model.destroy()

@@ -2,7 +2,9 @@
 
 :func:`interval_from_vertices` builds a dolfinx interval mesh whose vertices are given (rank 0
 of the communicator passes them, dolfinx distributes the cells); :func:`geometric_sizes` makes
-cell sizes that grow geometrically from ``h0`` to ``h_max`` (then stay) to fill a length.
+cell sizes that grow geometrically from ``h0`` to ``h_max`` (then stay) to fill a length;
+:func:`interval_from_pieces` joins disconnected pieces (two bodies with their own nodes at the
+interface, :mod:`forms.layered`).
 """
 
 from __future__ import annotations
@@ -75,28 +77,6 @@ def layer_count(length: float, h0: float, h_max: float, growth: float) -> int:
     if grown >= length:
         return max(1, math.ceil(math.log(1 + length * (growth - 1.0) / h0) / math.log(growth)))
     return n_grow + math.ceil((length - grown) / h_max)
-
-
-def progression_vertices(y0: float, y1: float, cells: int, ratio: float = 1.0) -> np.ndarray:
-    """Vertices of ``[min, max](y0, y1)`` with cells growing geometrically away from ``y0``.
-
-    The sizes are ``h0 r^i`` (``r = ratio^(1/(cells-1))``, so ``h_max/h_min = ratio``), as
-    gmsh's "Progression" in :func:`meshes.interval.interval_mesh`; returned in increasing order.
-
-    Args:
-        y0: End where the cells are smallest (the interface).
-        y1: Other end (``y1 != y0``).
-        cells: Number of cells ``>= 1``.
-        ratio: ``h_max / h_min >= 1``.
-    """
-    if cells < 1 or ratio < 1.0 or y0 == y1:
-        raise ValueError(f"bad progression: y0={y0}, y1={y1}, cells={cells}, ratio={ratio}")
-    r = ratio ** (1.0 / (cells - 1)) if cells > 1 else 1.0
-    i = np.arange(cells + 1, dtype=float)
-    t = i / cells if r == 1.0 else np.expm1(i * math.log(r)) / math.expm1(cells * math.log(r))
-    y = y0 + (y1 - y0) * t
-    y[0], y[-1] = y0, y1
-    return y if y1 > y0 else y[::-1].copy()
 
 
 def interval_from_pieces(comm: MPI.Comm, pieces: list[np.ndarray]) -> dolfinx.mesh.Mesh:

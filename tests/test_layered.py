@@ -388,3 +388,58 @@ def test_spatial_roots_work_on_two_bodies():
     model.destroy()
     # measured |k - 1.3| = 5.7e-14 (serial), 6.1e-14 (2 ranks), 2026-11-22.
     assert abs(ks[0] - 1.3) < 1e-11
+
+
+def _symmetric_roots(bc: str, delta: float, k: float) -> tuple[list[complex], list[float]]:
+    """Roots of the symmetric identical stack at k, and each neutral root's distance to the
+    nearest "roller" mode (one body, u_y = 0 and sigma_xy = 0 at y = 0: the rigid model with
+    f = 0 and 1/gamma ~ 0)."""
+    comm = MPI.COMM_SELF
+    p = Params(bc=bc, Delta=delta, mu2=1.0, rho2=1.0, H2=0.5, bc2=bc)
+    model = LayeredModel(comm, stack_from_params(p, degree=4, cells=8, cells2=8, k_max=3.0),
+                         p, 4)
+    q = Params(bc=bc, f=0.0, gamma=1e14)
+    roller = LayeredModel(comm, stack_from_params(q, degree=4, cells=8, k_max=3.0), q, 4)
+    solver = PolynomialSolver(comm, nev=10)
+    roots, dist = [], []
+    for target in (-1j, -5j, -10j, -0.5 + 0j, -0.4j):
+        res = solver.solve(model.operator(k), target)
+        for pair in res.pairs:
+            roots.append(pair.value)
+            if abs(pair.value.real) < 1e-8:
+                ref = solver.solve(roller.operator(k), pair.value, nev=1)
+                dist.append(abs(ref.pairs[0].value - pair.value) / abs(pair.value))
+                ref.destroy()
+        res.destroy()
+    solver.destroy()
+    model.destroy()
+    roller.destroy()
+    return roots, dist
+
+
+@pytest.mark.parametrize("delta", [0.7, 0.0])
+@pytest.mark.parametrize("bc", ["velocity", "stress"])
+def test_symmetric_identical_stack_does_not_grow(bc, delta):
+    """mu2 = rho2 = 1, beta2 = beta, H2 = H, bc2 = bc, Delta >= 0: no growth; neutral modes.
+
+    By the mirror symmetry, the part of a mode with u_x odd / u_y even in y has
+    sigma_yy(0) = 0: its slip obeys a friction law without normal-stress coupling, damped for
+    Delta >= 0. The part with u_x even / u_y odd has no slip, u_y(0) = 0 and sigma_xy(0) = 0:
+    the elastic modes of one body on a frictionless roller interface, undamped. Their
+    sigma_yy(0) is balanced by the slip part through f sigma_yy, so each roller mode is an
+    eigenvalue of the stack with Re Lambda = 0 exactly.
+    """
+    roots, dist = _symmetric_roots(bc, delta, 1.0)
+    assert len(roots) >= 15  # measured 17-20 converged roots (with repeats) at k = 1
+    # measured max Re Lambda <= 2.6e-12 (round-off of purely imaginary roots), 2026-11-22.
+    assert max(r.real for r in roots) < 1e-10
+    assert len(dist) >= 4  # neutral roots found (measured 5-8)
+    # measured <= 8.4e-13: the neutral roots are the roller modes of one body.
+    assert max(dist) < 1e-10
+
+
+def test_symmetric_identical_stack_grows_when_velocity_weakening():
+    """The same stack with Delta < 0 has a growing (slip) mode: the check can fail."""
+    roots, _ = _symmetric_roots("velocity", -0.3, 1.0)
+    # measured Lambda = 0.01229 +- 0.3862i at k = 1 (stress top: Re 0.0084), 2026-11-22.
+    assert max(r.real for r in roots) > 1e-3

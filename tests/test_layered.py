@@ -443,3 +443,22 @@ def test_symmetric_identical_stack_grows_when_velocity_weakening():
     roots, _ = _symmetric_roots("velocity", -0.3, 1.0)
     # measured Lambda = 0.01229 +- 0.3862i at k = 1 (stress top: Re 0.0084), 2026-11-22.
     assert max(r.real for r in roots) > 1e-3
+
+
+@pytest.mark.parametrize("bc,k,target", [("velocity", 10**0.25, -9.0j), ("stress", 1.0, -8.5j)])
+def test_broken_symmetry_grows(bc, k, target):
+    """Identical materials, H2 = H/2 (Delta = 0.7): a growing mode, confirmed by det_twobody."""
+    p = Params(bc=bc, Delta=0.7, mu2=1.0, rho2=1.0, H2=0.25, bc2=bc)
+    model = LayeredModel(MPI.COMM_WORLD, stack_from_params(p, degree=4, k_max=10.0, n_max=1), p,
+                         4)
+    solver = PolynomialSolver(MPI.COMM_WORLD, nev=1)
+    res = solver.solve(model.operator(k), target)
+    lam = res.pairs[0].value
+    root = polish(lambda L: det_twobody(L, k, p), lam)
+    # measured Lambda = 0.0546966 - 8.95254i (velocity) and 0.215378 - 8.45276i (stress),
+    # FE = exact to the digits shown, 2026-11-22.
+    assert root.converged and abs(lam - root.value) < 1e-8 * abs(root.value)
+    assert root.value.real > 0.01
+    res.destroy()
+    solver.destroy()
+    model.destroy()

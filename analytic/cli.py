@@ -146,13 +146,22 @@ def _branch(args: argparse.Namespace) -> int:
 
 
 def _units(args: argparse.Namespace) -> int:
-    from analytic.units import Physical, to_dimensionless
+    from analytic.units import Physical, Substrate, to_dimensionless
 
     phys = Physical(mu=args.mu, nu=args.nu, rho=args.rho, sigma0=args.sigma0, v0=args.v0,
                     D=args.D, f=args.f, a=args.a, b=args.b, H=args.H_m)
-    c = to_dimensionless(phys)
+    given = [v is not None for v in (args.mu_sub, args.nu_sub, args.rho_sub)]
+    if any(given) and not all(given):
+        raise ParameterError("--mu-sub, --nu-sub, --rho-sub: give all three (deformable "
+                             "substrate) or none (rigid)")
+    sub = None
+    if all(given):
+        sub = Substrate(mu=args.mu_sub, nu=args.nu_sub, rho=args.rho_sub, H=args.H_sub_m,
+                        bc=args.bc2)
+    c = to_dimensionless(phys, substrate=sub)
     out = {
         "physical": phys.as_dict(),
+        "substrate": None if sub is None else sub.as_dict(),
         "dimensionless": c.params.as_dict(),
         "Gamma": c.params.Gamma,
         "units": {"t0_s": c.t0, "length_m": c.length, "c_s_m_per_s": c.c_s,
@@ -242,6 +251,14 @@ def build_parser() -> argparse.ArgumentParser:
     u.add_argument("--a", type=float, default=X.a, help="df/dln v (%(default)s)")
     u.add_argument("--b", type=float, default=X.b, help="df/dln phi (%(default)s)")
     u.add_argument("--H-m", type=float, default=X.H, help="height [m] (%(default)s)")
+    u.add_argument("--mu-sub", type=float, default=None,
+                   help="substrate shear modulus [Pa] (default: rigid substrate)")
+    u.add_argument("--nu-sub", type=float, default=None, help="substrate Poisson ratio")
+    u.add_argument("--rho-sub", type=float, default=None, help="substrate density [kg/m^3]")
+    u.add_argument("--H-sub-m", type=float, default=math.inf,
+                   help="substrate height [m] (%(default)s: half-space)")
+    u.add_argument("--bc2", choices=("velocity", "stress"), default="velocity",
+                   help="substrate bottom condition (%(default)s)")
     u.set_defaults(func=_units)
     return ap
 

@@ -211,6 +211,16 @@ class Params:
         return asdict(self)
 
 
+def require_rigid(p: Params, what: str) -> None:
+    """Raise :class:`ParameterError` if ``p`` has a deformable substrate (finite ``mu2``).
+
+    For the parts of the project that model the rigid substrate only (``what`` names them).
+    """
+    if p.two_body:
+        raise ParameterError(f"mu2 = {p.mu2!r}: {what} is for the rigid substrate (mu2 = inf) "
+                             "only; two bodies: analytic.twobody / analytic.branches")
+
+
 def check_k(k: float | np.ndarray, name: str = "k") -> np.ndarray:
     """Validate wavenumbers: finite and ``> 0``.
 

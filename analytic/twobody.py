@@ -39,9 +39,14 @@ quasi-static: ``mu2 = 1e10`` still works). Per finite layer
 ``det(M_even)/Lambda^4 = const * det(M_regular) exp(H (k_s + k_d)) / (k_s k_d (k_s + k_d)^2)``;
 :func:`det_twobody` multiplies the Hadamard-normalised ``det(M_regular)`` by the phase of that
 factor and divides it by the positive weight ``h/(1+h)`` per wavenumber (``finite_h``'s).
-Result: continuous, single-valued, no poles, zero exactly at the spectrum, modulus a relative
-residual (~1e-16 at a computed root). The argument principle (:mod:`analytic.roots`) therefore
-counts eigenvalues in any box, ``Lambda = 0`` included.
+Result: single-valued, continuous phase, no poles, zero exactly at the spectrum, modulus a
+relative residual (~1e-16 at a computed root). The argument principle (:mod:`analytic.roots`)
+therefore counts eigenvalues in any box, ``Lambda = 0`` included. One difference from
+:func:`analytic.finite_h.det_M`: across the imaginary axis beyond the branch points (where the
+principal ``k_s, k_d`` flip sign) the Hadamard row norms of the regular basis are not
+invariant, so the *modulus* jumps by up to 14 % there (measured over several stacks); the phase
+is continuous (to 1e-6 rad), and :func:`analytic.roots.winding_number` allows relative jumps
+up to 0.8 between samples (a larger one would raise ``ContourError``, never miscount).
 
 **Half-spaces** (``H = inf`` and/or ``H2 = inf``): only the decaying partial waves, with
 principal square roots (the physical sheet). The function is analytic off the cuts
@@ -75,12 +80,31 @@ def _require_two_body(p: Params) -> None:
                              "analytic.halfspace, or give a finite mu2 > 0")
 
 
-def layer_wavenumbers(Lambda: np.ndarray, k: np.ndarray, m: Material
+SHEETS = ("physical", "outgoing")
+
+
+def layer_wavenumbers(Lambda: np.ndarray, k: np.ndarray, m: Material, sheet: str = "physical"
                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``k_s, k_d`` (principal roots) and ``P = Lambda^2/c_s^2 + 2 k^2`` of one layer."""
-    L2 = Lambda * Lambda * (m.rho / m.mu)
+    """``k_s, k_d`` and ``P = Lambda^2/c_s^2 + 2 k^2`` of one layer.
+
+    ``sheet = "physical"``: principal roots (``Re >= 0``, cuts on the imaginary axis beyond
+    ``+-i c k``). ``sheet = "outgoing"``: ``k_s = sqrt(a + i k) sqrt(a - i k)``,
+    ``a = Lambda / c_s`` (principal factors), equal to the principal root for
+    ``Re Lambda > 0`` and continued analytically across the imaginary axis, where it gives the
+    waves that carry energy *away* from the interface (radiation); its cuts run from
+    ``+-i c k`` to the left, parallel to the real axis. Its roots in ``Re Lambda < 0`` are the
+    leaky (radiating) modes that a PML or a long time signal sees.
+    """
+    a = Lambda * math.sqrt(m.rho / m.mu)
+    L2 = a * a
     k2 = k * k
-    return np.sqrt(L2 + k2), np.sqrt(m.beta**2 * L2 + k2), L2 + 2.0 * k2
+    if sheet == "physical":
+        return np.sqrt(L2 + k2), np.sqrt(m.beta**2 * L2 + k2), L2 + 2.0 * k2
+    if sheet != "outgoing":
+        raise ParameterError(f"sheet = {sheet!r} is not one of {', '.join(SHEETS)}")
+    b = m.beta * a
+    return (np.sqrt(a + 1j * k) * np.sqrt(a - 1j * k), np.sqrt(b + 1j * k) * np.sqrt(b - 1j * k),
+            L2 + 2.0 * k2)
 
 
 def _fields(P: np.ndarray, k: np.ndarray, mu: float, v: np.ndarray, d: np.ndarray,
@@ -137,8 +161,8 @@ def _regular_pair(ks: np.ndarray, kd: np.ndarray, k: np.ndarray, P: np.ndarray, 
     return psi, N
 
 
-def _layer(Lambda: np.ndarray, k: np.ndarray, m: Material, H: float, side: int, basis: str
-           ) -> tuple[np.ndarray, np.ndarray | None]:
+def _layer(Lambda: np.ndarray, k: np.ndarray, m: Material, H: float, side: int, basis: str,
+           sheet: str = "physical") -> tuple[np.ndarray, np.ndarray | None]:
     """Fields of one layer's basis columns at the interface and at its outer boundary.
 
     ``side = +1``: body 1, ``0 < y < H``; ``side = -1``: body 2, ``-H < y < 0``. Columns are
@@ -149,9 +173,10 @@ def _layer(Lambda: np.ndarray, k: np.ndarray, m: Material, H: float, side: int, 
     Bases: ``"regular"`` (default: partial waves decaying from the interface and from the
     outer boundary, each ``psi, phi`` pair replaced by ``psi`` and the divided difference of
     :func:`_regular_pair`), ``"waves"`` (the plain partial waves, degenerate at
-    ``Lambda = 0``), ``"even"`` (``cosh``, ``sinh/k`` about the outer boundary).
+    ``Lambda = 0``), ``"even"`` (``cosh``, ``sinh/k`` about the outer boundary). ``sheet``
+    (:func:`layer_wavenumbers`) applies to a half-space only; finite layers are single-valued.
     """
-    ks, kd, P = layer_wavenumbers(Lambda, k, m)
+    ks, kd, P = layer_wavenumbers(Lambda, k, m, sheet if not math.isfinite(H) else "physical")
     s = float(side)
     if basis == "regular":
         eps = Lambda * Lambda * (m.rho / m.mu)
@@ -204,7 +229,7 @@ _BC_ROWS = {"velocity": (0, 3), "stress": (2, 3)}
 
 
 def matrix_twobody(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params,
-                   basis: str = "regular") -> np.ndarray:
+                   basis: str = "regular", sheet: str = "physical") -> np.ndarray:
     """The two-body matrix (8x8 for finite ``H, H2``; 6x6 or 4x4 with half-spaces).
 
     Rows: top condition (2, finite ``H``), bottom condition (2, finite ``H2``), ``[u_y]``,
@@ -215,14 +240,15 @@ def matrix_twobody(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Param
         k: Wavenumber(s) ``> 0``.
         p: Parameters with finite ``mu2``.
         basis: ``"regular"`` (default), ``"waves"`` or ``"even"`` (see :func:`_layer`).
+        sheet: ``"physical"`` or ``"outgoing"`` for a half-space (:func:`layer_wavenumbers`).
 
     Returns:
         Array of shape ``broadcast(Lambda, k).shape + (n, n)``.
     """
     _require_two_body(p)
     L, kk = np.broadcast_arrays(np.asarray(Lambda, dtype=complex), np.asarray(k, dtype=float))
-    in1, out1 = _layer(L, kk, p.slider, p.H, +1, basis)
-    in2, out2 = _layer(L, kk, p.substrate, p.H2, -1, basis)
+    in1, out1 = _layer(L, kk, p.slider, p.H, +1, basis, sheet)
+    in2, out2 = _layer(L, kk, p.substrate, p.H2, -1, basis, sheet)
     n1, n2 = in1.shape[-1], in2.shape[-1]
     z1 = np.zeros(L.shape + (n1,), dtype=complex)
     z2 = np.zeros(L.shape + (n2,), dtype=complex)
@@ -249,7 +275,8 @@ def spurious_order(p: Params) -> int:
                for h in (p.H, p.H2))
 
 
-def det_twobody(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -> np.ndarray:
+def det_twobody(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params,
+                sheet: str = "physical") -> np.ndarray:
     """The two-body spectrum function: zero exactly at the eigenvalues, no poles.
 
     Single-valued in ``Lambda`` for finite ``H`` and ``H2`` (module docstring); with a
@@ -263,6 +290,9 @@ def det_twobody(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) 
         Lambda: Complex growth rate(s), any shape; broadcast against ``k``.
         k: Wavenumber(s) ``> 0``.
         p: Parameters with finite ``mu2``.
+        sheet: For a half-space (``H`` or ``H2`` infinite): ``"physical"`` (principal roots,
+            decaying waves) or ``"outgoing"`` (radiating continuation across the imaginary
+            axis, :func:`layer_wavenumbers`); the same for ``Re Lambda > 0``.
 
     Returns:
         Complex array of the broadcast shape.
@@ -278,7 +308,7 @@ def det_twobody(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) 
             degenerate = degenerate | (np.abs(ks) < 1e-12 * scale) | (np.abs(kd) < 1e-12 * scale)
     if degenerate.any():  # removable 0/0 points of a continuous function: step off them
         L = np.where(degenerate, L + 1e-12 * scale * (1 + 1j), L)
-    M = matrix_twobody(L, kk, p, "regular")
+    M = matrix_twobody(L, kk, p, "regular", sheet)
     norms = np.prod(np.linalg.norm(M, axis=-1), axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
         phase = np.ones(L.shape, dtype=complex)
@@ -360,23 +390,28 @@ def det_twobody_propagator(Lambda: complex, k: float, p: Params) -> complex:
 # k = 0 cut-offs
 # --------------------------------------------------------------------------------------------
 def cutoff_twobody(n: int, sign: int, p: Params) -> complex:
-    """Cut-off ``Lambda_0`` of branch ``(n, sign)`` at ``k -> 0`` for two bodies (finite ``H2``).
+    """Cut-off ``Lambda_0`` of branch ``(n, sign)`` at ``k -> 0`` for two bodies (finite ``H``).
 
-    The ``n``-th root (``n = 0, 1, ...``, by increasing ``|Im|``, with ``sign Im > 0``) of the
-    composite-rod factor :func:`_rod_function` on the imaginary axis, ``Lambda = 0`` excluded
-    (the rigid translation of the stack in ``y``, which becomes the flexural branch for
-    ``k > 0``). At ``k = 0`` the dilatational fields decouple (``s_yy = 0`` on both outer
-    boundaries for every ``bc``/``bc2``; ``u_y``, ``s_yy`` continuous at ``y = 0``): a free-free
-    composite rod, ``Z1 sin(beta H w) cos(H2 w / c_d2) + Z2 cos(beta H w) sin(H2 w / c_d2) = 0``
-    (``Z1 = 1/beta``, ``Z2 = rho2 c_d2``). A stiff thin substrate (``H2 w / c_d2`` small) acts as
-    a free rigid mass ``rho2 H2``: ``beta H w_n in ((2n+1) pi/2, (n+1) pi)``. So ``mu2 -> inf`` at
-    fixed ``k > 0`` gives the rigid roots, but the cut-offs (``k = 0``) stay those of the
-    mass-loaded rod: the rigid limit is not uniform in ``k``.
+    At ``k = 0`` the dilatational fields decouple (``s_yy = 0`` on both outer boundaries for
+    every ``bc``/``bc2``; ``u_y``, ``s_yy`` continuous at ``y = 0``): a free-free composite rod
+    with impedances ``Z1 = 1/beta``, ``Z2 = rho2 c_d2``.
+
+    Finite ``H2``: the ``n``-th root (``n = 0, 1, ...``, by increasing ``|Im|``, ``sign Im > 0``)
+    of ``Z1 sin(beta H w) cos(H2 w / c_d2) + Z2 cos(beta H w) sin(H2 w / c_d2) = 0``,
+    ``Lambda_0 = i w``, excluding ``w = 0`` (the rigid translation of the stack in ``y``, which
+    becomes the flexural branch for ``k > 0``). A stiff thin substrate acts as a free rigid mass
+    ``rho2 H2``: ``beta H w_n in ((2n+1) pi/2, (n+1) pi)``. So ``mu2 -> inf`` at fixed ``k > 0``
+    gives the rigid roots, but the cut-offs stay those of the mass-loaded rod: the rigid limit is
+    not uniform in ``k``.
+
+    ``H2 = inf``: the rod radiates into the substrate, ``tanh(beta Lambda_0 H) = -Z2/Z1``: leaky
+    cut-offs with ``Re Lambda_0 < 0``, roots of :func:`det_twobody` with ``sheet="outgoing"``.
+    ``Z2 > Z1``: ``beta H Lambda_0 = -atanh(Z1/Z2) + i (n + 1/2) pi``; ``Z2 < Z1``:
+    ``-atanh(Z2/Z1) + i (n + 1) pi`` (the real root, ``n = -1``, excluded).
 
     Raises:
-        ParameterError: On ``n < 0``, ``sign`` not +-1, a rigid substrate, ``H = inf`` or
-            ``H2 = inf`` (a half-space substrate radiates at ``k = 0``: its cut-offs are leaky,
-            off the physical sheet).
+        ParameterError: On ``n < 0``, ``sign`` not +-1, a rigid substrate, ``H = inf`` or an
+            impedance-matched half-space substrate (``Z2 = Z1``: no cut-off).
     """
     from scipy.optimize import brentq
 
@@ -385,11 +420,21 @@ def cutoff_twobody(n: int, sign: int, p: Params) -> complex:
         raise ParameterError(f"n = {n!r} is outside its allowed range n >= 0 (integer)")
     if sign not in (1, -1):
         raise ParameterError(f"sign = {sign!r} must be +1 or -1")
-    if not (math.isfinite(p.H) and math.isfinite(p.H2)):
-        raise ParameterError("H = inf or H2 = inf: branches start at the cut-offs of finite "
-                             "layers; use finite H and H2")
+    if not math.isfinite(p.H):
+        raise ParameterError("H = inf: branches start at the cut-offs of a finite slider; "
+                             "use a finite H")
     m2 = p.substrate
     z1, z2 = 1.0 / p.beta, m2.rho * m2.c_d
+    if not math.isfinite(p.H2):
+        r = z2 / z1
+        if abs(r - 1.0) < 1e-12:
+            raise ParameterError("impedance-matched half-space substrate (rho2 c_d2 = rho1 "
+                                 "c_d1): no cut-offs, everything radiates at k = 0")
+        if r > 1.0:
+            t = complex(-math.atanh(1.0 / r), (n + 0.5) * math.pi)
+        else:
+            t = complex(-math.atanh(r), (n + 1) * math.pi)
+        return complex(t.real, sign * t.imag) / (p.beta * p.H)
     a, b = p.beta * p.H, p.H2 / m2.c_d
 
     def g(w: np.ndarray | float) -> np.ndarray:
@@ -408,6 +453,27 @@ def cutoff_twobody(n: int, sign: int, p: Params) -> complex:
                 return complex(0.0, sign * root)
             found += 1
         w_lo = float(w[-1])
+
+
+def branch_sheet(p: Params) -> str:
+    """The sheet on which branches of ``p`` are followed: ``"outgoing"`` with a half-space."""
+    return "outgoing" if (p.two_body and not math.isfinite(p.H2)) else "physical"
+
+
+def root_sheet(Lambda: complex, k: float, p: Params) -> str:
+    """Which sheet a root of the outgoing continuation is on.
+
+    ``"physical"`` if every half-space partial wave decays away from the interface at
+    ``Lambda`` (``Re k_s, Re k_d >= 0``), else ``"leaky"`` (radiating, growing with depth: a
+    resonance, not an eigenvalue); ``"physical"`` without half-spaces.
+    """
+    L, kk = np.asarray(complex(Lambda)), np.asarray(float(k))
+    for m, h in ((p.slider, p.H), (p.substrate, p.H2)):
+        if not math.isfinite(h):
+            ks, kd, _ = layer_wavenumbers(L, kk, m, "outgoing")
+            if ks.real < 0 or kd.real < 0:
+                return "leaky"
+    return "physical"
 
 
 def composite_rod_roots(p: Params, n_max: int) -> list[complex]:

@@ -205,7 +205,8 @@ def test_stretched_layer_is_the_halfspace_model(comm_name):
     a = solver.solve(hs.op, target)
     b = solver.solve(lm.operator(q), target)
     la, lb = a.pairs[0].value, b.pairs[0].value
-    # measured 1.7e-16 between the two models and 9e-14 from the exact root, 2026-11-22.
+    # measured 1.7e-16 between the two models and 9.3e-14 from the exact root (serial),
+    # 2026-11-22.
     assert abs(la - lb) < 1e-13 * abs(la)
     assert abs(lb - exact.Lambda) < 1e-12 * abs(exact.Lambda)
     for r in (a, b):
@@ -337,8 +338,8 @@ def test_two_body_strip_agrees_with_cross_section(case):
         res.destroy()
         strip.destroy()
     solver.destroy()
-    # measured (serial and 2 ranks, 2026-11-22): rigid 1.9e-6, 1.2e-7 (order 4 in 1/nx);
-    # two bodies 1.4e-6, 2.4e-8: the x-discretisation error of the strip, falling with nx.
+    # measured (2026-11-22): rigid 1.9e-6, 1.2e-7 (serial; order 4 in 1/nx); two bodies
+    # 1.4e-6, 2.4e-8 (serial and 2 ranks): the x-discretisation error of the strip.
     assert errs[1] < 3e-7
     assert errs[0] / errs[1] > 10.0
 

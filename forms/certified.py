@@ -36,7 +36,6 @@ from analytic.roots import ContourError
 from analytic.spectrum import Region, certified_roots
 from forms.banded import BandedOperator
 from forms.cross_section import CrossSectionModel
-from meshes.interval import grading_ratio
 
 #: Columns of one spectrum row, in CSV order.
 ROW_FIELDS = ("k", "label", "re_lambda", "im_lambda", "re_lambda_exact", "im_lambda_exact",
@@ -52,14 +51,19 @@ def default_discretisation(p: Params, region: Region, k_max: float, rtol: float 
     ``2 pi / W`` gave a relative error of ``2e-10`` on the top root of the region (paper
     defaults, ``H = 0.5``, ``k = 6``: 41 cells, error estimate 2.1e-10, error 2.1e-10) and the
     errors go as ``h^8``; graded meshes (large ``k H``) lose a factor of about 3 (stress top,
-    ``k = 13``: 3.6e-8 with 7 per wavelength), so ``8 (2e-10 / rtol)^(1/8)`` cells per
-    wavelength; at least 6 cells.
+    ``k = 13``: 3.6e-8 with 7 per wavelength) and few cells lose some more (stress top,
+    ``k = 1``: 13 cells, 4.9 per wavelength, gave 2.4e-8 where 1e-8 was aimed at), so
+    ``10 (2e-10 / rtol)^(1/8)`` cells per wavelength; at least 6 cells.
+
+    The mesh is uniform: the region holds modes that oscillate through the whole strip (up to
+    ``W``) as well as modes that decay over ``1/k >= 1/W`` above the interface, and both need
+    the same cell size (a graded mesh, ``k H = 25``, ratio 6.4, left the top roots at 2e-6).
     """
     w = region.im_max(p, k_max)
     waves = w * p.H / (2.0 * math.pi)
-    per_wave = 8.0 * (2e-10 / rtol) ** 0.125
+    per_wave = 10.0 * (2e-10 / rtol) ** 0.125
     cells = int(max(6, math.ceil(per_wave * waves)))
-    return 4, cells, grading_ratio(k_max, p.H)
+    return 4, cells, 1.0
 
 
 @dataclass

@@ -67,7 +67,7 @@ import math
 
 import numpy as np
 
-from analytic.params import ParameterError, Params
+from analytic.params import ParameterError, Params, require_rigid
 
 SPURIOUS_ORDER_AT_ZERO = 4
 
@@ -172,6 +172,7 @@ def matrix_M(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params,
     Returns:
         Array of shape ``broadcast(Lambda, k).shape + (4, 4)``.
     """
+    require_rigid(p, "analytic.finite_h")
     L, kk = np.broadcast_arrays(np.asarray(Lambda, dtype=complex), np.asarray(k, dtype=float))
     bottom, top = _boundary_fields(L, kk, p, basis)
     a, b, c = friction_coefficients(L, p)
@@ -308,4 +309,5 @@ def cutoff(n: int, sign: int, p: Params) -> complex:
     if sign not in (1, -1):
         raise ParameterError(f"sign = {sign!r} must be +1 or -1")
     H = _finite_h(p)
+    require_rigid(p, "analytic.finite_h.cutoff")
     return complex(0.0, sign * (2 * n + 1) * math.pi / (2.0 * p.beta * H))

@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from analytic.params import ParameterError, Params
+from analytic.params import ParameterError, Params, require_rigid
 from analytic.roots import Root, count_zeros, polish
 
 FAMILIES = ("dilatational", "shear", "quasistatic")
@@ -112,6 +112,7 @@ def spectrum(z: complex | np.ndarray, q: float, p: Params, A: complex | np.ndarr
     ``alpha_pc = alpha_ld = 0``. ``A = kappa_s(z), B = kappa_d(z)`` gives :func:`s`,
     ``A = -kappa_s(z)`` gives :func:`s_tilde`.
     """
+    require_rigid(p, "analytic.halfspace")
     z = _c(z)
     gg1 = g1(z, p.beta, A, B)
     gg2 = 2.0 - gg1

@@ -75,16 +75,34 @@ def _call(fun: ComplexFunction, z: np.ndarray) -> np.ndarray:
     return out
 
 
+def _stencil(z: complex) -> tuple[float, np.ndarray]:
+    """Step and points of the central-difference derivative at ``z``."""
+    h = 6e-6 * max(abs(z), 1e-3)  # ~ eps**(1/3): balances truncation and rounding
+    return h, np.array([z + h, z - h, z + 1j * h, z - 1j * h])
+
+
+def _wirtinger(f: np.ndarray, h: float) -> complex:
+    dx = (f[0] - f[1]) / (2 * h)
+    dy = (f[2] - f[3]) / (2 * h)
+    return complex(0.5 * (dx - 1j * dy))
+
+
 def _derivative(fun: ComplexFunction, z: complex, dfun: ComplexFunction | None) -> complex:
     """``dfun(z)``, or the Wirtinger derivative dF/dz by central differences (one batch of 4)."""
     if dfun is not None:
         return complex(_call(dfun, np.array([z]))[0])
-    h = 6e-6 * max(abs(z), 1e-3)  # ~ eps**(1/3): balances truncation and rounding
-    pts = np.array([z + h, z - h, z + 1j * h, z - 1j * h])
-    f = _call(fun, pts)
-    dx = (f[0] - f[1]) / (2 * h)
-    dy = (f[2] - f[3]) / (2 * h)
-    return complex(0.5 * (dx - 1j * dy))
+    h, pts = _stencil(z)
+    return _wirtinger(_call(fun, pts), h)
+
+
+def _value_and_derivative(fun: ComplexFunction, z: complex, dfun: ComplexFunction | None
+                          ) -> tuple[complex, complex]:
+    """``(F(z), F'(z))`` in one call of ``fun`` (with the difference stencil)."""
+    if dfun is not None:
+        return complex(_call(fun, np.array([z]))[0]), _derivative(fun, z, dfun)
+    h, pts = _stencil(z)
+    f = _call(fun, np.concatenate([[z], pts]))
+    return complex(f[0]), _wirtinger(f[1:], h)
 
 
 def polish(
@@ -112,6 +130,7 @@ def polish(
     z = complex(z0)
     fz = complex(_call(fun, np.array([z]))[0])
     prev: tuple[complex, complex] | None = None
+    pending: complex | None = None  # derivative at z, computed with F(z)
     step = math.inf
     reason = f"maximum number of iterations ({maxiter}) reached"
     converged = False
@@ -124,7 +143,10 @@ def polish(
         if fz == 0:
             converged, reason, step = True, "exact zero", 0.0
             break
-        dfz = _derivative(fun, z, dfun)
+        if pending is not None:
+            dfz, pending = pending, None
+        else:
+            dfz = _derivative(fun, z, dfun)
         if not np.isfinite(dfz) or dfz == 0:
             if prev is not None and prev[1] != fz:  # secant fall-back
                 dz = -fz * (z - prev[0]) / (fz - prev[1])
@@ -143,7 +165,8 @@ def polish(
         accepted = False
         for _ in range(12):
             zn = z + lam * dz
-            fn = complex(_call(fun, np.array([zn]))[0])
+            # the value and the next derivative in one call (one call per Newton step)
+            fn, pending = _value_and_derivative(fun, zn, dfun)
             if np.isfinite(fn) and abs(fn) < abs(fz):
                 accepted = True
                 break

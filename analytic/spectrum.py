@@ -307,3 +307,16 @@ def certified_roots(p: Params, k: float, region: Region, fams: list[BranchResult
         roots = zeros_in_box(fun, bx, n_initial=_n_initial(p, bx))
         out = label_roots(roots, fams, k)
     return sorted(out, key=lambda r: (-r.value.real, r.value.imag)), bx, n
+
+
+def fastest_root(p: Params, k: float, region: Region) -> tuple[complex | None, int, Box]:
+    """The fastest-growing exact root in the region at ``k`` (no labels): ``(root, count, box)``.
+
+    ``root`` is ``None`` when the region holds no root. The count is the argument principle's,
+    so the maximum is over *every* root in the region.
+    """
+    roots, bx = exact_roots(p, k, region.box(p, k))
+    if not roots:
+        return None, 0, bx
+    best = max(roots, key=lambda r: r.value.real)
+    return complex(best.value), len(roots), bx

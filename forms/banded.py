@@ -77,20 +77,30 @@ class BandedOperator:
             The matrices are copied; ``op`` may be destroyed afterwards.
     """
 
-    def __init__(self, op: FrictionOperator) -> None:
-        mats = []
-        for a in op.matrices:
-            indptr, indices, data = a.getValuesCSR()
-            n = a.getSize()[0]
-            mats.append(sp.csr_matrix((data, indices, indptr), shape=(n, n), dtype=complex))
-        self.functions = list(op.functions)
+    def __init__(self, op: FrictionOperator | None = None, *,
+                 mats: list[sp.csr_matrix] | None = None, functions: list | None = None,
+                 perm: np.ndarray | None = None) -> None:
+        if op is not None:
+            mats = [_csr(a) for a in op.matrices]
+            functions = list(op.functions)
+        if mats is None or functions is None:
+            raise ValueError("give a FrictionOperator, or mats and functions")
+        self.functions = list(functions)
         self.n = n = mats[0].shape[0]
+        if perm is not None:
+            self._setup(mats, np.asarray(perm, dtype=np.int64))
+            return
         pattern = sp.csr_matrix((n, n))
         for m in mats:
             c = m.tocoo()
             pattern = pattern + sp.csr_matrix((np.ones(c.nnz), (c.row, c.col)), shape=(n, n))
         pattern = (pattern + pattern.T).tocsr()
-        self.perm = np.asarray(reverse_cuthill_mckee(pattern, symmetric_mode=True), dtype=np.int64)
+        self._setup(mats, np.asarray(reverse_cuthill_mckee(pattern, symmetric_mode=True),
+                                     dtype=np.int64))
+
+    def _setup(self, mats: list[sp.csr_matrix], perm: np.ndarray) -> None:
+        n = self.n
+        self.perm = perm
         self.mats = [m[self.perm][:, self.perm].tocsr() for m in mats]
         # stored entries of every matrix (explicit zeros included: they are pattern too)
         offsets = np.concatenate([m.tocoo().row - m.tocoo().col for m in self.mats])
@@ -202,6 +212,37 @@ class BandedOperator:
         # backward error at rounding level also counts as converged.
         converged = (converged and res < 1e-10) or res < 1e-13
         return Eigen(z, out, res, it, converged, step)
+
+
+def _csr(a: object) -> sp.csr_matrix:
+    """A sequential PETSc matrix as a complex scipy CSR matrix (a copy)."""
+    indptr, indices, data = a.getValuesCSR()
+    n = a.getSize()[0]
+    return sp.csr_matrix((data, indices, indptr), shape=(n, n), dtype=complex)
+
+
+class BandedModel:
+    """Banded operators ``T(z; k)`` of a model with k-blocks, without PETSc work per ``k``.
+
+    ``T(z; k) = T0(z) + k T1(z) + k^2 T2(z)`` (:meth:`forms.cross_section.CrossSectionModel.
+    k_blocks`): the three parts are copied once; :meth:`operator` combines them in scipy.
+
+    Args:
+        model: A model with ``k_blocks()`` on ``MPI.COMM_SELF``.
+    """
+
+    def __init__(self, model: object) -> None:
+        parts = model.k_blocks()
+        self.functions = list(parts[0].functions)
+        self.parts = [[_csr(a) for a in part.matrices] for part in parts]
+        first = BandedOperator(mats=self.parts[0], functions=self.functions)
+        self.perm = first.perm
+
+    def operator(self, k: float) -> BandedOperator:
+        """The banded ``T(z; k)``."""
+        k = float(k)
+        mats = [a + k * b + (k * k) * c for a, b, c in zip(*self.parts, strict=True)]
+        return BandedOperator(mats=mats, functions=self.functions, perm=self.perm)
 
 
 def count_or_none(bop: BandedOperator, box: Box) -> tuple[int | None, str]:

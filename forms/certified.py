@@ -34,7 +34,7 @@ from analytic.branches import BranchResult
 from analytic.params import Params
 from analytic.roots import ContourError
 from analytic.spectrum import Region, certified_roots
-from forms.banded import BandedOperator
+from forms.banded import BandedModel
 from forms.cross_section import CrossSectionModel
 
 #: Columns of one spectrum row, in CSV order.
@@ -124,6 +124,7 @@ class CertifiedSolver:
         kw = {"cells": cells, "k_max": k_max, "ratio": ratio, "form": "polynomial"}
         self.models = [CrossSectionModel(MPI.COMM_SELF, params, degree=degree, **kw),
                        CrossSectionModel(MPI.COMM_SELF, params, degree=degree + 1, **kw)]
+        self.banded = [BandedModel(m) for m in self.models]
         self.degree, self.cells, self.ratio = degree, cells, ratio
 
     @property
@@ -145,8 +146,7 @@ class CertifiedSolver:
             out.seconds = time.perf_counter() - t0
             return out
         out.box, out.n_exact = tuple(float(v) for v in box), n_exact
-        fe = BandedOperator(self.models[0].operator(k))
-        fine = BandedOperator(self.models[1].operator(k))
+        fe, fine = (b.operator(k) for b in self.banded)
         exact = np.array([r.value for r in labelled], dtype=complex)
         values = []
         for j, r in enumerate(labelled):
@@ -200,3 +200,34 @@ class CertifiedSolver:
         """Destroy the PETSc objects of both models."""
         for m in self.models:
             m.destroy()
+
+
+def continue_fe(banded: BandedModel, ks: np.ndarray, z0: complex) -> tuple[np.ndarray, int]:
+    """FE continuation of one eigenpair over the sorted ``ks`` (Newton on the discrete NEP).
+
+    The previous eigenvector and a linear predictor from the previous two eigenvalues start a
+    Newton iteration (:meth:`forms.banded.BandedOperator.newton`) at every ``k``: a few banded
+    factorisations per point, no eigensolver. No root count: this is the fast inner loop, the
+    certificate comes from :class:`CertifiedSolver`.
+
+    Returns:
+        ``(eigenvalues, factorisations)``; NaN where Newton did not converge.
+    """
+    out = np.full(len(ks), complex(np.nan, np.nan))
+    hist: list[tuple[float, complex]] = []
+    x = None
+    total = 0
+    for i, k in enumerate(ks):
+        if len(hist) >= 2:
+            (k1, z1), (k2, z2) = hist[-2:]
+            guess = z2 + (z2 - z1) / (k2 - k1) * (k - k2)
+        else:
+            guess = hist[-1][1] if hist else z0
+        op = banded.operator(float(k))
+        e = op.newton(guess, x)
+        total += op.factorizations
+        if not e.converged:
+            continue
+        out[i], x = e.value, e.vector
+        hist.append((float(k), e.value))
+    return out, total

@@ -69,6 +69,10 @@ from analytic.params import Params
 
 Poly = tuple[float, ...]
 
+#: Diagonal put in the Dirichlet rows of the constant term (:func:`apply_dirichlet`): these rows
+#: read ``u_d = 0`` for every Lambda; their eigenvalues are at infinity. Every model uses this one.
+DIRICHLET_DIAGONAL = 1.0
+
 
 def _polymul(a: Poly, b: Poly) -> Poly:
     """Product of two polynomials with ascending coefficients."""
@@ -337,7 +341,8 @@ def friction_operator(
 
 
 def apply_dirichlet(
-    matrices: list[PETSc.Mat], dofs: np.ndarray, constant_term: int = 0, diagonal: float = 1.0
+    matrices: list[PETSc.Mat], dofs: np.ndarray, constant_term: int = 0,
+    diagonal: float = DIRICHLET_DIAGONAL,
 ) -> None:
     """Impose ``u_d = 0`` on the global rows ``dofs`` (rows and columns zeroed, pattern kept).
 

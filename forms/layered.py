@@ -50,9 +50,15 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from analytic.params import ParameterError, Params
-from forms.cross_section import DIRICHLET_DIAGONAL, _owned_global
+from forms.cross_section import owned_global_rows
 from forms.elasticity import cross_section_gradients, stiffness_density
-from forms.friction import FrictionLaw, FrictionOperator, apply_dirichlet, friction_operator
+from forms.friction import (
+    DIRICHLET_DIAGONAL,
+    FrictionLaw,
+    FrictionOperator,
+    apply_dirichlet,
+    friction_operator,
+)
 from forms.periodic import reduce_matrix
 from meshes.interval import default_cells, grading_ratio, interval_vertices
 from meshes.layered import interval_from_pieces
@@ -418,7 +424,7 @@ class LayeredModel:
         loc = dolfinx.fem.locate_dofs_topological
 
         def rows(c: int, entities: np.ndarray) -> np.ndarray:
-            return _owned_global(V, loc(V.sub(c), fdim, entities))
+            return owned_global_rows(V, loc(V.sub(c), fdim, entities))
 
         x1, y1 = rows(0, iface1), rows(1, iface1)
         dirichlet = []

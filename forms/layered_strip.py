@@ -32,9 +32,14 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from analytic.params import Params
-from forms.cross_section import DIRICHLET_DIAGONAL
 from forms.elasticity import stiffness_density
-from forms.friction import FrictionLaw, FrictionOperator, apply_dirichlet, friction_operator
+from forms.friction import (
+    DIRICHLET_DIAGONAL,
+    FrictionLaw,
+    FrictionOperator,
+    apply_dirichlet,
+    friction_operator,
+)
 from forms.layered import Stack, layer_coefficients
 from forms.periodic import reduce_matrix
 from meshes.strip import layered_strip_mesh

@@ -374,8 +374,8 @@ def test_two_body_strip_mode_picture(tmp_path_factory):
 
 
 def test_spatial_roots_work_on_two_bodies():
-    """forms.strip.spatial_roots (a PEP in k from the k-parts) recovers k from Lambda(k)."""
-    from forms.strip import spatial_roots
+    """forms.spatial_stability.spatial_roots (a PEP in k from the k-blocks) recovers k."""
+    from forms.spatial_stability import spatial_roots
 
     p = TWO_BODY["vel-stress"]
     comm = MPI.COMM_WORLD

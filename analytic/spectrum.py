@@ -323,3 +323,43 @@ def fastest_root(p: Params, k: float, region: Region) -> tuple[complex | None, i
         return None, 0, bx
     best = max(roots, key=lambda r: r.value.real)
     return complex(best.value), len(roots), bx
+
+
+def family_peak(p: Params, k0: float, z0: complex, lo: float, hi: float, *, steps: int = 40,
+                dk: float = 0.05) -> tuple[float, complex]:
+    """Largest ``Re Lambda`` of the root family through ``(k0, z0)`` for ``k`` in ``[lo, hi]``.
+
+    Golden-section search on ``k``; the root at each ``k`` is reached from ``(k0, z0)`` by
+    polishing in steps of at most ``dk`` (the family's growth rate is smooth, unlike the
+    envelope, which jumps between families).
+
+    Returns:
+        ``(k, Lambda)`` at the maximum found.
+    """
+    from analytic.branches import polish_root
+
+    cache: dict[float, complex] = {}
+
+    def growth(k: float) -> float:
+        z = complex(z0)
+        n = max(1, int(math.ceil(abs(k - k0) / dk)))
+        for i in range(1, n + 1):
+            z = polish_root(p, k0 + (k - k0) * i / n, z).value
+        cache[k] = z
+        return z.real
+
+    g = (math.sqrt(5.0) - 1.0) / 2.0
+    a, b = lo, hi
+    c, d = b - g * (b - a), a + g * (b - a)
+    fc, fd = growth(c), growth(d)
+    for _ in range(steps):
+        if fc > fd:
+            b, d, fd = d, c, fc
+            c = b - g * (b - a)
+            fc = growth(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + g * (b - a)
+            fd = growth(d)
+    k = c if fc > fd else d
+    return k, cache[k]

@@ -847,7 +847,8 @@ def nonlinear_outcome(frames: dict[str, np.ndarray], series: np.ndarray, k: floa
         "v_max": float(last.max()), "v_min": float(last.min()), "v_mean": float(last.mean()),
         "arrested_fraction": float(np.mean(last < 0.01)),
         "slipping_regions": regions,
-        "sigma_min": float(frames["sigma"][-1].min()), "sigma_max": float(frames["sigma"][-1].max()),
+        "sigma_min": float(frames["sigma"][-1].min()),
+        "sigma_max": float(frames["sigma"][-1].max()),
         "tau_min": float(frames["tau"][-1].min()), "tau_max": float(frames["tau"][-1].max()),
         "harmonics_v": {str(m): float(coef[m] / coef[1]) if coef[1] > 0 else None
                         for m in range(1, 5)},

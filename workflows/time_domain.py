@@ -35,9 +35,8 @@ import platform
 import sys
 import time
 
+import _cli
 import numpy as np
-
-import _cli  # noqa: I001 - the workflows' local helper (sys.path set by the script location)
 
 CSV_COLUMNS = ["step", "t", "re_c", "im_c", "energy", "energy_change", "work_friction",
                "min_sigma", "min_v", "max_dv", "newton"]

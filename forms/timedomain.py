@@ -310,6 +310,8 @@ class TimeDomainStrip:
         free: ``1.0`` for moving dofs, ``0.0`` for Dirichlet ones (local).
         dt: Time step.
         dt_stable: ``2 / sqrt(Gershgorin bound of m^{-1} K)``.
+        top_x: Local indices of the top ``w_x`` (Dirichlet for ``bc = velocity``).
+        periodic_map: ``P`` (full strip from reduced unknowns), for output.
         w, vh: Displacement ``w^n`` and velocity ``v^{n-1/2}`` (local, real).
         iface: Interface state.
         step: Current step ``n``.
@@ -331,6 +333,7 @@ class TimeDomainStrip:
     dt: float
     dt_stable: float
     top_x: np.ndarray
+    periodic_map: PETSc.Mat | None = None
     w: np.ndarray = field(default_factory=lambda: np.zeros(0))
     vh: np.ndarray = field(default_factory=lambda: np.zeros(0))
     iface: InterfaceState | None = None
@@ -360,7 +363,7 @@ class TimeDomainStrip:
 
     def destroy(self) -> None:
         """Free the PETSc objects."""
-        for obj in (self.K, self._wvec, self._rvec):
+        for obj in (self.K, self._wvec, self._rvec, self.periodic_map):
             if obj is not None:
                 obj.destroy()
 
@@ -657,6 +660,14 @@ class TimeDomainStrip:
         a = a[np.argsort(a[:, 0])]
         return {"x": a[:, 0], "v": a[:, 1], "tau": a[:, 2], "sigma": a[:, 3], "theta": a[:, 4]}
 
+    def displacement(self, name: str = "w") -> dolfinx.fem.Function:
+        """The perturbation displacement ``w^{n}`` on the full strip (``P w_r``), collective."""
+        u = dolfinx.fem.Function(self.V, name=name)
+        self._wvec.array[:] = self.w
+        self.periodic_map.mult(self._wvec, u.vector)
+        u.x.scatter_forward()
+        return u
+
     # -------------------------------------------------------------- checkpoint
     def state_arrays(self) -> dict[str, np.ndarray]:
         """Local state for a checkpoint (restore with :meth:`load_state` on the same layout)."""
@@ -771,7 +782,6 @@ def build_time_domain(strip: StripMesh, law: NonlinearLaw, k: float, cfl: float 
     if p.bc == "velocity":
         top_x, _ = local_rows(TOP, 0)
         free[top_x] = 0.0
-    bloch.destroy()
     bound = _gershgorin(Kr, mass, free)
     dt_stable = 2.0 / math.sqrt(bound)
     if dt is None:
@@ -780,7 +790,7 @@ def build_time_domain(strip: StripMesh, law: NonlinearLaw, k: float, cfl: float 
         raise ParameterError(f"dt = {dt!r} is outside its allowed range 0 < dt <= {dt_stable:.6g}"
                              " (stable step of this mesh)")
     td = TimeDomainStrip(strip, law, float(k), V, Kr, mass, ix, iy, coords[blocks, 0].copy(),
-                         bfull[ix].copy(), free, float(dt), dt_stable, top_x)
+                         bfull[ix].copy(), free, float(dt), dt_stable, top_x, bloch.P)
     td._wvec, td._rvec = Kr.createVecs()
     n = len(mass)
     td.set_initial_fields(np.zeros(n), np.zeros(n))
@@ -860,7 +870,7 @@ def linear_window(t: np.ndarray, c: np.ndarray, max_dv: np.ndarray, re_predicted
 
 
 def nonlinear_outcome(frames: dict[str, np.ndarray], series: np.ndarray, k: float,
-                      tail: float = 0.25) -> dict[str, object]:
+                      tail: float = 0.25, f0: float | None = None) -> dict[str, object]:
     """What the instability became: numbers from the interface frames and the time series.
 
     Args:
@@ -869,6 +879,7 @@ def nonlinear_outcome(frames: dict[str, np.ndarray], series: np.ndarray, k: floa
         series: Time series with fields ``t``, ``energy``, ``max_dv``.
         k: Wavenumber of the excited mode.
         tail: Fraction of the run (at its end) over which saturation is judged.
+        f0: Steady friction coefficient (for the macroscopic friction ``<tau>/<sigma>``).
 
     Returns:
         A dict: last-frame extremes, arrested fraction (``v/v0 < 0.01``), slipping regions
@@ -903,6 +914,18 @@ def nonlinear_outcome(frames: dict[str, np.ndarray], series: np.ndarray, k: floa
         "max_dv_tail_mean": float(np.mean(series["max_dv"][in_tail])),
     }
     tail_frames = t >= t[-1] - tail * (t[-1] - t[0])
+    # Space-time means over the tail: the macroscopic friction of the sliding strip,
+    # mean(tau)/mean(sigma) = (f0 + <dtau>/sigma0) / (1 + <dsigma>/sigma0) in units of f0.
+    mean_dtau = float(frames["tau"][tail_frames].mean())
+    mean_dsig = float(frames["sigma"][tail_frames].mean())
+    out["tail_mean_v"] = float(v[tail_frames].mean())
+    out["tail_mean_dtau_over_sigma0"] = mean_dtau
+    out["tail_mean_dsigma_over_sigma0"] = mean_dsig
+    out["tail_arrested_fraction"] = float(np.mean(v[tail_frames] < 0.01))
+    out["tail_max_v"] = float(v[tail_frames].max())
+    out["tail_min_sigma"] = float(frames["sigma"][tail_frames].min())
+    if f0 is not None:
+        out["macroscopic_friction"] = (f0 + mean_dtau) / (1.0 + mean_dsig)
     if tail_frames.sum() >= 4:
         pos = x[np.argmax(v[tail_frames], axis=1)]
         unwrapped = np.unwrap(pos * 2 * np.pi / length) * length / (2 * np.pi)

@@ -83,6 +83,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--frame-every", type=int, default=None,
                    help="steps between interface frames (default: ~32 per period)")
     p.add_argument("--chunk", type=int, default=200, help="frames per interface_NNNN.npz")
+    p.add_argument("--xdmf-every", type=int, default=0,
+                   help="write the displacement perturbation to fields.xdmf every N steps"
+                        " (ParaView; 0: never)")
     p.add_argument("--resume", action="store_true",
                    help="continue from the checkpoint in --out (same options and ranks)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNGs")
@@ -119,6 +122,9 @@ def validate(args: argparse.Namespace):  # noqa: ANN201 - (Params, NonlinearLaw)
     _cli.positive_int("cells-per-wavelength", args.cells_per_wavelength, minimum=4)
     _cli.positive_int("ny", args.ny)
     _cli.positive_int("chunk", args.chunk)
+    if args.xdmf_every < 0:
+        raise _cli.ParameterError(f"xdmf-every = {args.xdmf_every} is outside its allowed range"
+                                  " >= 0")
     if args.frame_every is not None:
         _cli.positive_int("frame-every", args.frame_every)
     return params, law
@@ -160,7 +166,7 @@ def _config(args: argparse.Namespace, nranks: int) -> dict:
     """Options that must match for ``--resume``."""
     keys = ["f", "gamma", "beta", "Delta", "H", "bc", "alpha_pc", "alpha_ld", "a", "v0",
             "friction", "k", "branch", "most_unstable", "amplitude", "wavelengths",
-            "cells_per_wavelength", "ny", "cell", "cfl", "dt", "frame_every", "chunk"]
+            "cells_per_wavelength", "ny", "cell", "cfl", "dt", "frame_every", "chunk", "xdmf_every"]
     out = {key: getattr(args, key) for key in keys}
     out["ranks"] = nranks
     return out
@@ -251,6 +257,13 @@ def main() -> int:
             with open(ckpt_json, "w") as fh:
                 json.dump({"config": config, "step": td.step, "chunk": chunk_index}, fh)
 
+    xdmf = None
+    if args.xdmf_every:
+        from dolfinx.io import XDMFFile
+
+        # appended on --resume would need XDMF surgery: a resumed run starts a new file
+        xdmf = XDMFFile(comm, os.path.join(args.out, "fields.xdmf"), "w")
+        xdmf.write_mesh(strip.mesh)
     bar = None
     if rank0 and not args.quiet:
         from tqdm import tqdm
@@ -282,11 +295,15 @@ def main() -> int:
                             "x": [float(v) for v in fields["x"][bad]]}
             if pending >= args.chunk and not invalid:
                 flush()
+        if xdmf is not None and (s.step % args.xdmf_every == 0 or invalid):
+            xdmf.write_function(td.displacement(), s.t)
         if bar is not None and td.step % 50 == 0:
             bar.update(50)
         if invalid:
             break
     run_time = time.perf_counter() - t_run
+    if xdmf is not None:
+        xdmf.close()
     flush()
     if bar is not None:
         bar.close()
@@ -366,7 +383,7 @@ def _summarise(args, params, law, td, mode, label, exact, period, t_end, stop,  
         "end": stop,
         "energy_balance": {"max_abs_residual": float(np.max(np.abs(balance))),
                            "relative": float(np.max(np.abs(balance))) / scale},
-        "nonlinear": nonlinear_outcome(frames, data, args.k) if frames.get("t") is not None
+        "nonlinear": nonlinear_outcome(frames, data, args.k, f0=params.f) if frames.get("t") is not None
         else None,
         "timing": {"setup_s": setup_time, "run_s": run_time, "steps_run": steps_run,
                    "steps_per_s": steps_run / run_time if run_time > 0 else None,
@@ -430,7 +447,7 @@ def _plots(args, data, frames, summary, exact) -> None:  # noqa: ANN001
     _save(fig, os.path.join(args.out, "energy.png"), summary)
     plt.close(fig)
 
-    if not frames.get("t") is not None or len(frames["t"]) < 2:
+    if frames.get("t") is None or len(frames["t"]) < 2:
         return
     ft, x = frames["t"], frames["x"]
     sel = (ft >= 0) & (ft <= w["t_end"])
@@ -448,23 +465,43 @@ def _plots(args, data, frames, summary, exact) -> None:  # noqa: ANN001
         fig.tight_layout()
         _save(fig, os.path.join(args.out, "spacetime_linear.png"), summary)
         plt.close(fig)
+    _spacetime(plt, frames, np.ones_like(ft, dtype=bool), summary,
+               "interface, whole run: " + title + f"; end: {summary['end']['reason']}",
+               os.path.join(args.out, "spacetime.png"), log_v=False)
+    period = 2 * np.pi / abs(exact.imag) if exact.imag else 1.0
+    late = ft >= max(w["t_end"], ft[-1] - 6 * period)
+    if late.sum() >= 2:
+        _spacetime(plt, frames, late, summary, "nonlinear regime, last periods: " + title
+                   + f"; end: {summary['end']['reason']}",
+                   os.path.join(args.out, "spacetime_nonlinear.png"), log_v=True)
+
+
+def _spacetime(plt, frames, sel, summary, suptitle, path, log_v) -> None:  # noqa: ANN001
+    """Three space-time panels: slip rate, shear and normal traction perturbations."""
+    from matplotlib.colors import LogNorm
+
+    ft, x = frames["t"][sel], frames["x"]
     fig, axes = plt.subplots(1, 3, figsize=(13, 5), sharey=True)
     for ax, key, lab, cmap in ((axes[0], "v", "v/v0", "viridis"),
                                (axes[1], "tau", "(tau - tau0)/sigma0", "RdBu_r"),
                                (axes[2], "sigma", "(sigma - sigma0)/sigma0", "RdBu_r")):
-        vals = frames[key]
+        vals = frames[key][sel]
         if cmap == "RdBu_r":
             lim = max(float(np.max(np.abs(vals))), 1e-300)
             im = ax.pcolormesh(x, ft, vals, cmap=cmap, shading="nearest", vmin=-lim, vmax=lim)
+        elif log_v:
+            pos = np.clip(vals, 1e-6, None)
+            im = ax.pcolormesh(x, ft, pos, cmap=cmap, shading="nearest",
+                               norm=LogNorm(vmin=1e-6, vmax=float(pos.max())))
+            lab += " (log, clipped at 1e-6)"
         else:
             im = ax.pcolormesh(x, ft, vals, cmap=cmap, shading="nearest")
         fig.colorbar(im, ax=ax, label=lab)
-        ax.set_xlabel("x")
+        ax.set_xlabel("x (sliding towards +x)")
     axes[0].set_ylabel("t")
-    fig.suptitle("interface, whole run: " + title + f"; end: {summary['end']['reason']}",
-                 fontsize=9)
+    fig.suptitle(suptitle, fontsize=9)
     fig.tight_layout()
-    _save(fig, os.path.join(args.out, "spacetime.png"), summary)
+    _save(fig, path, summary)
     plt.close(fig)
 
 

@@ -383,8 +383,8 @@ def _summarise(args, params, law, td, mode, label, exact, period, t_end, stop,  
         "end": stop,
         "energy_balance": {"max_abs_residual": float(np.max(np.abs(balance))),
                            "relative": float(np.max(np.abs(balance))) / scale},
-        "nonlinear": nonlinear_outcome(frames, data, args.k, f0=params.f) if frames.get("t") is not None
-        else None,
+        "nonlinear": (nonlinear_outcome(frames, data, args.k, f0=params.f)
+                      if frames.get("t") is not None else None),
         "timing": {"setup_s": setup_time, "run_s": run_time, "steps_run": steps_run,
                    "steps_per_s": steps_run / run_time if run_time > 0 else None,
                    "ranks": nranks},

@@ -622,16 +622,15 @@ class TimeDomainStrip:
         n = self.step - 1
         w_n = self.w - self.dt * vh_new
         v_n = 0.5 * (vh_old + vh_new)
+        c_loc = complex(np.sum(self.b_interface * st.dv * np.exp(1j * self.k * self.x_interface)))
         loc = np.array([
             0.5 * np.dot(v_n * self.mass, v_n) + 0.5 * np.dot(w_n, kw),
             0.5 * np.dot(vh_new * self.mass, vh_new) + 0.5 * np.dot(self.w, kw),
-            self.work_friction,
+            self.work_friction, c_loc.real, c_loc.imag,
         ])
-        tot = np.zeros(3)
-        self.comm.Allreduce(loc, tot, op=MPI.SUM)
-        coef = self._sum(complex(np.sum(self.b_interface * st.dv
-                                        * np.exp(1j * self.k * self.x_interface))))
-        coef *= 2.0 / self.strip.length
+        tot = np.zeros(5)
+        self.comm.Allreduce(loc, tot, op=MPI.SUM)  # one reduction for the sums, one for extremes
+        coef = complex(tot[3], tot[4]) * 2.0 / self.strip.length
         big = np.inf
         ext = np.array([np.min(st.dsigma / law.sigma0, initial=big),
                         np.min(st.dv, initial=big),

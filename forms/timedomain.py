@@ -378,12 +378,16 @@ class TimeDomainStrip:
         return self.comm.allreduce(value, op=MPI.SUM)
 
     # ------------------------------------------------------------ linear mode
-    def linear_mode(self, target: complex, nev: int = 4, prefix: str = "td_") -> Mode:
+    def linear_mode(self, target: complex, nev: int = 8, prefix: str = "td_") -> Mode:
         """The eigenpair of the linearised lumped system nearest ``target`` carrying ``e^{-ikx}``.
 
         The operator is :func:`forms.friction.friction_operator` on ``(K_r, diag m, diag B)``
         with the Dirichlet rows of the stepper: the exact linearisation of this stepper in
         space (time continuous). Collective.
+
+        Raises:
+            ParameterError: If none of the ``nev`` nearest pairs carries ``exp(-i k x)`` (mesh
+                too coarse for the branch).
         """
         p = self.law.params
         rstart = self.K.getOwnershipRange()[0]
@@ -418,7 +422,9 @@ class TimeDomainStrip:
                 break
         res.destroy()
         if best is None:
-            raise RuntimeError(f"no eigenpair carrying exp(-i k x) found near {target}")
+            raise ParameterError(f"mesh: none of the {nev} eigenpairs of the lumped system"
+                                 f" nearest {target:.6g} carries exp(-i k x); refine the mesh"
+                                 " (cells per wavelength, ny)")
         return best
 
     # ------------------------------------------------------- initial condition

@@ -279,6 +279,10 @@ class Sample:
         min_v: Smallest ``v/v0``.
         max_dv: Largest ``|v/v0 - 1|``.
         newton_max: Most Newton iterations at any node in this step.
+        top_force: ``bc = velocity``: perturbation of the total shear force the driver applies
+            on the top (the reaction of the held ``w_x = 0``), over ``sigma0 L``; in a
+            statistically steady state its mean equals the mean of ``(tau - tau0)/sigma0``.
+            0 for ``bc = stress``.
     """
 
     step: int
@@ -291,6 +295,7 @@ class Sample:
     min_v: float
     max_dv: float
     newton_max: int
+    top_force: float = 0.0
 
 
 @dataclass
@@ -632,9 +637,9 @@ class TimeDomainStrip:
         loc = np.array([
             0.5 * np.dot(v_n * self.mass, v_n) + 0.5 * np.dot(w_n, kw),
             0.5 * np.dot(vh_new * self.mass, vh_new) + 0.5 * np.dot(self.w, kw),
-            self.work_friction, c_loc.real, c_loc.imag,
+            self.work_friction, c_loc.real, c_loc.imag, float(np.sum(kw[self.top_x])),
         ])
-        tot = np.zeros(5)
+        tot = np.zeros(6)
         self.comm.Allreduce(loc, tot, op=MPI.SUM)  # one reduction for the sums, one for extremes
         coef = complex(tot[3], tot[4]) * 2.0 / self.strip.length
         big = np.inf
@@ -647,7 +652,8 @@ class TimeDomainStrip:
         # E^{n+1/2} - E^{-1/2} = work up to n: report the staggered energy at n + 1/2.
         return Sample(n, n * self.dt, coef, float(tot[0]), float(tot[1]) - self.energy0,
                       float(tot[2]), 1.0 + float(glob[0]), 1.0 + float(glob[1]),
-                      -float(glob[2]), -int(glob[3]))
+                      -float(glob[2]), -int(glob[3]),
+                      float(tot[5]) / (self.law.sigma0 * self.strip.length))
 
     def interface_fields(self) -> dict[str, np.ndarray] | None:
         """Interface fields of the last step on rank 0 (``None`` elsewhere), sorted by ``x``.
@@ -928,6 +934,8 @@ def nonlinear_outcome(frames: dict[str, np.ndarray], series: np.ndarray, k: floa
     out["tail_mean_dsigma_over_sigma0"] = mean_dsig
     out["tail_arrested_fraction"] = float(np.mean(v[tail_frames] < 0.01))
     out["tail_max_v"] = float(v[tail_frames].max())
+    if "top_force" in (series.dtype.names or ()):
+        out["tail_mean_top_force_over_sigma0_L"] = float(np.mean(series["top_force"][in_tail]))
     out["tail_min_sigma"] = float(frames["sigma"][tail_frames].min())
     if f0 is not None:
         out["macroscopic_friction"] = (f0 + mean_dtau) / (1.0 + mean_dsig)

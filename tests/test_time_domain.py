@@ -223,3 +223,39 @@ def test_validate_one_line(bad, named):
         scene.validate(args)
     msg = str(err.value)
     assert "\n" not in msg and msg.startswith(named), msg
+
+
+def test_momentum_balance_top_force():
+    """d/dt (x-momentum) = top force - friction force, step by step (measured 1.8e-14 relative).
+
+    Checks the sign and size of ``Sample.top_force`` (the driver's extra shear force), which
+    the scene compares with the mean interface shear stress in the nonlinear regime.
+    """
+    from mpi4py import MPI
+
+    from forms.timedomain import NonlinearLaw, build_time_domain
+    from meshes.strip import strip_mesh
+
+    params = Params()
+    comm = MPI.COMM_WORLD
+    strip = strip_mesh(comm, 2 * math.pi / K, params.H, 16, 4, cell="quadrilateral")
+    law = NonlinearLaw(params)
+    td = build_time_domain(strip, law, K)
+    n, sign = parse_branch_label("0-")
+    td.set_initial_mode(td.linear_mode(complex(follow_branch(params, n, sign, [K]).Lambda[0])),
+                        1e-3)
+    xdofs = np.arange(0, len(td.mass), 2)
+
+    def momentum():
+        return comm.allreduce(float(np.sum(td.mass[xdofs] * td.vh[xdofs])), op=MPI.SUM)
+
+    p0, impulse, scale = momentum(), 0.0, 0.0
+    for _ in range(100):
+        td.advance()
+        s = td.sample()
+        top = s.top_force * law.sigma0 * strip.length
+        friction = comm.allreduce(float(np.sum(td.b_interface * td.iface.dtau)), op=MPI.SUM)
+        impulse += td.dt * (top - friction)
+        scale = max(scale, abs(td.dt * top), abs(td.dt * friction))
+    td.destroy()
+    assert scale > 0 and abs(momentum() - p0 - impulse) < 1e-12 * 100 * scale

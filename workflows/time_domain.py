@@ -39,7 +39,7 @@ import _cli
 import numpy as np
 
 CSV_COLUMNS = ["step", "t", "re_c", "im_c", "energy", "energy_change", "work_friction",
-               "min_sigma", "min_v", "max_dv", "newton"]
+               "min_sigma", "min_v", "max_dv", "newton", "top_force"]
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -278,7 +278,8 @@ def main() -> int:
         s = td.sample()
         rows.append([s.step, repr(s.t), repr(s.coefficient.real), repr(s.coefficient.imag),
                      repr(s.energy), repr(s.energy_change), repr(s.work_friction),
-                     repr(s.min_sigma), repr(s.min_v), repr(s.max_dv), s.newton_max])
+                     repr(s.min_sigma), repr(s.min_v), repr(s.max_dv), s.newton_max,
+                     repr(s.top_force)])
         invalid = s.min_sigma <= 0.0 or s.min_v < 0.0
         if s.step % frame_every == 0 or invalid:
             fields = td.interface_fields()

@@ -432,6 +432,31 @@ class TimeDomainStrip:
                                  " (cells per wavelength, ny)")
         return best
 
+    def cross_section_mode(self, target: complex, degree: int = 3) -> Mode:
+        """The 1D cross-section model's mode ``u_hat(y) exp(-i k x)`` interpolated on the strip.
+
+        Not an eigenvector of the stepper's discretisation: the other modes of wavenumber
+        ``k`` are excited at the level of the mesh error (an independent initial condition).
+        Collective (each rank solves the small 1D problem itself).
+        """
+        from forms.strip import cross_section_mode
+
+        xs = cross_section_mode(self.law.params, self.k, target, degree=degree)
+        if xs is None:
+            raise ParameterError(f"branch: the cross-section model found no mode near {target}")
+        u = dolfinx.fem.Function(self.V)
+        u.interpolate(xs.field)
+        u.x.scatter_forward()
+        red, counts = self.K.createVecRight(), self.K.createVecRight()
+        self.periodic_map.multTranspose(u.vector, red)
+        ones = self.periodic_map.createVecLeft()
+        ones.set(1.0)
+        self.periodic_map.multTranspose(ones, counts)  # 2 on the left edge (its image added)
+        vec = red.array / counts.array.real * self.free
+        for v in (red, counts, ones):
+            v.destroy()
+        return Mode(complex(xs.eigenvalue), vec, float(xs.residual), exact=target)
+
     # ------------------------------------------------------- initial condition
     def set_initial_mode(self, mode: Mode, amplitude: float) -> None:
         """Steady sliding plus ``Re(U e^{Lambda t})``, scaled so ``max |v/v0 - 1| = amplitude``.

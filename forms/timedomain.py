@@ -461,11 +461,20 @@ class TimeDomainStrip:
     def set_initial_mode(self, mode: Mode, amplitude: float) -> None:
         """Steady sliding plus ``Re(U e^{Lambda t})``, scaled so ``max |v/v0 - 1| = amplitude``.
 
+        The phase of ``U`` is fixed so that the ``exp(-i k x)`` coefficient of the interface
+        slip rate is real and positive at ``t = 0``.
+
         Sets ``w^0``, ``v^{-1/2}`` (the mode half a step back), the interface state
         ``theta^0`` (and ``tau^0``, ``S^{-1}`` for Prakash-Clifton) from the linearised law.
         """
         law, lam = self.law, mode.eigenvalue
         u = mode.vector
+        # Fix the eigenvector's arbitrary complex phase: the exp(-i k x) component of the
+        # interface slip rate is real and positive at t = 0 (same start on any number of ranks).
+        c0 = self._sum(complex(np.sum(self.b_interface * lam * u[self.ix]
+                                      * np.exp(1j * self.k * self.x_interface))))
+        if abs(c0) > 0:
+            u = u * (abs(c0) / c0)
         peak = self.comm.allreduce(float(np.max(np.abs(lam * u[self.ix]), initial=0.0)),
                                    op=MPI.MAX)
         scale = amplitude * law.v0 / peak

@@ -3,20 +3,23 @@
 Simulates the periodic strip (one or more wavelengths ``2 pi / k``) with the full nonlinear
 rate-and-state law (:mod:`forms.timedomain`: explicit central differences, lumped Q1/P1 mass,
 implicit slip rate per interface node, exact aging step), starting from steady sliding plus
-the eigenmode of ``--branch`` at ``--k`` (the eigenvector of the linearised lumped system,
-scaled so that ``max |v/v0 - 1| = --amplitude``). Measures, from the simulation alone, the
-growth rate and the angular frequency of the ``exp(-i k x)`` Fourier component of the interface
-slip rate over the linear window (least squares, with standard errors) and compares them with
-the exact eigenvalue (:func:`analytic.follow_branch`). Then keeps going into the nonlinear
-regime until ``--t-end``/``--periods`` or the end of the model's validity (normal stress
-reaching zero: opening; slip rate reversing).
+the eigenmode of ``--branch`` at ``--k`` (``--initial lumped``: the eigenvector of the
+linearised lumped system on the same mesh; ``cross-section``: the 1D model's mode interpolated
+on the strip), scaled so that ``max |v/v0 - 1| = --amplitude``. Measures, from the
+simulation alone, the growth rate and the angular frequency of the ``exp(-i k x)`` Fourier
+component of the interface slip rate over the linear window (least squares, with standard
+errors) and compares them with the exact eigenvalue (:func:`analytic.follow_branch`). Then
+keeps going into the nonlinear regime until ``--t-end``/``--periods`` or the end of the
+model's validity (normal stress reaching zero: opening; slip rate reversing).
 
 Writes into ``--out`` as it goes: ``timeseries.csv`` (every step: Fourier coefficient,
 energies, friction work, extremes), ``interface_NNNN.npz`` (interface ``v/v0``, ``(tau -
 tau0)/sigma0``, ``(sigma - sigma0)/sigma0``, ``theta`` every ``--frame-every`` steps, in chunks),
 ``checkpoint_rank*.npz`` (for ``--resume``); at the end ``summary.json`` (predicted, measured,
 relative difference, window, mesh, time step, parameters, nonlinear outcome, versions),
-``growth.png``, ``spacetime_linear.png``, ``spacetime.png``, ``energy.png``.
+``growth.png``, ``spacetime_linear.png``, ``spacetime.png``, ``spacetime_nonlinear.png``,
+``energy.png``; with ``--xdmf-every N`` also ``fields.xdmf`` (displacement perturbation, for
+ParaView).
 
 Example (the README pictures)::
 

@@ -349,6 +349,7 @@ class TimeDomainStrip:
     _rvec: PETSc.Vec | None = None
     _ld_pending: bool = False
     _newton_max: int = 0
+    _last: tuple | None = None
 
     # ------------------------------------------------------------------ set-up
     @property
@@ -509,11 +510,10 @@ class TimeDomainStrip:
         self.step = 0
         self.work_friction = 0.0
         self._ld_pending = False
-        r = self._apply_k(self.w)  # E^{-1/2} with w^{-1} = w^0 - dt v^{-1/2}
-        wm1 = self.w - self.dt * self.vh
+        self._last = None
+        wm1 = self.w - self.dt * self.vh  # E^{-1/2} with w^{-1} = w^0 - dt v^{-1/2}
         self.energy0 = self._sum(0.5 * float(np.dot(self.vh * self.mass, self.vh))
                                  + 0.5 * float(np.dot(self.w, self._apply_k(wm1))))
-        del r
 
     # ------------------------------------------------------------------ step
     def _friction_solve(self, vfree: np.ndarray, c: np.ndarray, dsig: np.ndarray,
@@ -662,6 +662,8 @@ class TimeDomainStrip:
     # ------------------------------------------------------------- diagnostics
     def sample(self) -> Sample:
         """Diagnostics of the last completed step ``n`` (call right after :meth:`advance`)."""
+        if self._last is None:
+            raise RuntimeError("sample() needs a step: call advance() first")
         kw, vh_old, vh_new = self._last
         st, law = self.iface, self.law
         n = self.step - 1

@@ -282,3 +282,24 @@ def test_momentum_balance_top_force():
         scale = max(scale, abs(td.dt * top), abs(td.dt * friction))
     td.destroy()
     assert scale > 0 and abs(momentum() - p0 - impulse) < 1e-12 * 100 * scale
+
+
+@pytest.mark.serial
+def test_scene_stops_at_end_of_validity(tmp_path):
+    """A run into the nonlinear regime stops at the first invalid step and says why.
+
+    16 x 4 cells, amplitude 1e-3, velocity top: measured end "slip rate reversed" at t = 34.8
+    (the finer default mesh gets there at t = 55.4); the requested t_end = 80 is not reached.
+    """
+    out = tmp_path / "nl"
+    res = run_workflow("time_domain.py", ["--out", str(out), "--cells-per-wavelength", "16",
+                                          "--ny", "4", "--amplitude", "1e-3", "--t-end", "80",
+                                          "--no-plots", "--quiet"])
+    assert res.returncode == 0, res.stderr[-3000:]
+    s = json.loads((out / "summary.json").read_text())
+    d = np.genfromtxt(out / "timeseries.csv", delimiter=",", names=True)
+    invalid = (d["min_v"] < 0) | (d["min_sigma"] <= 0)
+    assert s["end"]["reason"] in ("slip rate reversed", "opening (normal stress reached zero)")
+    assert invalid[-1] and not invalid[:-1].any()
+    assert math.isclose(s["end"]["t"], d["t"][-1]) and d["t"][-1] < 80
+    assert s["nonlinear"]["arrested_fraction"] > 0  # it got there through local arrest

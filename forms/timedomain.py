@@ -339,6 +339,7 @@ class TimeDomainStrip:
     dt_stable: float
     top_x: np.ndarray
     periodic_map: PETSc.Mat | None = None
+    friction_theta: float = 0.5
     w: np.ndarray = field(default_factory=lambda: np.zeros(0))
     vh: np.ndarray = field(default_factory=lambda: np.zeros(0))
     iface: InterfaceState | None = None
@@ -622,8 +623,9 @@ class TimeDomainStrip:
         st.dsigma = dsig
         m_x = self.mass[self.ix]
         vh_x = self.vh[self.ix]
-        c = dt * self.b_interface / (2.0 * m_x)
-        vfree = vh_x + dt * r[self.ix] / (2.0 * m_x)
+        th = self.friction_theta
+        c = th * dt * self.b_interface / m_x
+        vfree = vh_x + th * dt * r[self.ix] / m_x
         psi = np.log1p(st.dtheta)
         if law.kind == "none":
             dv = vfree / law.v0
@@ -762,7 +764,7 @@ def _gershgorin(K: PETSc.Mat, mass: np.ndarray, free: np.ndarray) -> float:
 
 
 def build_time_domain(strip: StripMesh, law: NonlinearLaw, k: float, cfl: float = 0.9,
-                      dt: float | None = None) -> TimeDomainStrip:
+                      dt: float | None = None, friction_theta: float = 0.5) -> TimeDomainStrip:
     """Assemble the stepper on ``strip`` (collective).
 
     Args:
@@ -771,6 +773,10 @@ def build_time_domain(strip: StripMesh, law: NonlinearLaw, k: float, cfl: float 
         k: Wavenumber of the measured Fourier component.
         cfl: Fraction of the stable step ``2 / sqrt(Gershgorin(m^{-1} K))``, ``0 < cfl <= 1``.
         dt: Explicit time step (overrides ``cfl``; must not exceed the stable step).
+        friction_theta: The friction force of step ``n`` is taken at the slip rate
+            ``(1 - theta) v^{n-1/2} + theta v^{n+1/2}``: 1/2 (default) is second order and
+            leaves stuck nodes an undamped ``2 dt`` alternation; ``theta > 1/2`` damps it
+            (factor ``(1 - theta)/theta`` per step) at first order ``(theta - 1/2) dt``.
 
     Returns:
         The :class:`TimeDomainStrip` (destroy it when done).
@@ -781,6 +787,9 @@ def build_time_domain(strip: StripMesh, law: NonlinearLaw, k: float, cfl: float 
     if abs(m - round(m)) > 1e-9 * max(1.0, m) or round(m) < 1:
         raise ParameterError(f"length = {strip.length!r} is not a whole number of wavelengths"
                              f" 2 pi/k = {2 * math.pi / k:.6g}")
+    if not (math.isfinite(friction_theta) and 0.5 <= friction_theta <= 1):
+        raise ParameterError(f"friction-theta = {friction_theta!r} is outside its allowed range"
+                             " 1/2 <= theta <= 1")
     if not (math.isfinite(cfl) and 0 < cfl <= 1):
         raise ParameterError(f"cfl = {cfl!r} is outside its allowed range 0 < cfl <= 1")
     p = law.params
@@ -838,6 +847,7 @@ def build_time_domain(strip: StripMesh, law: NonlinearLaw, k: float, cfl: float 
                              " (stable step of this mesh)")
     td = TimeDomainStrip(strip, law, float(k), V, Kr, mass, ix, iy, coords[blocks, 0].copy(),
                          bfull[ix].copy(), free, float(dt), dt_stable, top_x, bloch.P)
+    td.friction_theta = float(friction_theta)
     td._wvec, td._rvec = Kr.createVecs()
     n = len(mass)
     td.set_initial_fields(np.zeros(n), np.zeros(n))

@@ -81,6 +81,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--dt", type=float, default=None, help="explicit time step (overrides --cfl)")
     p.add_argument("--linear-limit", type=float, default=1e-2,
                    help="linear window ends when max |v/v0 - 1| exceeds this")
+    p.add_argument("--friction-theta", type=float, default=0.55,
+                   help="after the linear window, the friction force of step n is taken at"
+                        " (1-theta) v^{n-1/2} + theta v^{n+1/2} (in [1/2, 1]); > 1/2 damps the"
+                        " spurious 2 dt alternation of stuck nodes; 1/2 (second order) is"
+                        " always used in the linear window"),
     p.add_argument("--fit-start", type=float, default=None,
                    help="start of the fit window (default: one period)")
     p.add_argument("--fit-end", type=float, default=None,
@@ -114,7 +119,8 @@ def validate(args: argparse.Namespace):  # noqa: ANN201 - (Params, NonlinearLaw)
     parse_branch_label(args.branch)
     checks = [("amplitude", args.amplitude, 0.0, 1.0), ("periods", args.periods, 0.0, math.inf),
               ("linear-limit", args.linear_limit, args.amplitude, 1.0),
-              ("cfl", args.cfl, 0.0, 1.0 + 1e-15)]
+              ("cfl", args.cfl, 0.0, 1.0 + 1e-15),
+              ("friction-theta", args.friction_theta, 0.5 - 1e-15, 1.0 + 1e-15)]
     for name, v, lo, hi in checks:
         if not (math.isfinite(v) and lo < v < hi) and not (name == "periods" and v == math.inf):
             raise _cli.ParameterError(f"{name} = {v!r} is outside its allowed range"
@@ -172,7 +178,8 @@ def _config(args: argparse.Namespace, nranks: int) -> dict:
     """Options that must match for ``--resume``."""
     keys = ["f", "gamma", "beta", "Delta", "H", "bc", "alpha_pc", "alpha_ld", "a", "v0",
             "friction", "k", "branch", "most_unstable", "initial", "amplitude", "wavelengths",
-            "cells_per_wavelength", "ny", "cell", "cfl", "dt", "frame_every", "chunk", "xdmf_every"]
+            "cells_per_wavelength", "ny", "cell", "cfl", "dt", "frame_every", "chunk", "xdmf_every",
+            "linear_limit", "friction_theta"]
     out = {key: getattr(args, key) for key in keys}
     out["ranks"] = nranks
     return out
@@ -220,10 +227,13 @@ def main() -> int:
     comm.barrier()
     ts_path = os.path.join(args.out, "timeseries.csv")
     chunk_index = 0
+    theta_switch = None  # time at which the friction theta switched to --friction-theta
     if resume is not None:
         with np.load(os.path.join(args.out, f"checkpoint_rank{comm.rank}.npz")) as z:
             td.load_state(dict(z))
         chunk_index = int(resume["chunk"])
+        td.friction_theta = float(resume.get("friction_theta", 0.5))
+        theta_switch = resume.get("theta_switch")
         if rank0:  # drop rows written after the checkpoint
             with open(ts_path) as fh:
                 rows = list(csv.reader(fh))
@@ -264,7 +274,9 @@ def main() -> int:
         comm.barrier()
         if rank0:
             with open(ckpt_json, "w") as fh:
-                json.dump({"config": config, "step": td.step, "chunk": chunk_index}, fh)
+                json.dump({"config": config, "step": td.step, "chunk": chunk_index,
+                           "friction_theta": td.friction_theta, "theta_switch": theta_switch},
+                          fh)
 
     xdmf = None
     if args.xdmf_every:
@@ -290,6 +302,9 @@ def main() -> int:
                      repr(s.min_sigma), repr(s.min_v), repr(s.max_dv), s.newton_max,
                      repr(s.top_force)])
         invalid = s.min_sigma <= 0.0 or s.min_v < 0.0
+        if s.max_dv > args.linear_limit and td.friction_theta != args.friction_theta:
+            td.friction_theta = args.friction_theta  # the linear window is over
+            theta_switch = s.t
         if s.step % frame_every == 0 or invalid:
             fields = td.interface_fields()
             pending += 1
@@ -321,7 +336,7 @@ def main() -> int:
 
     if rank0:
         summary = _summarise(args, params, law, td, mode, label, exact, period, t_end, stop,
-                             setup_time, run_time, steps_run, comm.size)
+                             setup_time, run_time, steps_run, comm.size, theta_switch)
         print(json.dumps({"predicted": summary["predicted"], "measured": summary["measured"],
                           "relative_difference": summary["relative_difference"],
                           "end": summary["end"]}, indent=1))
@@ -347,7 +362,7 @@ def _read_outputs(out: str) -> tuple[np.ndarray, dict[str, np.ndarray]]:
 
 
 def _summarise(args, params, law, td, mode, label, exact, period, t_end, stop,  # noqa: ANN001
-               setup_time, run_time, steps_run, nranks) -> dict:
+               setup_time, run_time, steps_run, nranks, theta_switch=None) -> dict:
     """Fit, nonlinear outcome, pictures and summary.json (rank 0)."""
     from forms.timedomain import fit_growth, linear_window, nonlinear_outcome
 
@@ -385,8 +400,10 @@ def _summarise(args, params, law, td, mode, label, exact, period, t_end, stop,  
         "mesh": {"cell": args.cell, "nx": args.wavelengths * args.cells_per_wavelength,
                  "ny": args.ny, "length": td.strip.length, "height": params.H,
                  "unknowns": td.num_dofs},
-        "dt": td.dt, "dt_stable": td.dt_stable, "steps": int(data["step"][-1]) + 1
-        if len(data) else 0,
+        "dt": td.dt, "dt_stable": td.dt_stable,
+        "friction_theta": {"linear_window": 0.5, "after": args.friction_theta,
+                           "switched_at_t": theta_switch},
+        "steps": int(data["step"][-1]) + 1 if len(data) else 0,
         "t_end_requested": t_end,
         "parameters": {**params.as_dict(), **law.summary(), "amplitude": args.amplitude,
                        "linear_limit": args.linear_limit},

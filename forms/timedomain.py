@@ -441,7 +441,7 @@ class TimeDomainStrip:
         ``k`` are excited at the level of the mesh error (an independent initial condition).
         Collective (each rank solves the small 1D problem itself).
         """
-        from forms.strip import cross_section_mode
+        from forms.cross_section_continuation import cross_section_mode
 
         xs = cross_section_mode(self.law.params, self.k, target, degree=degree)
         if xs is None:

@@ -34,23 +34,26 @@ import glob
 import json
 import math
 import os
-import platform
 import sys
 import time
 
 import _cli
 import numpy as np
 
+from analytic.params import require_rigid
+
+PETSC_PREFIXES = ("td_",)
+#: Files the scene writes (and the results folder's measured tables, made from its runs).
+OUTPUTS = ("timeseries.csv", "interface_*.npz", "checkpoint*", "summary.json", "*.png",
+           "fields.xdmf", "fields.h5", "benchmark.csv", "convergence.csv", "run.json",
+           "run.lock")
 CSV_COLUMNS = ["step", "t", "re_c", "im_c", "energy", "energy_change", "work_friction",
                "min_sigma", "min_v", "max_dv", "newton", "top_force"]
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """Command-line options."""
-    from analytic.cli import OneLineParser
-
-    p = OneLineParser(description=__doc__.split("\n")[0],
-                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    """Command-line options (the eigenmode's SLEPc solver has the prefix ``td_``)."""
+    p = _cli.make_parser(__doc__, PETSC_PREFIXES)
     _cli.add_param_arguments(p)
     g = p.add_argument_group("nonlinear friction (extra dimensionless numbers)")
     g.add_argument("--a", type=float, default=0.010,
@@ -110,6 +113,7 @@ def validate(args: argparse.Namespace):  # noqa: ANN201 - (Params, NonlinearLaw)
     from forms.timedomain import NonlinearLaw
 
     params = _cli.params_from_args(args)
+    require_rigid(params, "the time-domain scene")
     if not math.isfinite(params.H):
         raise _cli.ParameterError("H = inf is outside its allowed range (finite H for a strip)")
     _cli.check_k(args.k)
@@ -159,21 +163,6 @@ def choose_branch(params, k: float, args: argparse.Namespace) -> tuple[str, comp
     return max(found, key=lambda t: t[1].real)
 
 
-def versions() -> dict[str, str]:
-    """Versions of the numerical stack."""
-    import matplotlib
-
-    import dolfinx
-    import petsc4py
-    from mpi4py import MPI
-
-    return {"python": sys.version.split()[0], "numpy": np.__version__,
-            "dolfinx": dolfinx.__version__, "petsc4py": petsc4py.__version__,
-            "matplotlib": matplotlib.__version__,
-            "mpi": MPI.Get_library_version().splitlines()[0].strip(),
-            "machine": f"{platform.machine()} ({os.cpu_count()} cores)"}
-
-
 def _config(args: argparse.Namespace, nranks: int) -> dict:
     """Options that must match for ``--resume``."""
     keys = ["f", "gamma", "beta", "Delta", "H", "bc", "alpha_pc", "alpha_ld", "a", "v0",
@@ -185,16 +174,20 @@ def _config(args: argparse.Namespace, nranks: int) -> dict:
     return out
 
 
-def main() -> int:
-    """Run the scene."""
-    args = build_parser().parse_args()
-    params, law = validate(args)
-    from mpi4py import MPI
+def main(comm: object = None, argv: list[str] | None = None) -> int:
+    """Run the scene (every rank calls this)."""
+    args, comm = _cli.start(build_parser(), argv, comm)
+    params, law = validate(args)  # every rank, before any collective call or file
+    with _cli.RunFolder(comm, args.out, "time_domain", _config(args, comm.size),
+                        resume=args.resume, resumable=True, outputs=OUTPUTS):
+        return _run(args, comm, params, law)
 
+
+def _run(args: argparse.Namespace, comm: object, params: object, law: object) -> int:
+    """The simulation, in a checked and locked output folder."""
     from forms.timedomain import build_time_domain
     from meshes.strip import strip_mesh
 
-    comm = MPI.COMM_WORLD
     rank0 = comm.rank == 0
     config = _config(args, comm.size)
     ckpt_json = os.path.join(args.out, "checkpoint.json")
@@ -415,7 +408,7 @@ def _summarise(args, params, law, td, mode, label, exact, period, t_end, stop,  
         "timing": {"setup_s": setup_time, "run_s": run_time, "steps_run": steps_run,
                    "steps_per_s": steps_run / run_time if run_time > 0 else None,
                    "ranks": nranks},
-        "versions": versions(),
+        "versions": _cli.versions(),
     }
     with open(os.path.join(args.out, "summary.json"), "w") as fh:
         json.dump(summary, fh, indent=1)

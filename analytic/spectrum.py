@@ -101,8 +101,10 @@ def nudged_boxes(box: Box) -> list[Box]:
     # moves of 3 % of re_min (at least 3e-4) and 1e-4 of the height: a root closer than that
     # to an edge makes the contour too expensive to resolve (seen at k = 76.5, H = 0.5: a root
     # 1.3e-4 from Re = -0.01); the rectangle actually used is always reported
-    for s in (1.0, -1.0, 2.0, -2.0):
-        da = 0.03 * s * max(abs(a), 1e-2)
+    # and 30 % for a row of roots along the edge (small k: the n+ branches all sit near
+    # Re = -0.01 for the PMMA example of the README)
+    for s in (1.0, -1.0, 2.0, -2.0, 10.0, -10.0):
+        da = 0.03 * s * (abs(a) if a != 0 else 1e-2)  # never across Re = 0 for re_min > 0
         dw = 1e-4 * s * max(abs(c), abs(d))
         out.append((a - da, b, c - dw, d + dw))
     return out
@@ -319,6 +321,8 @@ def fastest_root(p: Params, k: float, region: Region) -> tuple[complex | None, i
     so the maximum is over *every* root in the region.
     """
     roots, bx = exact_roots(p, k, region.box(p, k))
+    # a nudged box may reach slightly below re_min: report the region's roots only
+    roots = [r for r in roots if r.value.real >= region.re_min]
     if not roots:
         return None, 0, bx
     best = max(roots, key=lambda r: r.value.real)

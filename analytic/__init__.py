@@ -1,4 +1,4 @@
-"""Exact reference spectrum of the linearised frictional-sliding problem (DESIGN.md section 4).
+"""Exact reference spectrum of the linearised frictional-sliding problem (docs/design.md section 4).
 
 Finite H (this package's ``finite_h``, ``branches``, ``smallk``): the spectrum
 ``det M(Lambda, k, H) = 0``, branches followed from the waveguide cut-offs, small-k asymptotics.

@@ -23,6 +23,7 @@ A branch ``(n, sign)`` (label ``"0-"``, ``"1+"``, ...) starts at
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -31,6 +32,10 @@ from analytic.finite_h import cutoff, det_M
 from analytic.params import ParameterError, Params, check_k
 from analytic.roots import ContourError, Root, count_zeros, polish, zeros_in_box
 from analytic.smallk import slope
+from analytic.twobody import branch_sheet, cutoff_twobody, det_twobody
+
+#: ``skip(k, Lambda_predicted, uncertainty) -> bool`` (see :func:`follow_branch`).
+Skip = Callable[[float, complex, float], bool]
 
 
 def branch_label(n: int, sign: int) -> str:
@@ -38,15 +43,19 @@ def branch_label(n: int, sign: int) -> str:
     return f"{n}{'+' if sign > 0 else '-'}"
 
 
-def parse_branch_label(label: str) -> tuple[int, int]:
-    """Inverse of :func:`branch_label`: ``"1+" -> (1, +1)``.
+def parse_branch_label(label: str, name: str = "branch") -> tuple[int, int]:
+    """Inverse of :func:`branch_label`: ``"1+" -> (1, +1)``. The one parser of branch labels.
+
+    Args:
+        label: ``"<n>+"`` or ``"<n>-"`` (surrounding blanks ignored).
+        name: What the error message calls the input (e.g. ``"--branch"``).
 
     Raises:
         ParameterError: On a malformed label.
     """
     s = label.strip()
     if len(s) < 2 or s[-1] not in "+-" or not s[:-1].isdigit():
-        raise ParameterError(f"branch = {label!r} is not of the form '<n>+' or '<n>-' (n >= 0)")
+        raise ParameterError(f"{name} = {label!r} is not of the form '<n>+' or '<n>-' (n >= 0)")
     return int(s[:-1]), (1 if s[-1] == "+" else -1)
 
 
@@ -86,15 +95,25 @@ class BranchResult:
     note: str = ""
 
 
-def spectrum_function(p: Params, k: float):
-    """``Lambda -> det_M(Lambda, k, p)`` (vectorised), the function all root finding uses."""
+def spectrum_function(p: Params, k: float, sheet: str = "physical"):
+    """``Lambda -> det_M(Lambda, k, p)`` (vectorised), the function all root finding uses.
+
+    For a deformable substrate (``p.two_body``, finite ``mu2``) it is
+    :func:`analytic.twobody.det_twobody` instead (same properties: single-valued for finite
+    ``H, H2``, no poles, modulus a relative residual); ``sheet`` selects the continuation of a
+    half-space's square roots (``"physical"`` or ``"outgoing"``; ignored otherwise).
+    """
+    if p.two_body:
+        return lambda L: det_twobody(L, k, p, sheet)
     return lambda L: det_M(L, k, p)
 
 
-def polish_root(p: Params, k: float, Lambda_guess: complex, *, tol: float = 1e-14) -> Root:
+def polish_root(p: Params, k: float, Lambda_guess: complex, *, tol: float = 1e-14,
+                sheet: str = "physical") -> Root:
     """Polish an arbitrary guess (e.g. a finite-element eigenvalue) onto the exact root.
 
-    Newton on :func:`analytic.finite_h.det_M` (residual = ``|det_M|``, a relative residual).
+    Newton on :func:`analytic.finite_h.det_M` (residual = ``|det_M|``, a relative residual);
+    on :func:`analytic.twobody.det_twobody` for a deformable substrate (``p.two_body``).
     It converges to the root nearest the guess when the guess is closer to it than to any
     other root, roughly; use :func:`roots_in_box` when that is in doubt.
 
@@ -103,28 +122,46 @@ def polish_root(p: Params, k: float, Lambda_guess: complex, *, tol: float = 1e-1
         k: Wavenumber ``> 0``.
         Lambda_guess: Starting point.
         tol: Relative Newton step tolerance.
+        sheet: Two bodies with a half-space: ``"physical"`` or ``"outgoing"`` (leaky modes,
+            what a PML sees; :func:`analytic.twobody.layer_wavenumbers`).
 
     Returns:
         The :class:`analytic.roots.Root` (check ``converged``).
     """
     kk = float(check_k(k)[0])
-    return polish(spectrum_function(p, kk), complex(Lambda_guess), tol=tol)
+    return polish(spectrum_function(p, kk, sheet), complex(Lambda_guess), tol=tol)
 
 
-def roots_in_box(p: Params, k: float, box: tuple[float, float, float, float]) -> list[Root]:
+def roots_in_box(p: Params, k: float, box: tuple[float, float, float, float], *,
+                 sheet: str = "physical") -> list[Root]:
     """Every eigenvalue inside ``box = (re_min, re_max, im_min, im_max)`` at wavenumber ``k``.
 
     Checked by the argument principle (:func:`analytic.roots.zeros_in_box`); ``det_M`` has no
-    poles. Keep the box edges off ``Lambda = 0``.
+    poles. Keep the box edges off ``Lambda = 0`` (rigid substrate). Two bodies
+    (``p.two_body``): :func:`analytic.twobody.det_twobody`; with ``H`` or ``H2`` infinite the
+    box must not cross the imaginary axis beyond ``min(c_s1, c_s2) k`` (the physical sheet's
+    cuts); with ``sheet="outgoing"`` it must not cross the horizontal cuts from ``+-i c k``
+    (every ``c`` of a half-space) to the left.
     """
     kk = float(check_k(k)[0])
-    return zeros_in_box(spectrum_function(p, kk), box, n_initial=_n_initial(p, box))
+    return zeros_in_box(spectrum_function(p, kk, sheet), box, n_initial=_n_initial(p, box))
 
 
 def _n_initial(p: Params, box: tuple[float, float, float, float]) -> int:
-    """Initial contour samples per side: ``det_M`` turns by about ``H (1 + beta)`` per unit."""
+    """Initial contour samples per side: ``det_M`` turns by about ``H (1 + beta)`` per unit.
+
+    Two bodies: plus ``H2 (1 + beta2) / c_s2`` for a finite substrate; a half-space (either
+    body) adds no such rotation (its partial waves carry no ``exp(i H Im k)`` phase): 32
+    samples per side then.
+    """
     side = max(box[1] - box[0], box[3] - box[2])
-    return 8 + int(math.ceil(2.0 * p.H * (1.0 + p.beta) * side))
+    turn = p.H * (1.0 + p.beta) if math.isfinite(p.H) else 0.0
+    if p.two_body and math.isfinite(p.H2):
+        m2 = p.substrate
+        turn += p.H2 * (1.0 + m2.beta) / m2.c_s
+    if not math.isfinite(p.H) or (p.two_body and not math.isfinite(p.H2)):
+        return 32 + int(math.ceil(2.0 * turn * side))
+    return 8 + int(math.ceil(2.0 * turn * side))
 
 
 def _box_around(z: complex, r: float) -> tuple[float, float, float, float]:
@@ -133,7 +170,7 @@ def _box_around(z: complex, r: float) -> tuple[float, float, float, float]:
 
 def _count(p: Params, k: float, z: complex, r: float) -> int:
     """Roots within the square of half-width ``r`` around ``z``; -1 if the contour is unusable."""
-    fun = spectrum_function(p, k)
+    fun = spectrum_function(p, k, branch_sheet(p))
     for shrink in (1.0, 0.93, 1.07):
         box = _box_around(z, r * shrink)
         try:
@@ -143,12 +180,27 @@ def _count(p: Params, k: float, z: complex, r: float) -> int:
     return -1
 
 
+def branch_cutoff(n: int, sign: int, p: Params) -> complex:
+    """The ``k -> 0`` start of branch ``(n, sign)``.
+
+    Rigid substrate: :func:`analytic.finite_h.cutoff`; two bodies:
+    :func:`analytic.twobody.cutoff_twobody` (the composite rod's ``n``-th mode).
+    """
+    return cutoff_twobody(n, sign, p) if p.two_body else cutoff(n, sign, p)
+
+
 def _start(p: Params, n: int, sign: int, k0: float) -> tuple[Root | None, str]:
     """The single root near the cut-off at small k0, isolated by counting."""
-    L0 = cutoff(n, sign, p)
-    guess = L0 + slope(n, sign, p) * k0
-    fun = spectrum_function(p, k0)
-    spacing = math.pi / (p.beta * p.H)  # distance between neighbouring cut-offs
+    L0 = branch_cutoff(n, sign, p)
+    fun = spectrum_function(p, k0, branch_sheet(p))
+    if p.two_body:
+        guess = L0
+        # distance to the nearest other cut-off (or to the flexural root at 0)
+        others = [0.0] + [branch_cutoff(m, sign, p) for m in (n - 1, n + 1) if m >= 0]
+        spacing = min(abs(L0 - z) for z in others)
+    else:
+        guess = L0 + slope(n, sign, p) * k0
+        spacing = math.pi / (p.beta * p.H)  # distance between neighbouring cut-offs
     r = 0.3 * spacing
     for _ in range(12):
         try:
@@ -171,8 +223,18 @@ def follow_branch(
     k_start: float | None = None,
     dk_min: float | None = None,
     max_steps: int = 20000,
+    skip: Skip | None = None,
 ) -> BranchResult:
     """Follow branch ``(n, sign)`` from its cut-off to every requested ``k``.
+
+    Two bodies (``p.two_body``): the branch starts at
+    :func:`analytic.twobody.cutoff_twobody` and is followed on
+    :func:`analytic.twobody.det_twobody` with the same checks. The flexural branch (from
+    ``Lambda = 0`` at ``k = 0``, finite ``H2``) is not one of these; :func:`roots_in_box` finds
+    it. With a half-space substrate (``H2 = inf``) the branches are leaky at small ``k`` and are
+    followed on the ``"outgoing"`` continuation (:func:`analytic.twobody.branch_sheet`); use
+    :func:`analytic.twobody.root_sheet` to tell a leaky point from an eigenvalue. Counting
+    fails (flag ``"ambiguous"``) where a root meets a horizontal cut ``Im Lambda = +-c k``.
 
     Args:
         p: Parameters (finite ``H``; any ``bc`` and friction model).
@@ -183,6 +245,9 @@ def follow_branch(
         dk_min: Smallest step before a point is accepted as ``"ambiguous"`` (default
             ``1e-6 * max(k_max, 1/H)``).
         max_steps: Safety limit on the number of continuation steps.
+        skip: ``skip(k, Lambda_predicted, uncertainty)`` True when the root is not wanted at a
+            requested ``k`` (e.g. predicted far outside a region): no value there (flag
+            ``"outside"``), and no continuation step has to end there.
 
     Returns:
         A :class:`BranchResult`.
@@ -192,7 +257,7 @@ def follow_branch(
     """
     if not math.isfinite(p.H):
         raise ParameterError("H = inf: branches start at finite-H cut-offs; use a finite H")
-    cutoff(n, sign, p)  # validates n and sign
+    branch_cutoff(n, sign, p)  # validates n and sign (and H2 for two bodies)
     ks = np.unique(check_k(k_values))
     k_max = float(ks[-1])
     label = branch_label(n, sign)
@@ -212,12 +277,82 @@ def follow_branch(
     if root is None:
         return BranchResult(label, n, sign, ks, out_L, out_res, out_cond, out_ok, flags,
                             np.array(k_path), np.array(L_path, dtype=complex), note)
-    k_cur, L_cur = k_start, root.value
-    k_prev, L_prev = 0.0, cutoff(n, sign, p)  # the cut-off is the k = 0 point of the branch
-    k_path += [0.0, k_cur]
-    L_path += [L_prev, L_cur]
-    dk = k_start
-    good_h = k_start  # last step accepted without doubt
+    # the cut-off is the k = 0 point of the branch
+    return _continue(p, label, n, sign, ks, (0.0, branch_cutoff(n, sign, p)), (k_start, root.value),
+                     dk_min, max_steps, skip)
+
+
+def follow_root(
+    p: Params,
+    label: str,
+    k0: float,
+    Lambda0: complex,
+    k_values: float | np.ndarray,
+    *,
+    dk_min: float | None = None,
+    max_steps: int = 20000,
+    skip: Skip | None = None,
+) -> BranchResult:
+    """Follow the root at ``(k0, Lambda0)`` to every requested ``k >= k0``.
+
+    As :func:`follow_branch` (same step control, root count at every step), for a root that
+    does not start at a waveguide cut-off. The root is polished at ``k0``, and a first point at
+    ``k0 (1 - 1e-3)`` gives the secant predictor. Requested ``k < k0`` are reported lost.
+
+    Returns:
+        A :class:`BranchResult` with ``n = -1``, ``sign = 0``.
+    """
+    ks = np.unique(check_k(k_values))
+    if dk_min is None:
+        dk_min = 1e-6 * max(float(ks[-1]), 1.0 / p.H)
+    fun = spectrum_function(p, k0)
+    r0 = polish(fun, complex(Lambda0))
+    k_a = k0 * (1.0 - 1e-3)
+    r_a = polish(spectrum_function(p, k_a), r0.value)
+    nan = np.full(ks.shape, np.nan + 0j)
+    if not (r0.converged and r_a.converged and abs(r_a.value - r0.value) < 1e-2 * max(
+            1.0, abs(r0.value))):
+        return BranchResult(label, -1, 0, ks, nan, np.full(ks.shape, np.nan),
+                            np.full(ks.shape, np.nan), np.zeros(ks.shape, bool),
+                            ["lost"] * ks.size, note=f"{label}: no root near {Lambda0} at k0")
+    first = int(np.searchsorted(ks, k0))
+    res = _continue(p, label, -1, 0, ks[first:], (k_a, r_a.value), (k0, r0.value),
+                    dk_min, max_steps, skip)
+    if first == 0:
+        return res
+    pad = ks[:first]
+
+    def cat(a: np.ndarray, fill: object) -> np.ndarray:
+        return np.concatenate([np.full(pad.shape, fill, dtype=np.asarray(a).dtype), a])
+
+    return BranchResult(label, -1, 0, ks, cat(res.Lambda, np.nan), cat(res.residual, np.nan),
+                        cat(res.cond, np.nan), cat(res.ok, False),
+                        ["lost"] * first + list(res.flag), res.k_path, res.Lambda_path,
+                        res.note)
+
+
+def _continue(p: Params, label: str, n: int, sign: int, ks: np.ndarray,
+              prev: tuple[float, complex], cur: tuple[float, complex], dk_min: float,
+              max_steps: int, skip: Skip | None = None) -> BranchResult:
+    """The continuation loop shared by :func:`follow_branch` and :func:`follow_root`.
+
+    ``skip(k, Lambda_predicted, uncertainty)`` True: the requested ``k`` is not needed (flag
+    ``"outside"``, no value); the continuation then does not stop there.
+    """
+    out_L = np.full(ks.shape, np.nan + 0j)
+    out_res = np.full(ks.shape, np.nan)
+    out_cond = np.full(ks.shape, np.nan)
+    out_ok = np.zeros(ks.shape, dtype=bool)
+    flags = ["lost"] * ks.size
+    k_prev, L_prev = prev
+    k_cur, L_cur = cur
+    k_path = [k_prev, k_cur]
+    L_path = [L_prev, L_cur]
+    dk = k_cur - k_prev if k_prev > 0 else k_cur
+    if ks.size == 0:
+        return BranchResult(label, n, sign, ks, out_L, out_res, out_cond, out_ok, flags,
+                            np.array(k_path), np.array(L_path, dtype=complex), "")
+    good_h = dk  # last step accepted without doubt
     hist: tuple[float, complex] | None = None
     target_i = 0
     notes: list[str] = []
@@ -234,7 +369,7 @@ def follow_branch(
             k2, L2 = hist
             d2 = (d1 - (L_prev - L2) / (k_prev - k2)) / (k_cur - k2)
             L_pred = L_pred + d2 * h * (k_new - k_prev)
-        r = polish(spectrum_function(p, k_new), L_pred)
+        r = polish(spectrum_function(p, k_new, branch_sheet(p)), L_pred)
         dL = abs(r.value - L_cur)
         corr = abs(r.value - L_pred)
         # Until three points exist the secant cannot know the curvature (the linear term may
@@ -252,8 +387,14 @@ def follow_branch(
         return r, ok, corr, dL
 
     while target_i < ks.size and steps < max_steps:
-        steps += 1
         k_target = float(ks[target_i])
+        if skip is not None and k_target > k_cur:
+            d1 = (L_cur - L_prev) / (k_cur - k_prev)
+            if skip(k_target, L_cur + d1 * (k_target - k_cur), abs(d1) * (k_target - k_cur)):
+                flags[target_i] = "outside"
+                target_i += 1
+                continue
+        steps += 1
         # the step ends on a requested k (may be short; never leave a sliver before it)
         clamped = k_cur + dk * (1.0 + 1e-6) >= k_target
         k_new = k_target if clamped else k_cur + dk

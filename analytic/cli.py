@@ -8,6 +8,9 @@ k from their cut-offs; ``flag`` is empty for a trusted root, else why not (``los
 DIR`` writes the analytic dispersion curve (CSV, JSON, PNG). Bad input: one line on stderr
 naming the parameter, exit code 2. Under ``mpirun`` every rank computes the same thing and only
 rank 0 prints or writes.
+``python -m analytic gr --mu2 2 --rho2 1 --beta 0.5`` prints the generalized Rayleigh wave of two
+half-spaces as JSON ``{"exists": ..., "speed": c/c_s1 or null}``; ``python -m analytic grmap
+--out DIR`` maps where it exists over ``(mu2, rho2)``.
 
 :func:`add_param_arguments`, :func:`params_from_args`, :func:`parse_k`, :func:`positive_int`
 are also used by ``workflows/_cli.py`` (which re-exports them).
@@ -41,9 +44,13 @@ def _rank() -> int:
 
 
 def add_param_arguments(parser: argparse.ArgumentParser, defaults: Params | None = None) -> None:
-    """Add ``--f --gamma --beta --Delta --H --bc --alpha-pc --alpha-ld`` to ``parser``."""
+    """Add the physical parameters to ``parser``.
+
+    ``--f --gamma --beta --Delta --H --bc --alpha-pc --alpha-ld`` and the substrate's
+    ``--mu2 --rho2 --beta2 --H2 --bc2`` (issue 9; default ``--mu2 inf``: rigid).
+    """
     d = defaults or Params()
-    g = parser.add_argument_group("physical parameters (dimensionless, DESIGN.md section 2)")
+    g = parser.add_argument_group("physical parameters (dimensionless, docs/design.md section 2)")
     g.add_argument("--f", type=float, default=d.f, help="friction coefficient f >= 0 (%(default)s)")
     g.add_argument("--gamma", type=float, default=d.gamma,
                    help="gamma = mu/(c_s sigma0 d_v f) > 0 (%(default)s)")
@@ -58,12 +65,27 @@ def add_param_arguments(parser: argparse.ArgumentParser, defaults: Params | None
                    help="Prakash-Clifton alpha_PC >= 0 (%(default)s)")
     g.add_argument("--alpha-ld", type=float, default=d.alpha_ld,
                    help="Linker-Dieterich alpha_LD >= 0 (%(default)s)")
+    s = parser.add_argument_group("substrate (body 2, -H2 < y < 0; units of body 1)")
+    s.add_argument("--mu2", type=float, default=d.mu2,
+                   help="shear modulus mu2/mu1 > 0; inf: rigid substrate (%(default)s)")
+    s.add_argument("--rho2", type=float, default=d.rho2,
+                   help="density rho2/rho1 > 0 (%(default)s)")
+    s.add_argument("--beta2", type=float, default=d.beta2,
+                   help="beta2 = c_s2/c_d2 in (0, 1/sqrt 2); default: equal to --beta")
+    s.add_argument("--H2", type=float, default=d.H2,
+                   help="substrate height H2 > 0; inf: half-space (%(default)s)")
+    s.add_argument("--bc2", choices=("velocity", "stress"), default=d.bc2,
+                   help="bottom condition at y = -H2 (%(default)s)")
 
 
 def params_from_args(args: argparse.Namespace) -> Params:
     """Build (and validate) :class:`Params` from parsed arguments."""
+    d = Params()
     return Params(f=args.f, gamma=args.gamma, beta=args.beta, Delta=args.Delta, H=args.H,
-                  bc=args.bc, alpha_pc=args.alpha_pc, alpha_ld=args.alpha_ld)
+                  bc=args.bc, alpha_pc=args.alpha_pc, alpha_ld=args.alpha_ld,
+                  mu2=getattr(args, "mu2", d.mu2), rho2=getattr(args, "rho2", d.rho2),
+                  beta2=getattr(args, "beta2", d.beta2), H2=getattr(args, "H2", d.H2),
+                  bc2=getattr(args, "bc2", d.bc2))
 
 
 def parse_k(spec: str, name: str = "--k") -> np.ndarray:
@@ -162,13 +184,22 @@ def _branch(args: argparse.Namespace) -> int:
 
 
 def _units(args: argparse.Namespace) -> int:
-    from analytic.units import Physical, to_dimensionless
+    from analytic.units import Physical, Substrate, to_dimensionless
 
     phys = Physical(mu=args.mu, nu=args.nu, rho=args.rho, sigma0=args.sigma0, v0=args.v0,
                     D=args.D, f=args.f, a=args.a, b=args.b, H=args.H_m)
-    c = to_dimensionless(phys)
+    given = [v is not None for v in (args.mu_sub, args.nu_sub, args.rho_sub)]
+    if any(given) and not all(given):
+        raise ParameterError("--mu-sub, --nu-sub, --rho-sub: give all three (deformable "
+                             "substrate) or none (rigid)")
+    sub = None
+    if all(given):
+        sub = Substrate(mu=args.mu_sub, nu=args.nu_sub, rho=args.rho_sub, H=args.H_sub_m,
+                        bc=args.bc2)
+    c = to_dimensionless(phys, substrate=sub)
     out = {
         "physical": phys.as_dict(),
+        "substrate": None if sub is None else sub.as_dict(),
         "dimensionless": c.params.as_dict(),
         "Gamma": c.params.Gamma,
         "units": {"t0_s": c.t0, "length_m": c.length, "c_s_m_per_s": c.c_s,
@@ -194,6 +225,26 @@ def _dispersion(args: argparse.Namespace) -> int:
     return 0
 
 
+def _gr(args: argparse.Namespace) -> int:
+    from analytic.twobody import generalized_rayleigh
+
+    g = generalized_rayleigh(args.mu2, args.rho2, args.beta, args.beta2)
+    print(json.dumps(g.as_dict()))
+    return 0
+
+
+def _grmap(args: argparse.Namespace) -> int:
+    from analytic.twobody import write_gr_map
+
+    Params(beta=args.beta, beta2=args.beta2)  # validates
+    positive_int("--n", args.n, 3, 1000)
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise ParameterError(f"--out = {args.out!r} exists and is not a directory")
+    for f in write_gr_map(args.out, args.beta, args.beta2, n=args.n):
+        print(f)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``python -m analytic`` argument parser."""
     from analytic.units import PMMA_ON_STEEL as X
@@ -214,6 +265,20 @@ def build_parser() -> argparse.ArgumentParser:
     add_param_arguments(d)
     d.set_defaults(func=_dispersion)
 
+    gr = sub.add_parser("gr", help="generalized Rayleigh wave of two half-spaces (JSON)")
+    gr.add_argument("--mu2", type=float, required=True, help="mu2/mu1 > 0")
+    gr.add_argument("--rho2", type=float, default=1.0, help="rho2/rho1 > 0 (%(default)s)")
+    gr.add_argument("--beta", type=float, default=0.5, help="body 1 c_s/c_d (%(default)s)")
+    gr.add_argument("--beta2", type=float, default=None, help="body 2 c_s/c_d (default: --beta)")
+    gr.set_defaults(func=_gr)
+
+    gm = sub.add_parser("grmap", help="where the generalized Rayleigh wave exists: CSV/JSON/PNG")
+    gm.add_argument("--out", required=True, help="output directory (created)")
+    gm.add_argument("--beta", type=float, default=0.5, help="body 1 c_s/c_d (%(default)s)")
+    gm.add_argument("--beta2", type=float, default=None, help="body 2 c_s/c_d (default: --beta)")
+    gm.add_argument("--n", type=int, default=121, help="grid points per axis (%(default)s)")
+    gm.set_defaults(func=_grmap)
+
     u = sub.add_parser("units", help="physical data (SI) -> dimensionless parameters and units")
     u.add_argument("--mu", type=float, default=X.mu, help="shear modulus [Pa] (%(default)s)")
     u.add_argument("--nu", type=float, default=X.nu, help="Poisson ratio (%(default)s)")
@@ -226,6 +291,14 @@ def build_parser() -> argparse.ArgumentParser:
     u.add_argument("--a", type=float, default=X.a, help="df/dln v (%(default)s)")
     u.add_argument("--b", type=float, default=X.b, help="df/dln phi (%(default)s)")
     u.add_argument("--H-m", type=float, default=X.H, help="height [m] (%(default)s)")
+    u.add_argument("--mu-sub", type=float, default=None,
+                   help="substrate shear modulus [Pa] (default: rigid substrate)")
+    u.add_argument("--nu-sub", type=float, default=None, help="substrate Poisson ratio")
+    u.add_argument("--rho-sub", type=float, default=None, help="substrate density [kg/m^3]")
+    u.add_argument("--H-sub-m", type=float, default=math.inf,
+                   help="substrate height [m] (%(default)s: half-space)")
+    u.add_argument("--bc2", choices=("velocity", "stress"), default="velocity",
+                   help="substrate bottom condition (%(default)s)")
     u.set_defaults(func=_units)
     return ap
 

@@ -41,9 +41,10 @@ def plot_dispersion(p: Params, results: list[BranchResult], path: str,
         ax1.plot(r.k, L.real, ls, color=c, label=f"branch {r.label}")
         ax2.plot(r.k, L.imag, ls, color=c, label=f"branch {r.label}")
         kk = r.k[r.k <= 0.25 * r.k.max()]
-        if kk.size:
+        if kk.size and not p.two_body:
             ax1.plot(kk, lambda_smallk(kk, r.n, r.sign, p).real, ":", color="k", lw=1)
-    ax1.plot([], [], ":", color="k", lw=1, label="small-k slope (Eq. Hspectrum)")
+    if not p.two_body:
+        ax1.plot([], [], ":", color="k", lw=1, label="small-k slope (Eq. Hspectrum)")
     ax1.axhline(0.0, color="0.6", lw=0.8)
     ax1.set_xlabel("k  [1 / (c_s t0)]")
     ax1.set_ylabel("growth rate Re Lambda  [1 / t0]")
@@ -53,10 +54,14 @@ def plot_dispersion(p: Params, results: list[BranchResult], path: str,
              f"beta = {p.beta:g}, Delta = {p.Delta:g}, H = {p.H:g}")
     if p.generalized:
         title += f", alpha_pc = {p.alpha_pc:g}, alpha_ld = {p.alpha_ld:g}"
+    if p.two_body:
+        title += (f"\nsubstrate: mu2 = {p.mu2:g}, rho2 = {p.rho2:g}, beta2 = "
+                  f"{p.substrate_beta:g}, H2 = {p.H2:g}, bc2 = {p.bc2}")
     fig.suptitle(title, fontsize=10)
     ax1.legend(fontsize=8)
     ax1.set_title("Re Lambda > 0: unstable", fontsize=9)
-    ax2.set_title("branches start at Lambda_0 = +-i(2n+1) pi/(2 beta H)", fontsize=9)
+    ax2.set_title("branches start at the composite-rod cut-offs (two bodies)" if p.two_body
+                  else "branches start at Lambda_0 = +-i(2n+1) pi/(2 beta H)", fontsize=9)
     fig.savefig(path, dpi=120, metadata=metadata or {})
     plt.close(fig)
 

@@ -1,4 +1,4 @@
-"""Exact finite-H spectrum ``det M(Lambda, k, H) = 0`` (DESIGN.md section 4).
+"""Exact finite-H spectrum ``det M(Lambda, k, H) = 0`` (docs/design.md section 4).
 
 Units ``c_s = mu = rho = 1``, ``c_d = 1/beta``. Perturbations go as ``exp(Lambda t - i k x)``.
 
@@ -14,7 +14,7 @@ Eq. (elastic fields) (columns ``A_1..A_4``).
 
 **Matrix.** Four columns (basis solutions), four rows: the two top conditions at ``y = H``
 (``bc = "velocity"``: ``u_x = 0, s_yy = 0``; ``bc = "stress"``: ``s_xy = 0, s_yy = 0``), then
-``u_y = 0`` and the friction law at ``y = 0`` (DESIGN.md section 3), the latter multiplied by
+``u_y = 0`` and the friction law at ``y = 0`` (docs/design.md section 3), the latter multiplied by
 ``Lambda + 1`` so that it is polynomial in ``Lambda``::
 
     (Lambda+1)(1 + alpha_pc Lambda) s_xy + (f (Lambda+1) - alpha_ld Lambda) s_yy
@@ -26,7 +26,8 @@ so no spurious root at ``Lambda = -1`` appears). Nothing here has a pole: ``Lamb
 
 Two bases are implemented (``basis=``):
 
-- ``"waves"``: the paper's partial waves, the growing ones scaled as ``exp(k (y - H))`` (DESIGN.md);
+- ``"waves"``: the paper's partial waves, the growing ones scaled as ``exp(k (y - H))``
+  (docs/design.md section 4);
   principal square roots, so this determinant is *not* single-valued in ``Lambda``: flipping the
   sign of ``k_s`` swaps and rescales two columns. Its zeros are the spectrum, but the argument
   principle fails on contours that cross the cuts (``Lambda`` on the imaginary axis with
@@ -66,7 +67,7 @@ import math
 
 import numpy as np
 
-from analytic.params import ParameterError, Params
+from analytic.params import ParameterError, Params, require_rigid
 
 SPURIOUS_ORDER_AT_ZERO = 4
 
@@ -143,7 +144,7 @@ def friction_coefficients(Lambda: np.ndarray, p: Params
                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Coefficients ``(a, b, c)`` of the friction row ``a s_xy + b s_yy + c u_x = 0`` at y = 0.
 
-    The rational law of DESIGN.md section 3 multiplied by ``Lambda + 1`` (not multiplied when
+    The rational law of docs/design.md section 3 multiplied by ``Lambda + 1`` (not multiplied when
     ``alpha_ld = 0`` and ``Delta = 1``, where the factor cancels).
     """
     L = np.asarray(Lambda, dtype=complex)
@@ -171,6 +172,7 @@ def matrix_M(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params,
     Returns:
         Array of shape ``broadcast(Lambda, k).shape + (4, 4)``.
     """
+    require_rigid(p, "analytic.finite_h")
     L, kk = np.broadcast_arrays(np.asarray(Lambda, dtype=complex), np.asarray(k, dtype=float))
     bottom, top = _boundary_fields(L, kk, p, basis)
     a, b, c = friction_coefficients(L, p)
@@ -234,7 +236,7 @@ def det_M_even(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -
 
 
 def det_M_waves(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -> np.ndarray:
-    """Row-normalised determinant in the paper's partial-wave basis (DESIGN.md, literal form).
+    """Row-normalised determinant in the paper's partial-wave basis (docs/design.md section 4).
 
     Same zeros as :func:`det_M`, but multi-valued across the cuts of ``k_s``, ``k_d`` (the
     imaginary axis beyond ``+-i k``): do not use it for argument-principle counts.
@@ -271,7 +273,7 @@ def spectrum_S(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -
     """The paper's closed form ``S(Lambda, k, H)`` (Eq. Hspectrum_dimensionless), ``mu = 1``.
 
     ``S = k_d G_1 - i k f G_2 + Lambda (Lambda + Delta) / (gamma (Lambda + 1))`` for the
-    velocity top. The generalized friction law (DESIGN.md section 3) is included:
+    velocity top. The generalized friction law (docs/design.md section 3) is included:
     ``(1 + alpha_pc Lambda) k_d G_1 - i k (f - alpha_ld Lambda/(Lambda+1)) G_2 + ...``.
     Meromorphic: poles at ``Lambda = -1`` and where the denominator of ``G_1`` vanishes.
 
@@ -307,4 +309,5 @@ def cutoff(n: int, sign: int, p: Params) -> complex:
     if sign not in (1, -1):
         raise ParameterError(f"sign = {sign!r} must be +1 or -1")
     H = _finite_h(p)
+    require_rigid(p, "analytic.finite_h.cutoff")
     return complex(0.0, sign * (2 * n + 1) * math.pi / (2.0 * p.beta * H))

@@ -1,6 +1,6 @@
 """Half-space (``kH -> infinity``) spectrum ``s(z, q) = 0`` and its roots (paper section 5, App. C).
 
-Variables (DESIGN.md section 2: in code units ``k`` is the paper's ``q`` and ``Lambda`` its
+Variables (docs/design.md section 2: in code units ``k`` is the paper's ``q`` and ``Lambda`` its
 ``lambda``): ``z = -Lambda / (i q)``, i.e. ``Lambda = -i q z``; ``Re Lambda = q Im z``, so a root
 with ``Im z > 0`` is unstable.
 
@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from analytic.params import ParameterError, Params
+from analytic.params import ParameterError, Params, require_rigid
 from analytic.roots import Root, count_zeros, polish
 
 FAMILIES = ("dilatational", "shear", "quasistatic")
@@ -112,6 +112,7 @@ def spectrum(z: complex | np.ndarray, q: float, p: Params, A: complex | np.ndarr
     ``alpha_pc = alpha_ld = 0``. ``A = kappa_s(z), B = kappa_d(z)`` gives :func:`s`,
     ``A = -kappa_s(z)`` gives :func:`s_tilde`.
     """
+    require_rigid(p, "analytic.halfspace")
     z = _c(z)
     gg1 = g1(z, p.beta, A, B)
     gg2 = 2.0 - gg1

@@ -1,7 +1,14 @@
-"""Dimensionless parameters of the problem and their validation (DESIGN.md section 2).
+"""Dimensionless parameters of the problem and their validation (docs/design.md section 2).
 
-Units: ``c_s = mu = rho = 1``; time unit ``t0 = D / (|g'(1)| v0)``; length unit ``c_s t0``.
-Every part of the project (analytic roots, finite elements, workflows) takes a :class:`Params`.
+Units: ``c_s = mu = rho = 1`` of body 1 (the slider); time unit ``t0 = D / (|g'(1)| v0)``;
+length unit ``c_s t0``. Every part of the project (analytic roots, finite elements, workflows)
+takes a :class:`Params`.
+
+Two bodies (issue 9): the substrate ``-H2 < y < 0`` has shear modulus ``mu2`` and density
+``rho2`` relative to body 1 (so ``c_s2 = sqrt(mu2/rho2)``), its own ``beta2 = c_s2/c_d2``
+(``None``: equal to ``beta``), height ``H2`` (``inf``: half-space) and bottom condition ``bc2``
+(``"velocity"``: ``u_x = 0, s_yy = 0``; ``"stress"``: ``s_xy = s_yy = 0``). The default
+``mu2 = inf`` is the rigid substrate of the paper; then ``rho2, beta2, H2, bc2`` are ignored.
 """
 
 from __future__ import annotations
@@ -29,6 +36,47 @@ def _finite(name: str, value: float) -> float:
     return v
 
 
+def _positive_or_inf(name: str, value: float) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} = {value!r} is not a number") from None
+    if math.isnan(v) or v <= 0:
+        raise ParameterError(f"{name} = {value!r} is outside its allowed range {name} > 0"
+                             " (inf allowed)")
+    return v
+
+
+@dataclass(frozen=True)
+class Material:
+    """An isotropic elastic material in body-1 units (``mu = rho = c_s = 1`` for body 1).
+
+    Attributes:
+        mu: Shear modulus.
+        rho: Density.
+        beta: ``c_s / c_d``.
+    """
+
+    mu: float
+    rho: float
+    beta: float
+
+    @property
+    def c_s(self) -> float:
+        """Shear wave speed ``sqrt(mu / rho)``."""
+        return math.sqrt(self.mu / self.rho)
+
+    @property
+    def c_d(self) -> float:
+        """Dilatational wave speed ``c_s / beta``."""
+        return self.c_s / self.beta
+
+    @property
+    def lame_lambda(self) -> float:
+        """First Lame parameter ``mu (1/beta^2 - 2)``."""
+        return self.mu * (1.0 / self.beta**2 - 2.0)
+
+
 @dataclass(frozen=True)
 class Params:
     """Dimensionless parameters; defaults are the paper's (f=0.3, gamma=3, beta=0.5, Delta=0.7).
@@ -44,6 +92,13 @@ class Params:
             ``dsigma_yy = 0`` in both cases.
         alpha_pc: Prakash-Clifton regularisation, ``>= 0`` (0: standard model).
         alpha_ld: Linker-Dieterich coefficient, ``>= 0`` (0: standard model).
+        mu2: Substrate shear modulus over body 1's, ``> 0``; ``math.inf`` (default): rigid.
+        rho2: Substrate density over body 1's, ``> 0`` (finite).
+        beta2: Substrate ``c_s2/c_d2`` in ``(0, 1/sqrt(2))``; ``None`` (default): equal to
+            ``beta`` (see :attr:`substrate_beta`).
+        H2: Substrate height, ``> 0``; ``math.inf`` (default): half-space.
+        bc2: Bottom condition at ``y = -H2``: ``"velocity"`` (``u_x = 0``) or ``"stress"``
+            (``s_xy = 0``); ``s_yy = 0`` in both cases.
     """
 
     f: float = 0.3
@@ -54,6 +109,11 @@ class Params:
     bc: str = "velocity"
     alpha_pc: float = 0.0
     alpha_ld: float = 0.0
+    mu2: float = math.inf
+    rho2: float = 1.0
+    beta2: float | None = None
+    H2: float = math.inf
+    bc2: str = "velocity"
 
     def __post_init__(self) -> None:
         f = _finite("f", self.f)
@@ -85,8 +145,26 @@ class Params:
             raise ParameterError(f"alpha_pc = {self.alpha_pc!r} is outside its allowed range >= 0")
         if ald < 0:
             raise ParameterError(f"alpha_ld = {self.alpha_ld!r} is outside its allowed range >= 0")
+        mu2 = _positive_or_inf("mu2", self.mu2)
+        rho2 = _finite("rho2", self.rho2)
+        if rho2 <= 0:
+            raise ParameterError(f"rho2 = {self.rho2!r} is outside its allowed range rho2 > 0")
+        beta2 = None
+        if self.beta2 is not None:
+            beta2 = _finite("beta2", self.beta2)
+            if not 0.0 < beta2 < BETA_MAX:
+                raise ParameterError(
+                    f"beta2 = {self.beta2!r} is outside its allowed range 0 < beta2 < 1/sqrt(2)"
+                    f" = {BETA_MAX:.6f} (beta2 = c_s2/c_d2)"
+                )
+        h2 = _positive_or_inf("H2", self.H2)
+        if self.bc2 not in BOUNDARY_CONDITIONS:
+            raise ParameterError(
+                f"bc2 = {self.bc2!r} is not one of {', '.join(BOUNDARY_CONDITIONS)}"
+            )
         for name, value in (("f", f), ("gamma", gamma), ("beta", beta), ("Delta", delta),
-                            ("H", h), ("alpha_pc", apc), ("alpha_ld", ald)):
+                            ("H", h), ("alpha_pc", apc), ("alpha_ld", ald), ("mu2", mu2),
+                            ("rho2", rho2), ("beta2", beta2), ("H2", h2)):
             object.__setattr__(self, name, value)
 
     @property
@@ -104,6 +182,26 @@ class Params:
         """True when a generalized friction model (``alpha_pc`` or ``alpha_ld`` > 0) is used."""
         return self.alpha_pc > 0 or self.alpha_ld > 0
 
+    @property
+    def two_body(self) -> bool:
+        """True for a deformable substrate (finite ``mu2``); False: the rigid substrate."""
+        return math.isfinite(self.mu2)
+
+    @property
+    def substrate_beta(self) -> float:
+        """The substrate's ``beta2``, with ``None`` resolved to ``beta``."""
+        return self.beta if self.beta2 is None else self.beta2
+
+    @property
+    def substrate(self) -> Material:
+        """The substrate's material in body-1 units (meaningful when :attr:`two_body`)."""
+        return Material(mu=self.mu2, rho=self.rho2, beta=self.substrate_beta)
+
+    @property
+    def slider(self) -> Material:
+        """Body 1's material: ``mu = rho = 1``, ``beta``."""
+        return Material(mu=1.0, rho=1.0, beta=self.beta)
+
     def replace(self, **changes: float | str) -> Params:
         """Return a copy with some fields changed (validated again)."""
         return replace(self, **changes)
@@ -111,6 +209,16 @@ class Params:
     def as_dict(self) -> dict[str, float | str]:
         """Plain dict, for JSON output."""
         return asdict(self)
+
+
+def require_rigid(p: Params, what: str) -> None:
+    """Raise :class:`ParameterError` if ``p`` has a deformable substrate (finite ``mu2``).
+
+    For the parts of the project that model the rigid substrate only (``what`` names them).
+    """
+    if p.two_body:
+        raise ParameterError(f"mu2 = {p.mu2!r}: {what} is for the rigid substrate (mu2 = inf) "
+                             "only; two bodies: analytic.twobody / analytic.branches")
 
 
 def check_k(k: float | np.ndarray, name: str = "k") -> np.ndarray:

@@ -75,16 +75,34 @@ def _call(fun: ComplexFunction, z: np.ndarray) -> np.ndarray:
     return out
 
 
+def _stencil(z: complex) -> tuple[float, np.ndarray]:
+    """Step and points of the central-difference derivative at ``z``."""
+    h = 6e-6 * max(abs(z), 1e-3)  # ~ eps**(1/3): balances truncation and rounding
+    return h, np.array([z + h, z - h, z + 1j * h, z - 1j * h])
+
+
+def _wirtinger(f: np.ndarray, h: float) -> complex:
+    dx = (f[0] - f[1]) / (2 * h)
+    dy = (f[2] - f[3]) / (2 * h)
+    return complex(0.5 * (dx - 1j * dy))
+
+
 def _derivative(fun: ComplexFunction, z: complex, dfun: ComplexFunction | None) -> complex:
     """``dfun(z)``, or the Wirtinger derivative dF/dz by central differences (one batch of 4)."""
     if dfun is not None:
         return complex(_call(dfun, np.array([z]))[0])
-    h = 6e-6 * max(abs(z), 1e-3)  # ~ eps**(1/3): balances truncation and rounding
-    pts = np.array([z + h, z - h, z + 1j * h, z - 1j * h])
-    f = _call(fun, pts)
-    dx = (f[0] - f[1]) / (2 * h)
-    dy = (f[2] - f[3]) / (2 * h)
-    return complex(0.5 * (dx - 1j * dy))
+    h, pts = _stencil(z)
+    return _wirtinger(_call(fun, pts), h)
+
+
+def _value_and_derivative(fun: ComplexFunction, z: complex, dfun: ComplexFunction | None
+                          ) -> tuple[complex, complex]:
+    """``(F(z), F'(z))`` in one call of ``fun`` (with the difference stencil)."""
+    if dfun is not None:
+        return complex(_call(fun, np.array([z]))[0]), _derivative(fun, z, dfun)
+    h, pts = _stencil(z)
+    f = _call(fun, np.concatenate([[z], pts]))
+    return complex(f[0]), _wirtinger(f[1:], h)
 
 
 def polish(
@@ -112,6 +130,7 @@ def polish(
     z = complex(z0)
     fz = complex(_call(fun, np.array([z]))[0])
     prev: tuple[complex, complex] | None = None
+    pending: complex | None = None  # derivative at z, computed with F(z)
     step = math.inf
     reason = f"maximum number of iterations ({maxiter}) reached"
     converged = False
@@ -124,7 +143,10 @@ def polish(
         if fz == 0:
             converged, reason, step = True, "exact zero", 0.0
             break
-        dfz = _derivative(fun, z, dfun)
+        if pending is not None:
+            dfz, pending = pending, None
+        else:
+            dfz = _derivative(fun, z, dfun)
         if not np.isfinite(dfz) or dfz == 0:
             if prev is not None and prev[1] != fz:  # secant fall-back
                 dz = -fz * (z - prev[0]) / (fz - prev[1])
@@ -143,7 +165,8 @@ def polish(
         accepted = False
         for _ in range(12):
             zn = z + lam * dz
-            fn = complex(_call(fun, np.array([zn]))[0])
+            # the value and the next derivative in one call (one call per Newton step)
+            fn, pending = _value_and_derivative(fun, zn, dfun)
             if np.isfinite(fn) and abs(fn) < abs(fz):
                 accepted = True
                 break
@@ -207,6 +230,7 @@ def winding_number(
     max_rel: float = 0.8,
     max_points: int = 50000,
     zero_tol: float = 1e-12,
+    log: bool = False,
 ) -> int:
     """Winding number of ``fun`` around 0 along the boundary of ``box`` (counter-clockwise).
 
@@ -226,7 +250,11 @@ def winding_number(
         max_dphase: Largest allowed phase change between neighbouring samples.
         max_rel: Largest allowed relative change of ``F`` between neighbouring samples.
         max_points: Largest number of samples before giving up.
-        zero_tol: A sample with ``|F| < zero_tol * max|F|`` is taken as a zero on the contour.
+        zero_tol: A sample with ``|F| < zero_tol * max|F|`` is taken as a zero on the contour
+            (not used with ``log=True``, where ``|F|`` may span thousands of decades along the
+            contour, e.g. a finite-element determinant: the local rules above find zeros on it).
+        log: ``fun`` returns the complex logarithm ``log|F| + i arg F`` (any branch of the
+            argument) instead of ``F``: for functions whose modulus over- or underflows.
 
     Returns:
         Zeros minus poles (counted with multiplicity) inside the box.
@@ -242,20 +270,13 @@ def winding_number(
     min_dt = 4.0 * 1e-12
     verified = False
     while True:
-        if not np.all(np.isfinite(f)):
-            zbad = _perimeter_point(bx, t[~np.isfinite(f)][:1])[0]
-            raise ContourError(f"function not finite on the contour at z = {zbad:.6g} (a pole?)")
-        absf = np.abs(f)
-        fmax = absf.max()
-        if fmax == 0 or absf.min() < zero_tol * fmax:
-            zbad = _perimeter_point(bx, t[np.argmin(absf):][:1])[0]
-            raise ContourError(
-                f"function vanishes on the contour near z = {zbad:.6g}: move the box edge"
-            )
-        ph = np.angle(f)
-        dph = np.angle(np.exp(1j * (np.roll(ph, -1) - ph)))  # wrapped increments t_i -> t_{i+1}
-        df = np.abs(np.roll(f, -1) - f)
-        bad = (np.abs(dph) > max_dphase) | (df > max_rel * np.minimum(absf, np.roll(absf, -1)))
+        if log:
+            dph, bad = _log_increments(f, max_dphase, max_rel)
+            if bad is None:
+                zbad = _perimeter_point(bx, t[~np.isfinite(f.real)][:1])[0]
+                raise ContourError(f"log F not finite on the contour at z = {zbad:.6g}")
+        else:
+            dph, bad = _increments(f, bx, t, max_dphase, max_rel, zero_tol)
         t_next = np.roll(t, -1)
         t_next[-1] = 4.0  # last interval closes the loop
         dt = t_next - t
@@ -289,6 +310,44 @@ def winding_number(
         f = np.concatenate([f, fm])
         order = np.argsort(t)
         t, f = t[order], f[order]
+
+
+def _increments(f: np.ndarray, bx: Box, t: np.ndarray, max_dphase: float, max_rel: float,
+                zero_tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """Wrapped phase increments ``t_i -> t_{i+1}`` of samples ``f`` and the intervals to refine."""
+    if not np.all(np.isfinite(f)):
+        zbad = _perimeter_point(bx, t[~np.isfinite(f)][:1])[0]
+        raise ContourError(f"function not finite on the contour at z = {zbad:.6g} (a pole?)")
+    absf = np.abs(f)
+    fmax = absf.max()
+    if fmax == 0 or absf.min() < zero_tol * fmax:
+        zbad = _perimeter_point(bx, t[np.argmin(absf):][:1])[0]
+        raise ContourError(
+            f"function vanishes on the contour near z = {zbad:.6g}: move the box edge"
+        )
+    ph = np.angle(f)
+    dph = np.angle(np.exp(1j * (np.roll(ph, -1) - ph)))  # wrapped increments t_i -> t_{i+1}
+    df = np.abs(np.roll(f, -1) - f)
+    bad = (np.abs(dph) > max_dphase) | (df > max_rel * np.minimum(absf, np.roll(absf, -1)))
+    return dph, bad
+
+
+def _log_increments(logf: np.ndarray, max_dphase: float, max_rel: float
+                    ) -> tuple[np.ndarray, np.ndarray | None]:
+    """As :func:`_increments` for samples of ``log F`` (``None`` if one is not finite).
+
+    The relative-change rule ``|F_{i+1} - F_i| <= max_rel min(|F_i|, |F_{i+1}|)`` is evaluated
+    from ``r = F_{i+1}/F_i = exp(log F_{i+1} - log F_i)`` as ``|r - 1| <= max_rel min(1, |r|)``.
+    """
+    if not np.all(np.isfinite(logf)):
+        return np.zeros(0), None
+    d = np.roll(logf, -1) - logf
+    dph = np.angle(np.exp(1j * d.imag))
+    with np.errstate(over="ignore", invalid="ignore"):
+        r = np.exp(np.minimum(d.real, 700.0)) * np.exp(1j * dph)
+        bad = (np.abs(dph) > max_dphase) | ~(np.abs(r - 1.0) <= max_rel * np.minimum(1.0,
+                                                                                  np.abs(r)))
+    return dph, bad
 
 
 def _poles_inside(box: Box, poles: Sequence[complex | tuple[complex, int]]) -> int:

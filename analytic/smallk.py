@@ -10,7 +10,7 @@ Near the cut-off ``Lambda_0 = sign i (2n+1) pi / (2 beta H)`` a branch is
 - velocity top: ``Z_10 = L ch/sh``, ``X = -ch/sh``;
 - stress top:   ``Z_10 = L sh/ch``, ``X = (-sh + 2 beta sd)/ch``.
 
-Inserting into the friction law (DESIGN.md section 3) and clearing ``sh``, ``ch``::
+Inserting into the friction law (docs/design.md section 3) and clearing ``sh``, ``ch``::
 
     velocity: c = -i f_eff ch / (beta^2 H [(1 + alpha_pc L) L ch + F_0 sh])
     stress:   c = i f_eff (2 beta sd - sh) / (beta^2 H [(1 + alpha_pc L) L sh + F_0 ch])

@@ -1,4 +1,4 @@
-"""Physical units in and out (DESIGN.md section 2).
+"""Physical units in and out (docs/design.md section 2).
 
 Standard rate-and-state friction with the aging law::
 
@@ -18,6 +18,12 @@ Units of the dimensionless problem: time ``t0 = D / v0`` [s], length ``l0 = c_s 
 ``Im Lambda / t0`` [rad/s], wavelength ``2 pi l0 / k`` [m], phase velocity ``c_s Im Lambda / k``
 [m/s] (positive: the pattern ``exp(Lambda t - i k x)`` moves towards ``+x``, the sliding
 direction), height ``H = H_m / l0``.
+
+Two bodies (issue 9): a :class:`Substrate` (shear modulus, Poisson ratio, density, height [m],
+bottom condition) gives ``mu2 = mu_sub / mu``, ``rho2 = rho_sub / rho``,
+``beta2 = beta(nu_sub)``, ``H2 = H_sub / l0``; the units stay those of body 1 (the slider).
+Worked examples (literature values, rounded; marked as such below): :data:`PMMA_ON_STEEL`,
+:data:`PMMA_ON_POLYCARBONATE`, :data:`HOMALITE_ON_POLYCARBONATE`.
 """
 
 from __future__ import annotations
@@ -99,6 +105,51 @@ class Physical:
         return asdict(self)
 
 
+@dataclass(frozen=True)
+class Substrate:
+    """Physical data of the substrate (body 2, below the interface), validated.
+
+    Attributes:
+        mu: Shear modulus [Pa], ``> 0``.
+        nu: Poisson ratio, ``0 < nu < 1/2``.
+        rho: Mass density [kg/m^3], ``> 0``.
+        H: Height [m], ``> 0`` (``math.inf``: half-space).
+        bc: Bottom condition, ``"velocity"`` or ``"stress"``.
+    """
+
+    mu: float
+    nu: float
+    rho: float
+    H: float = math.inf
+    bc: str = "velocity"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "mu", _positive("substrate mu", self.mu, "Pa"))
+        object.__setattr__(self, "rho", _positive("substrate rho", self.rho, "kg/m^3"))
+        try:
+            nu = float(self.nu)
+        except (TypeError, ValueError):
+            raise ParameterError(f"substrate nu = {self.nu!r} is not a number") from None
+        if not (math.isfinite(nu) and 0.0 < nu < 0.5):
+            raise ParameterError(f"substrate nu = {self.nu!r} is outside its allowed range "
+                                 "0 < nu < 1/2")
+        object.__setattr__(self, "nu", nu)
+        h = float(self.H)
+        if math.isnan(h) or h <= 0:
+            raise ParameterError(f"substrate H = {self.H!r} is outside its allowed range "
+                                 "H > 0 [m]")
+        object.__setattr__(self, "H", h)
+
+    @property
+    def c_s(self) -> float:
+        """Shear wave speed [m/s]."""
+        return math.sqrt(self.mu / self.rho)
+
+    def as_dict(self) -> dict[str, float | str]:
+        """Plain dict, for JSON output."""
+        return asdict(self)
+
+
 def beta_from_nu(nu: float) -> float:
     """Plane-strain ``beta = c_s/c_d = sqrt((1 - 2 nu) / (2 (1 - nu)))`` (Eq. beta)."""
     return math.sqrt((1.0 - 2.0 * nu) / (2.0 * (1.0 - nu)))
@@ -152,12 +203,15 @@ class Conversion:
         return H * self.length
 
 
-def to_dimensionless(phys: Physical, *, bc: str = "velocity") -> Conversion:
+def to_dimensionless(phys: Physical, *, bc: str = "velocity",
+                     substrate: Substrate | None = None) -> Conversion:
     """Convert physical data to ``(f, beta, gamma, Delta, H)`` and the units ``t0``, ``c_s t0``.
 
     Args:
         phys: Validated physical data.
         bc: Top condition of the resulting :class:`~analytic.params.Params`.
+        substrate: The deformable substrate (None: rigid, ``mu2 = inf``); gives ``mu2, rho2,
+            beta2, H2, bc2`` relative to body 1.
 
     Returns:
         A :class:`Conversion`.
@@ -173,6 +227,12 @@ def to_dimensionless(phys: Physical, *, bc: str = "velocity") -> Conversion:
     Delta = (phys.a - phys.b) / phys.a
     H = phys.H / length if math.isfinite(phys.H) else math.inf
     params = Params(f=phys.f, gamma=gamma, beta=beta, Delta=Delta, H=H, bc=bc)
+    if substrate is not None:
+        params = params.replace(
+            mu2=substrate.mu / phys.mu, rho2=substrate.rho / phys.rho,
+            beta2=beta_from_nu(substrate.nu),
+            H2=substrate.H / length if math.isfinite(substrate.H) else math.inf,
+            bc2=substrate.bc)
     return Conversion(params=params, t0=t0, length=length, c_s=c_s, c_d=c_s / beta)
 
 
@@ -205,3 +265,31 @@ PMMA_ON_STEEL = Physical(
 """Worked example of the README (PMMA block on a much stiffer steel/glass substrate).
 
 Sources and assumptions are listed in the README (section "physical units")."""
+
+
+# Literature values (rounded, for worked examples; check the sources before quantitative use):
+# PMMA c_s = 1345 m/s, rho = 1170 kg/m^3, nu = 0.33 (as above); polycarbonate and Homalite-100
+# as used in the bimaterial laboratory-earthquake experiments of Xia, Rosakis, Kanamori & Rice
+# (Science 2005): polycarbonate c_s ~ 960 m/s, rho ~ 1200 kg/m^3, nu ~ 0.38; Homalite-100
+# c_s ~ 1255 m/s, rho ~ 1230 kg/m^3, nu ~ 0.35; steel mu ~ 80 GPa, rho ~ 7850 kg/m^3, nu ~ 0.29
+# (handbook values). Interface data (sigma0, v0, D, f, a, b) as in PMMA_ON_STEEL (assumed).
+POLYCARBONATE = Substrate(mu=1200.0 * 960.0**2, nu=0.38, rho=1200.0, H=0.05)
+"""Polycarbonate substrate, 5 cm thick (literature values, rounded; see above)."""
+
+STEEL = Substrate(mu=80.0e9, nu=0.29, rho=7850.0, H=0.05)
+"""Steel substrate, 5 cm thick (handbook values, rounded)."""
+
+HOMALITE_100 = Physical(
+    mu=1230.0 * 1255.0**2, nu=0.35, rho=1230.0, sigma0=PMMA_ON_STEEL.sigma0, v0=PMMA_ON_STEEL.v0,
+    D=PMMA_ON_STEEL.D, f=PMMA_ON_STEEL.f, a=PMMA_ON_STEEL.a, b=PMMA_ON_STEEL.b,
+    H=PMMA_ON_STEEL.H)
+"""A Homalite-100 slider with the interface data of :data:`PMMA_ON_STEEL` (assumed)."""
+
+PMMA_ON_POLYCARBONATE = (PMMA_ON_STEEL, POLYCARBONATE)
+"""(slider, substrate): PMMA on polycarbonate (``mu2 ~ 0.52``, the substrate is slower)."""
+
+HOMALITE_ON_POLYCARBONATE = (HOMALITE_100, POLYCARBONATE)
+"""(slider, substrate): Homalite-100 on polycarbonate (``c_s2/c_s1 ~ 0.76``)."""
+
+PMMA_ON_STEEL_DEFORMABLE = (PMMA_ON_STEEL, STEEL)
+"""(slider, substrate): PMMA on a deformable steel substrate (``mu2 ~ 38``: near rigid)."""

@@ -1,6 +1,6 @@
 """Cross-section model: the strip reduced to ``0 < y < H`` for fields ``u_hat(y) exp(-i k x)``.
 
-DESIGN.md section 5. ``d/dx -> -i k`` (:func:`forms.elasticity.cross_section_gradients`), so
+docs/design.md section 5. ``d/dx -> -i k`` (:func:`forms.elasticity.cross_section_gradients`), so
 the stiffness is ``K(k) = K0 + k K1 + k^2 K2``; the three blocks, the mass ``M`` and the
 interface mass ``B`` are assembled once per mesh. The friction row operation
 (:mod:`forms.friction`) is linear in ``K``, so it is applied once per block and ``T(L; k)`` is
@@ -66,7 +66,8 @@ class CrossSectionModel:
         ratio: ``h_max/h_min`` (default: :func:`meshes.interval.grading_ratio`).
         form: ``"polynomial"`` (PEP) or ``"split"`` (NEP), see :mod:`forms.friction`.
 
-    Call :meth:`operator` for ``T`` at a given ``k``, and :meth:`destroy` at the end.
+    Call :meth:`operator` for ``T`` at a given ``k`` (:meth:`k_blocks` for its three parts in
+    powers of ``k``), and :meth:`destroy` at the end.
     """
 
     def __init__(
@@ -167,6 +168,22 @@ class CrossSectionModel:
                 a.axpy(k * k, self._parts[2].matrices[j], structure=same)
             self._k = k
         return self._op
+
+    def k_blocks(self) -> tuple[FrictionOperator, FrictionOperator, FrictionOperator]:
+        """The three parts of ``T(Lambda; k) = T0(Lambda) + k T1(Lambda) + k^2 T2(Lambda)``.
+
+        Each ``Tm`` is a :class:`~forms.friction.FrictionOperator` in :attr:`form`: the friction
+        row operation applied to the stiffness block ``Km`` (``T0`` also holds the mass ``M`` and
+        the interface mass ``B``), with the Dirichlet rows applied (diagonal
+        :data:`DIRICHLET_DIAGONAL` in the constant term of ``T0`` only). All matrices share one
+        nonzero pattern. :meth:`operator` combines them for one ``k``; at fixed ``Lambda`` they
+        give a quadratic eigenproblem in ``k`` (:func:`forms.spatial_stability.spatial_roots`).
+
+        Returns:
+            ``(T0, T1, T2)``, owned by the model: read them, do not modify or destroy them.
+        """
+        t0, t1, t2 = self._parts
+        return t0, t1, t2
 
     def canonical(self, vec: PETSc.Vec) -> np.ndarray | None:
         """Gather a solution vector on rank 0 in a partition-independent order.

@@ -1,4 +1,4 @@
-"""The one definition of linear elasticity used by every model (DESIGN.md section 5).
+"""The one definition of linear elasticity used by every model (docs/design.md section 5).
 
 Units: ``mu = rho = 1``, so ``lmbda = 1/beta**2 - 2`` (``Params.lame_lambda``).
 
@@ -22,11 +22,6 @@ def stress(grad_u: ufl.core.expr.Expr, lmbda: float, mu: float) -> ufl.core.expr
     """Isotropic Hooke's law ``2 mu eps + lmbda tr(eps) I`` (plane strain, 2x2)."""
     eps = strain(grad_u)
     return 2.0 * mu * eps + lmbda * ufl.tr(eps) * ufl.Identity(2)
-
-
-def epsilon(u: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
-    """Strain of a 2D displacement field: ``strain(grad(u))``."""
-    return strain(ufl.grad(u))
 
 
 def sigma(u: ufl.core.expr.Expr, lmbda: float, mu: float) -> ufl.core.expr.Expr:

@@ -1,8 +1,10 @@
-"""Friction at the interface as a row operation, without a Lagrange multiplier (DESIGN.md 3, 5).
+"""Friction at the interface as a row operation, without a Lagrange multiplier.
+
+docs/design.md sections 3 (the law) and 5.3 (the row operation).
 
 With ``u_y = 0`` imposed strongly at ``y = 0``, the discrete reaction ``R = (K + L^2 M) u`` of an
 interface node is the traction the substrate applies on the body: ``R_x = -sxy``,
-``R_y = -syy``. The linearised friction law (DESIGN.md section 3)::
+``R_y = -syy``. The linearised friction law (docs/design.md section 3)::
 
     (1 + apc L) sxy + (f - ald L/(L+1)) syy - (1/gamma) L (L + Delta)/(L + 1) ux = 0
 
@@ -85,7 +87,7 @@ class FrictionLaw:
 
     @classmethod
     def from_params(cls, p: Params) -> FrictionLaw:
-        """The law of DESIGN.md section 3 for parameters ``p`` (standard or generalized)."""
+        """The law of docs/design.md section 3 for parameters ``p`` (standard or generalized)."""
         rx = _polymul((1.0, p.alpha_pc), (1.0, 1.0))
         ry = (p.f, p.f - p.alpha_ld)
         ux = (0.0, p.Delta / p.gamma, 1.0 / p.gamma)

@@ -1,4 +1,4 @@
-"""Bloch-periodic reduction of a strip as a PETSc matrix ``P`` (route (a) of issue 5).
+"""Bloch-periodic reduction of a strip as a PETSc matrix ``P`` (docs/design.md section 5.6).
 
 Fields go as ``exp(Lambda t - i k x)``, so a mode on a cell of length ``L`` satisfies
 ``u(L, y) = exp(-i k L) u(0, y)``. The reduced unknowns are all degrees of freedom except those on

@@ -1,6 +1,6 @@
 """Half-space modes: the cross-section model with a complex-stretched absorbing layer (PML).
 
-DESIGN.md section 5, "Half-space". Above a physical region ``0 < y < h_phys`` a layer
+docs/design.md section 5, "Half-space". Above a physical region ``0 < y < h_phys`` a layer
 ``h_phys < y < h_phys + L`` maps ``y`` to the complex coordinate ``y~`` with
 ``dy~/dy = s(y)``; in the weak form ``d/dy -> (1/s) d/dy`` and ``dy -> s dy``
 (:func:`stretched_gradients`). The layer's top is clamped (``u = 0``). A partial wave
@@ -48,6 +48,7 @@ import dolfinx.fem.petsc
 import ufl
 from mpi4py import MPI
 
+from analytic import finite_h
 from analytic.params import Params
 from forms.cross_section import DIRICHLET_DIAGONAL, _owned_global
 from forms.elasticity import cross_section_gradients, mass_density, stiffness_density
@@ -67,11 +68,11 @@ def wavenumbers(lam: complex, k: float, beta: float, sheet: str = "physical"
                 ) -> tuple[complex, complex]:
     """``(k_s, k_d)`` of ``exp(Lambda t - i k x)`` on a sheet.
 
-    Principal roots on ``"physical"``; ``"s_tilde"`` flips ``k_s`` (a shear wave growing away
-    from the interface, Appendix C).
+    Principal roots (:func:`analytic.finite_h.wavenumbers`, the one definition) on
+    ``"physical"``; ``"s_tilde"`` flips ``k_s`` (a shear wave growing away from the interface,
+    Appendix C).
     """
-    ks = cmath.sqrt(lam * lam + k * k)
-    kd = cmath.sqrt(beta * beta * lam * lam + k * k)
+    ks, kd = (complex(w) for w in finite_h.wavenumbers(lam, k, beta))
     if sheet == "s_tilde":
         ks = -ks
     elif sheet != "physical":
@@ -462,7 +463,7 @@ class TruncatedResult:
 
 def solve_truncated(comm: MPI.Comm, params: Params, k: float, H: float, bc: str,
                     target: complex, *, degree: int = 4, tol: float = 1e-8) -> TruncatedResult:
-    """The half-space approximated by a plain strip of height ``H`` (B's cross-section model).
+    """The half-space approximated by a plain strip of height ``H`` (the cross-section model).
 
     The check is the reflection estimate: a root is only trusted if both partial waves have
     decayed by ``tol`` on the way to the top and back.

@@ -1,4 +1,4 @@
-"""Graded interval meshes ``0 < y < H`` for the cross-section model (DESIGN.md section 5).
+"""Graded interval meshes ``0 < y < H`` for the cross-section model (docs/design.md section 5).
 
 The mesh is made by gmsh on rank 0 of the given communicator (a transfinite line with a
 geometric "Progression"), then read and distributed by ``dolfinx.io.gmshio.model_to_mesh``.
@@ -11,8 +11,6 @@ the highest waveguide branch wanted (:func:`default_cells`).
 from __future__ import annotations
 
 import math
-
-import numpy as np
 
 import dolfinx
 import dolfinx.io.gmshio
@@ -87,8 +85,3 @@ def interval_mesh(
         gmsh.finalize()
     return msh
 
-
-def cell_sizes(msh: dolfinx.mesh.Mesh) -> np.ndarray:
-    """Sorted local vertex coordinates' differences (for inspection/tests; serial meshes)."""
-    y = np.sort(msh.geometry.x[:, 0])
-    return np.diff(y)

@@ -1,4 +1,4 @@
-"""A 2D strip ``0 < x < L``, ``0 < y < H`` for the real-space model (DESIGN.md section 5).
+"""A 2D strip ``0 < x < L``, ``0 < y < H`` for the real-space model (docs/design.md section 5).
 
 The mesh is a structured (transfinite) gmsh mesh, built on one rank and distributed by
 :func:`dolfinx.io.gmshio.model_to_mesh`. Cells are graded towards the sliding interface

@@ -10,6 +10,9 @@ from analytic.branches import (
 )
 from analytic.params import ParameterError, Params
 
+# Pure numpy (no MPI, no FE): the serial pass is enough.
+pytestmark = pytest.mark.serial
+
 
 @pytest.mark.parametrize(
     "kw,n,sign,kmax",

@@ -10,7 +10,7 @@ import pytest
 from analytic.cli import main
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-CHECK_VALUE = 0.2716852879456 - 6.5866951866228j  # DESIGN.md section 4
+CHECK_VALUE = 0.2716852879456 - 6.5866951866228j  # docs/design.md section 4
 
 
 def _run(*args, cwd=None):
@@ -86,6 +86,7 @@ def test_dispersion_writes_csv_json_png(tmp_path):
     assert (out / "dispersion.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.serial
 def test_main_in_process_returns_2_on_bad_input(capsys):
     """Every rank returns 2; under mpirun only rank 0 prints the line."""
     from analytic.cli import _rank

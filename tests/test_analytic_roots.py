@@ -3,6 +3,9 @@ import pytest
 
 from analytic.roots import ContourError, count_zeros, polish, winding_number, zeros_in_box
 
+# Pure numpy (no MPI, no FE): the serial pass is enough.
+pytestmark = pytest.mark.serial
+
 ROOTS = np.array([0.3 + 0.2j, -0.7 + 0.1j, 0.25 - 0.6j, 1.5 + 1.5j, 0.31 + 0.21j])
 
 

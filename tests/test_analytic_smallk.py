@@ -8,6 +8,9 @@ from analytic.finite_h import cutoff
 from analytic.params import ParameterError, Params
 from analytic.smallk import growth_rate_beta_half, growth_rate_paper, lambda_smallk, slope
 
+# Pure numpy (no MPI, no FE): the serial pass is enough.
+pytestmark = pytest.mark.serial
+
 # Parameter sets: paper defaults (beta = 1/2), beta != 1/2, stress top, generalized model.
 CASES = [
     dict(),

@@ -13,6 +13,9 @@ from analytic.units import (
     to_physical,
 )
 
+# Pure numpy (no MPI, no FE): the serial pass is enough.
+pytestmark = pytest.mark.serial
+
 BASE = dict(mu=30e9, nu=0.25, rho=2700.0, sigma0=50e6, v0=1e-6, D=1e-5, f=0.6, a=0.015,
             b=0.01, H=10.0)
 

@@ -20,7 +20,7 @@ from forms.tracking import branches, normalized, waveguide_lambda
 
 logging.disable(logging.INFO)
 
-# DESIGN.md section 4: velocity top, paper defaults, H = 0.5, k = 1, branch 0-.
+# docs/design.md section 4: velocity top, paper defaults, H = 0.5, k = 1, branch 0-.
 CHECK_VALUE = 0.2716852879456 - 6.5866951866228j
 COMMS = {"world": MPI.COMM_WORLD, "self": MPI.COMM_SELF}
 
@@ -99,7 +99,7 @@ def test_friction_law_coefficients():
     assert FrictionLaw.from_params(Params()).degree == 3
     lam = 0.37 - 1.9j
     mult = law.multipliers(lam)
-    # DESIGN.md section 3, in reactions R = -traction.
+    # docs/design.md section 3, in reactions R = -traction.
     assert np.isclose(mult["Kx"], 1 + p.alpha_pc * lam)
     assert np.isclose(mult["Ky"], p.f - p.alpha_ld * lam / (lam + 1))
     assert np.isclose(mult["Bx"], lam * (lam + p.Delta) / (p.gamma * (lam + 1)))

@@ -12,12 +12,12 @@ import pytest
 
 from mpi4py import MPI
 
+from analytic.branches import follow_branch, polish_root
 from analytic.params import Params
 from forms.cross_section import CrossSectionModel
 from forms.solvers import PolynomialSolver
 from forms.tracking import Branch, waveguide_lambda
 
-branches_mod = pytest.importorskip("analytic.branches")
 logging.disable(logging.INFO)
 
 PARAMS = {
@@ -66,7 +66,7 @@ def test_fe_eigenvalue_is_exact_root(solver, name, n, sign, k):
     lam = res.pairs[0].value
     assert res.pairs[0].residual < 1e-12  # backward error, measured <= 1e-15
     res.destroy()
-    root = branches_mod.polish_root(p, k, lam)
+    root = polish_root(p, k, lam)
     assert root.converged
     assert abs(root.value - lam) <= RTOL * abs(root.value)
 
@@ -77,7 +77,7 @@ def test_fe_eigenvalue_is_exact_root(solver, name, n, sign, k):
 def test_fe_follows_exact_branch_from_cutoff(solver, name, n, sign):
     """The exact branch (continued from the cut-off) has an FE eigenvalue on it."""
     p = PARAMS[name]
-    r = branches_mod.follow_branch(p, n, sign, np.array(K_VALUES))
+    r = follow_branch(p, n, sign, np.array(K_VALUES))
     assert np.all(r.ok)
     model = _model(name)
     for k, exact in zip(K_VALUES, r.Lambda, strict=True):

@@ -8,6 +8,9 @@ import pytest
 from analytic import halfspace as hs
 from analytic.params import ParameterError, Params
 
+# Pure numpy (no MPI, no FE): the serial pass is enough.
+pytestmark = pytest.mark.serial
+
 RNG = np.random.default_rng(20261121)
 
 
@@ -32,7 +35,7 @@ def paper_s_tilde(z, q, p):
 
 
 def design_interface(z, q, p):
-    """DESIGN.md section 3 friction law with the half-space tractions of Eq. (g12).
+    """docs/design.md section 3 friction law with the half-space tractions of Eq. (g12).
 
     sxy = -k_d g1 ux, syy = i k g2 ux (Eq. pert_elastodynamics with G -> g, mu = 1).
     Returns the left-hand side per unit ux.
@@ -63,7 +66,8 @@ def test_s_matches_paper_and_design(apc, ald):
         got = hs.s(z, q, p)
         # same formula, rearranged: round-off only (measured 3e-15 relative)
         assert np.max(np.abs(got - ref) / (1 + np.abs(ref))) < 1e-12
-        # s = -(Lambda + 1) gamma / q * (DESIGN.md interface condition): independent of signs
+        # s = -(Lambda + 1) gamma / q * (interface condition of docs/design.md section 3):
+        # independent of signs
         lam = -1j * q * z
         alt = -(lam + 1) * p.gamma / q * design_interface(z, q, p)
         assert np.max(np.abs(got - alt) / (1 + np.abs(alt))) < 1e-12
@@ -133,7 +137,7 @@ def test_dilatational_roots_and_gap_closure():
         assert all(sh == sheets[-1] for sh in sheets[first_change:])  # one change only
     unstable = hs.follow("dilatational", qs, p, branch="unstable")
     assert unstable[0].physical and unstable[0].growth > 0
-    # decay depths: k_d = q kappa_d, k_s = q A (DESIGN.md section 5, "Half-space")
+    # decay depths: k_d = q kappa_d, k_s = q A (docs/design.md section 5, "Half-space")
     r = unstable[0]
     assert abs(r.decay_length_d - 1 / (r.q * r.kappa.real)) < 1e-9 * r.decay_length_d
     # near z = 1/beta both partial waves barely decay: q L_d = 1.5e4 and L_s / L_d = 15
@@ -205,7 +209,7 @@ def test_bad_input():
 @pytest.mark.parametrize("case", ["shear", "dilatational", "dilatational_generalized",
                                   "quasistatic"])
 def test_finite_h_roots_tend_to_half_space_roots(bc, case):
-    """Independent cross-check with helper A's det M(Lambda, k, H) (analytic.finite_h): the
+    """Independent cross-check with det M(Lambda, k, H) (analytic.finite_h): the
     finite-H root polished from the half-space root converges to it as H -> infinity, for both
     top conditions (the paper: they become equivalent for H -> infinity).
 

@@ -5,6 +5,9 @@ import pytest
 
 from analytic.params import ParameterError, Params, check_k
 
+# Pure numpy (no MPI, no FE): the serial pass is enough.
+pytestmark = pytest.mark.serial
+
 
 @pytest.mark.parametrize(
     "field,value,needle",

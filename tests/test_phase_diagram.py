@@ -21,6 +21,7 @@ def read(out):
         return list(csv.DictReader(fh))
 
 
+@pytest.mark.slow  # measured 13 s (2026-11-22, serial pass)
 @pytest.mark.serial
 def test_phase_diagram_smoke_serial_and_mpi(tmp_path):
     from PIL import Image

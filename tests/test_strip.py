@@ -17,7 +17,7 @@ from forms.periodic import bloch_map  # noqa: E402
 from forms.strip import build_strip_problem, solve_modes  # noqa: E402
 from meshes.strip import LEFT, RIGHT, edge_dofs, strip_mesh, wavelength  # noqa: E402
 
-# DESIGN.md section 4: velocity top, paper defaults, H = 0.5, k = 1, branch 0- (exact root).
+# docs/design.md section 4: velocity top, paper defaults, H = 0.5, k = 1, branch 0- (exact root).
 CHECK_VALUE = 0.2716852879456 - 6.5866951866228j
 COMM = MPI.COMM_WORLD
 
@@ -172,7 +172,7 @@ def test_follow_branch_stays_on_stress_top_0plus():
     The branch peaks at Re Lambda = 0.23294 near k = 1.545 (checked against the exact root).
     """
     from analytic.branches import polish_root
-    from forms.strip import follow_branch
+    from forms.cross_section_continuation import follow_branch
     from forms.tracking import Branch, waveguide_lambda
 
     params = Params(bc="stress")

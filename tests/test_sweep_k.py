@@ -1,151 +1,236 @@
-"""Smoke tests of workflows/sweep_k.py: serial, mpirun -n 2, rank independence, bad input,
---resume. Launched once (serial pass); the MPI runs are subprocesses."""
+"""The certified complete spectrum: forms.certified / analytic.spectrum and workflows/sweep_k.py.
+
+The module-level tests run serially and under mpirun -n 2 (the models live on COMM_SELF, so
+every rank must get the same numbers); the scene runs are subprocesses, launched from the serial
+pass only (they start their own mpirun where needed).
+"""
 
 import csv
 import json
 import os
-import signal
-import subprocess
-import sys
-import time
 
 import numpy as np
 import pytest
+from _workflows import run_workflow
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SCRIPT = os.path.join(ROOT, "workflows", "sweep_k.py")
-CHECK_VALUE = 0.2716852879456 - 6.5866951866228j  # DESIGN.md section 4 (k = 1, branch 0-)
-TINY = ["--k", "0.5,1.0,1.5", "--branches", "1", "--quiet", "--no-plot"]
+from analytic import Params, roots_in_box
+from analytic.spectrum import Region, certified_roots, families
+from forms.certified import CertifiedSolver, default_discretisation
 
-pytestmark = pytest.mark.serial
-
-
-def _run(args, out, n=1, check=True):
-    cmd = [sys.executable, SCRIPT, *args, "--out", str(out)]
-    if n > 1:
-        cmd = ["mpirun", "-n", str(n), *cmd]
-    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
-    if check:
-        assert proc.returncode == 0, proc.stderr[-2000:]
-    return proc
+#: k = 1, branch 0-, paper defaults (docs/design.md section 4).
+CHECK_VALUE = 0.2716852879456 - 6.5866951866228j
 
 
-def _table(out):
+def _solver(p, region, k_max):
+    deg, cells, ratio = default_discretisation(p, region, k_max, 1e-8)
+    return CertifiedSolver(p, region, deg, cells, ratio, k_max, 1e-8)
+
+
+@pytest.mark.parametrize("k", [1.0, 3.0])
+@pytest.mark.parametrize("bc", ["velocity", "stress"])
+def test_fe_count_equals_exact_count_and_values_match(bc, k):
+    p, region = Params(H=0.5, bc=bc), Region()
+    fams = families(p, region, np.array([k]))
+    solver = _solver(p, region, k)
+    try:
+        res = solver.solve(k, fams)
+    finally:
+        solver.destroy()
+    # an independent exact search of the same rectangle (zeros_in_box on det_M)
+    exact = roots_in_box(p, k, res.box)
+    assert res.closed and res.n_fe == res.n_exact == len(exact) == len(res.rows)
+    fe = np.array([complex(r["re_lambda"], r["im_lambda"]) for r in res.rows])
+    ex = np.array([r.value for r in exact])
+    # each FE value matched to a distinct exact root: the nearest-root map is a bijection
+    nearest = [int(np.argmin(np.abs(ex - z))) for z in fe]
+    assert sorted(nearest) == list(range(len(ex)))
+    # default discretisation for rtol = 1e-8: measured max error 3.3e-9 over the default sweep
+    assert np.max(np.abs(fe - ex[nearest]) / np.abs(ex[nearest])) < 1e-8
+    assert all(r["status"] == "ok" for r in res.rows)
+    assert len({r["label"] for r in res.rows}) == len(res.rows)
+    if bc == "velocity" and k == 1.0:
+        z = fe[[r["label"] for r in res.rows].index("0-")]
+        assert abs(z - CHECK_VALUE) / abs(CHECK_VALUE) < 1e-10
+
+
+def test_count_check_fails_when_a_root_is_removed(monkeypatch):
+    """A root taken out of the candidates on purpose: the k must be flagged, every row too."""
+    import forms.certified as fc
+
+    p, region, k = Params(H=0.5), Region(), 3.0
+    fams = families(p, region, np.array([k]))
+
+    def drop_one(*args, **kwargs):
+        lab, box, n = certified_roots(*args, **kwargs)
+        return lab[1:], box, n
+
+    monkeypatch.setattr(fc, "certified_roots", drop_one)
+    solver = _solver(p, region, k)
+    try:
+        res = solver.solve(k, fams)
+    finally:
+        solver.destroy()
+    assert not res.closed and res.n_fe == res.n_exact == len(res.rows) + 1
+    assert res.rows and all("count not closed" in r["status"] for r in res.rows)
+
+
+def test_region_holds_the_fastest_mode():
+    """Default region: no root outside it (up to 8 c_d) grows faster than the fastest inside."""
+    p, region = Params(H=0.5), Region()
+    for k in (6.0, 14.0):
+        w = region.im_max(p, k)
+        inside = roots_in_box(p, k, region.box(p, k))
+        wide = roots_in_box(p, k, (region.re_min, region.re_max, -2 * w, 2 * w))
+        outside = [r.value.real for r in wide if abs(r.value.imag) > w]
+        assert max(r.value.real for r in inside) > max(outside, default=-1.0)
+
+
+# ------------------------------------------------------------------- the scene (subprocesses)
+QUIET = ["--quiet", "--no-plot"]
+
+
+def _rows(out):
     with open(os.path.join(out, "spectrum.csv")) as fh:
         return list(csv.DictReader(fh))
 
 
-def _values(rows):
-    return np.array([[float(r["k"]), float(r["re_lambda"]), float(r["im_lambda"])] for r in rows])
+def _by_k(rows):
+    d = {}
+    for r in rows:
+        d.setdefault(float(r["k"]), {})[r["label"]] = complex(float(r["re_lambda"]),
+                                                              float(r["im_lambda"]))
+    return d
 
 
-def test_serial_run_writes_outputs_and_check_value(tmp_path):
-    out = tmp_path / "s"
-    _run(["--k", "0.5,1.0", "--branches", "1", "--quiet"], out)
-    rows = _table(out)
-    assert [r["branch"] for r in rows] == ["0-", "0+", "0-", "0+"]
+@pytest.mark.serial
+def test_sparse_and_dense_k_lists_give_the_same_labels_and_values(tmp_path):
+    sparse, dense = tmp_path / "sparse", tmp_path / "dense"
+    for out, ks in ((sparse, "1,3,5"), (dense, "1:5:17")):
+        proc = run_workflow("sweep_k.py", ["--k", ks, *QUIET, "--out", str(out)])
+        assert proc.returncode == 0, proc.stderr[-2000:]
+    s, d = _by_k(_rows(sparse)), _by_k(_rows(dense))
+    for k in (1.0, 3.0, 5.0):
+        assert set(s[k]) == set(d[k])
+        for lab, z in s[k].items():
+            # same exact root, same Newton start: only rounding differs (measured 1e-15)
+            assert abs(z - d[k][lab]) <= 1e-12 * abs(z)
+    assert "s0+" in s[3.0]  # the family near 4.3i at k = 3 (not a waveguide branch)
+
+
+@pytest.mark.serial
+def test_duplicate_k_values_are_merged(tmp_path):
+    out = tmp_path / "dup"
+    proc = run_workflow("sweep_k.py", ["--k", "0.5,1,1,2", "--out", str(out), "--no-plot"])
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "1 duplicate k value(s) merged" in proc.stderr
+    rows = _rows(out)
+    assert sorted({float(r["k"]) for r in rows}) == [0.5, 1.0, 2.0]
     assert all(r["status"] == "ok" for r in rows)
-    row = next(r for r in rows if r["branch"] == "0-" and float(r["k"]) == 1.0)
-    lam = complex(float(row["re_lambda"]), float(row["im_lambda"]))
-    # default discretisation (P3, chosen cells): measured relative error 1e-12, 2026-11-21.
-    assert abs(lam - CHECK_VALUE) / abs(CHECK_VALUE) < 1e-10
-    assert float(row["residual"]) < 1e-13
+    labels_at_1 = [r["label"] for r in rows if float(r["k"]) == 1.0]
+    assert len(labels_at_1) == len(set(labels_at_1))
+
+
+@pytest.mark.serial
+def test_large_k_no_duplicated_root_and_every_exact_root_reported(tmp_path):
+    """--k 50,51 (the stable roots of the issue, -0.19999+100.746i and -0.8212+102.820i, are
+    inside this region): each exact root once, no two rows on one root."""
+    out = tmp_path / "k50"
+    proc = run_workflow("sweep_k.py", ["--k", "50,51", "--re-min", "-0.9", "--c-max", "1",
+                                       *QUIET, "--out", str(out)], timeout=900)
+    assert proc.returncode in (0, 1), proc.stderr[-2000:]
+    rows = _rows(out)
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["parameters"]["f"] == 0.3 and summary["mpi"]["ranks"] == 1
-    assert summary["failures"] == [] and "petsc" in summary["versions"]
-    assert summary["most_unstable"]["branch"] == "0-"
-    assert (out / "dispersion.png").stat().st_size > 10000
+    p = Params(H=0.5)
+    for item in summary["per_k"]:
+        k = item["k"]
+        assert item["closed"], item
+        mine = [r for r in rows if float(r["k"]) == k]
+        fe = np.array([complex(float(r["re_lambda"]), float(r["im_lambda"])) for r in mine])
+        exact = np.array([r.value for r in roots_in_box(p, k, tuple(item["box"]))])
+        assert len(fe) == len(exact) == item["n_exact"] == item["n_fe"]
+        d = np.abs(fe[:, None] - exact[None, :])
+        assert sorted(np.argmin(d, axis=1)) == list(range(len(exact)))  # distinct matches
+        assert len({r["label"] for r in mine}) == len(mine)
+    at50 = _by_k(rows)[50.0]
+    for z in (-0.19999 + 100.746j, -0.8212 + 102.820j):
+        assert min(abs(v - z) for v in at50.values()) < 1e-3
 
 
-@pytest.mark.parametrize("group_size", [1, 2])
-def test_mpi_run_equals_serial_run(tmp_path, group_size):
-    _run(TINY, tmp_path / "n1")
-    _run([*TINY, "--group-size", str(group_size)], tmp_path / "n2", n=2)
-    a, b = _table(tmp_path / "n1"), _table(tmp_path / "n2")
-    assert [r["branch"] for r in a] == [r["branch"] for r in b]
-    va, vb = _values(a), _values(b)
-    assert np.abs(va - vb).max() < 1e-10
-    summary = json.loads((tmp_path / "n2" / "summary.json").read_text())
-    assert summary["mpi"] == {"ranks": 2, "group_size": group_size, "groups": 2 // group_size}
+@pytest.mark.serial
+def test_alpha_pc_2_branch_0plus_followed_through_its_brief_instability(tmp_path):
+    out = tmp_path / "apc"
+    proc = run_workflow("sweep_k.py", ["--alpha-pc", "2", "--k", "4.0:4.2:21", *QUIET,
+                                       "--out", str(out)])
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    rows = [r for r in _rows(out) if r["label"] == "0+"]
+    assert len(rows) == 21 and all(r["status"] == "ok" for r in rows)
+    re = np.array([float(r["re_lambda"]) for r in rows])
+    assert re.max() > 0 and re[0] < 0 and re[-1] < 0  # unstable in between, stable at the ends
+    p = Params(H=0.5, alpha_pc=2.0)
+    for r in rows[::5]:
+        z = complex(float(r["re_lambda"]), float(r["im_lambda"]))
+        ex = roots_in_box(p, float(r["k"]), (z.real - 1e-3, z.real + 1e-3, z.imag - 1e-3,
+                                             z.imag + 1e-3))
+        assert len(ex) == 1 and abs(ex[0].value - z) < 1e-8 * abs(z)
 
 
-def test_failed_solves_are_recorded_and_sweep_goes_on(tmp_path):
-    # a PETSc option that makes every PEP set-up fail (no shift-and-invert with LU on T(sigma))
-    out = tmp_path / "fail"
-    proc = _run([*TINY, "-st_type", "shift"], out, check=False)
-    assert proc.returncode == 1
-    rows = _table(out)
-    assert len(rows) == 6 and all(r["status"].startswith("failed") for r in rows)
-    assert all(r["re_lambda"] == "" for r in rows)
+@pytest.mark.serial
+@pytest.mark.parametrize("bc", ["velocity", "stress"])
+def test_most_unstable_is_the_maximum_of_the_exact_roots(tmp_path, bc):
+    out = tmp_path / bc
+    proc = run_workflow("sweep_k.py", ["--bc", bc, "--k", "0.5:6:12", *QUIET, "--out",
+                                       str(out)])
+    assert proc.returncode == 0, proc.stderr[-2000:]
     summary = json.loads((out / "summary.json").read_text())
-    assert len(summary["failures"]) == 6
+    best = summary["most_unstable"]
+    p, region = Params(H=0.5, bc=bc), Region()
+    exact = [(k, r.value) for k in np.linspace(0.5, 6, 12)
+             for r in roots_in_box(p, k, region.box(p, k))]
+    k_ex, z_ex = max(exact, key=lambda t: t[1].real)
+    assert best["k"] == pytest.approx(k_ex, rel=1e-12)
+    assert abs(complex(best["re_lambda"], best["im_lambda"]) - z_ex) < 1e-8 * abs(z_ex)
+    assert best["certificate"]["certified"] and best["status"] == "ok"
 
 
-def test_nep_solver_matches_pep(tmp_path):
-    _run(TINY, tmp_path / "pep")
-    _run([*TINY, "--solver", "nep"], tmp_path / "nep")
-    a, b = _table(tmp_path / "pep"), _table(tmp_path / "nep")
-    assert [r["branch"] for r in a] == [r["branch"] for r in b]
-    # same discretisation, PEP (polynomial form) vs NEP (split rational form): measured
-    # largest relative difference 1e-11, 2026-11-21.
-    va, vb = _values(a), _values(b)
-    la, lb = va[:, 1] + 1j * va[:, 2], vb[:, 1] + 1j * vb[:, 2]
-    assert np.max(np.abs(la - lb) / np.abs(la)) < 1e-10
-    summary = json.loads((tmp_path / "nep" / "summary.json").read_text())
-    assert summary["solver"]["form"] == "split"
+@pytest.mark.serial
+def test_two_ranks_give_the_same_spectrum_and_plot(tmp_path):
+    one, two = tmp_path / "one", tmp_path / "two"
+    proc = run_workflow("sweep_k.py", ["--k", "0.5,2,4", "--quiet", "--out", str(one)])
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    proc = run_workflow("sweep_k.py", ["--k", "0.5,2,4", "--quiet", "--out", str(two)], nproc=2)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    a, b = _rows(one), _rows(two)
+    assert [r["label"] for r in a] == [r["label"] for r in b]
+    for ra, rb in zip(a, b, strict=True):
+        assert float(ra["re_lambda"]) == pytest.approx(float(rb["re_lambda"]), abs=1e-12)
+        assert float(ra["im_lambda"]) == pytest.approx(float(rb["im_lambda"]), abs=1e-11)
+    assert json.loads((two / "summary.json").read_text())["mpi"]["ranks"] == 2
+    assert (two / "dispersion.png").stat().st_size > 10000
 
 
-@pytest.mark.parametrize(
-    "bad",
-    [["--beta", "0.9"], ["--k=-1,2"], ["--k", "1:0:5"], ["--degree", "0"], ["--nope", "1"],
-     ["--H", "inf"], ["--group-size", "3"], ["--gamma", "nan"]],
-)
-def test_bad_input_exit_2_nothing_written(tmp_path, bad):
+@pytest.mark.serial
+@pytest.mark.parametrize("nproc", [1, 2])
+@pytest.mark.parametrize("bad, word", [(["--re-min", "-2"], "re-min"), (["--rtol", "0"], "rtol"),
+                                       (["--H", "inf"], "H"), (["-beta", "0.8"], "-beta"),
+                                       (["--be", "0.6"], "--be")])
+def test_bad_input_one_line_exit_2_nothing_written(tmp_path, bad, word, nproc):
     out = tmp_path / "bad"
-    proc = _run([*TINY, *bad], out, check=False)
+    proc = run_workflow("sweep_k.py", [*bad, "--out", str(out)], nproc=nproc)
     assert proc.returncode == 2
-    assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and word in lines[0], proc.stderr
     assert not out.exists()
 
 
-def test_resume_recomputes_only_missing_k(tmp_path):
+@pytest.mark.serial
+def test_resume_continues_and_refuses_other_parameters(tmp_path):
     out = tmp_path / "r"
-    _run(TINY, out)
-    full = _values(_table(out))
-    os.remove(out / "raw" / "k00001.npz")
-    os.remove(out / "spectrum.csv")
-    _run([*TINY, "--resume"], out)
-    summary = json.loads((out / "summary.json").read_text())
-    assert summary["computed_this_run"] == 1 and summary["resumed"]
-    assert np.abs(_values(_table(out)) - full).max() < 1e-12
-    # resuming with other settings is refused and leaves the files alone
-    before = (out / "spectrum.csv").read_text()
-    proc = _run([*TINY, "--resume", "--f", "0.4"], out, check=False)
-    assert proc.returncode == 2 and "different settings" in proc.stderr
-    assert (out / "spectrum.csv").read_text() == before
-
-
-def test_interrupted_sweep_keeps_finished_k_and_resumes(tmp_path):
-    out = tmp_path / "int"
-    args = ["--k", "0.05:3:300", "--branches", "1", "--quiet", "--no-plot"]
-    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    proc = subprocess.Popen([sys.executable, SCRIPT, *args, "--out", str(out)], env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    raw = out / "raw"
-    deadline = time.time() + 120
-    while time.time() < deadline and (not raw.exists() or len(list(raw.glob("k*.npz"))) < 5):
-        time.sleep(0.05)
-    proc.send_signal(signal.SIGINT)  # Ctrl-C
-    _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 130 and b"--resume" in err
-    finished = sorted(p.name for p in raw.glob("k*.npz"))
-    assert 5 <= len(finished) < 300
-    assert not (out / "spectrum.csv").exists()
-    before = {name: (raw / name).stat().st_mtime_ns for name in finished}
-    _run([*args, "--resume"], out)
-    summary = json.loads((out / "summary.json").read_text())
-    assert summary["computed_this_run"] == 300 - len(finished)
-    assert all((raw / name).stat().st_mtime_ns == t for name, t in before.items())
-    rows = _table(out)
-    assert len(rows) == 600 and all(r["status"] == "ok" for r in rows)
+    proc = run_workflow("sweep_k.py", ["--k", "0.5,1", *QUIET, "--out", str(out)])
+    assert proc.returncode == 0
+    os.remove(out / "raw" / "k00001.json")
+    proc = run_workflow("sweep_k.py", ["--k", "0.5,1", *QUIET, "--out", str(out), "--resume"])
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads((out / "summary.json").read_text())["computed_this_run"] == 1
+    proc = run_workflow("sweep_k.py", ["--k", "0.5,1", "--beta", "0.45", *QUIET, "--out",
+                                       str(out), "--resume"])
+    assert proc.returncode == 2 and "beta" in proc.stderr

@@ -10,7 +10,7 @@ import json
 import pytest
 from _workflows import run_workflow
 
-CHECK_VALUE = 0.2716852879456 - 6.5866951866228j  # DESIGN.md section 4
+CHECK_VALUE = 0.2716852879456 - 6.5866951866228j  # docs/design.md section 4
 
 
 def _run(args, out, n=1):

@@ -6,19 +6,19 @@
 Figures (``--only`` takes a comma list of these names):
 
 - ``finiteH``: waveguide growth ``H Re Lambda`` vs ``Hk`` for several ``gamma f`` and ``n``,
-  and for several ``H`` (Fig. finiteH), with the small-``k`` slope of Eq. (Hspectrum);
-  needs ``analytic.branches`` / ``analytic.smallk`` (helper A), skipped with a message if absent;
+  and for several ``H`` (Fig. finiteH), with the small-``k`` slope of Eq. (Hspectrum)
+  (``analytic.branches``, ``analytic.smallk``);
 - ``comparison``: ``Re lambda`` and ``Re z`` vs ``q`` for several ``gamma f``, exact roots of
   ``s(z, q)`` and Eqs. (analytic_spectrum), (kappa_d)+(kappa_d1) (Fig. comparison);
 - ``both``: dilatational and shear instabilities at small ``Delta`` (Fig. both);
 - ``phase_diagram``: Fig. stability_diagram (via ``workflows/phase_diagram.py``);
 - ``modified1`` / ``modified2``: effect of ``alpha_PC`` / ``alpha_LD`` (Figs. modified1/2);
-- ``stress_top``: velocity vs stress top condition at finite ``H`` (Appendix B figure); needs
-  ``analytic.branches`` (helper A);
+- ``stress_top``: velocity vs stress top condition at finite ``H`` (Appendix B figure),
+  ``analytic.branches``;
 - ``gaps``: the gaps of the spectrum closed by ``s~`` (Appendix C, Fig. gaps).
 
 Every PNG carries its command line and parameters in the PNG metadata (``Description``,
-``Comment``); ``DIR/figures.json`` lists what was made (or skipped, and why).
+``Comment``); ``DIR/figures.json`` lists what was made.
 
 FE points: every figure except the phase diagram gets FE eigenvalues computed here, at up to
 ``--fe-points`` points per curve, with the exact root as reference: the cross-section model
@@ -51,10 +51,12 @@ from mpi4py import MPI
 
 from analytic import halfspace as hs
 from analytic import largek as lk
+from analytic.branches import follow_branch
 from analytic.params import ParameterError, Params
+from analytic.smallk import lambda_smallk
 from forms.cross_section import CrossSectionModel
 from forms.pml import design_layer, solve_halfspace
-from forms.solvers import PolynomialSolver
+from forms.solvers import PolynomialSolver, shift_off
 
 #: Options prefixes of the SLEPc objects: cross-section solves, PML solves.
 PETSC_PREFIXES = ("gallery_cs_", "pml_")
@@ -64,10 +66,6 @@ FIGURE_COST = {"finiteH": 6.0, "comparison": 2.0, "both": 2.0, "phase_diagram": 
                "modified1": 2.0, "modified2": 2.0, "stress_top": 3.0, "gaps": 2.0}
 FIGURES = ("finiteH", "comparison", "both", "phase_diagram", "modified1", "modified2",
            "stress_top", "gaps")
-
-
-class Skipped(RuntimeError):
-    """A figure cannot be made here (a missing optional part); the reason is recorded."""
 
 
 # ------------------------------------------------------------------------------- data helpers
@@ -109,10 +107,6 @@ CS_DEGREE = 3
 #: this model have 1e-16 .. 1e-14 (measured 2026-11-21 on the gallery's points); a pair above
 #: this is not a converged eigenpair of the discrete problem.
 CS_RESIDUAL = 1e-10
-#: Relative offset of the cross-section shift from the exact root: a shift *at* the eigenvalue
-#: makes shift-and-invert nearly singular (measured: backward errors 1e-9 .. 1e-6 and
-#: DIVERGED_BREAKDOWN with the exact root as shift, 1e-16 with this offset).
-CS_SHIFT_OFFSET = 1e-3
 #: Element degree of the half-space (PML) model, ``forms.pml.solve_halfspace``'s default.
 PML_DEGREE = 4
 FE_MODELS = {
@@ -192,8 +186,8 @@ def solve_cross_section(comm: MPI.Comm, tasks: list[FETask]) -> list[dict]:
         row = {"Lambda": complex("nan"), "residual": float("nan"), "flags": [],
                "size": model.size}
         try:
-            shift = t.target + CS_SHIFT_OFFSET * abs(t.target) * complex(1, 1) / 2**0.5
-            res = solver.solve(model.operator(t.k), shift)
+            # the exact root is (nearly) an eigenvalue: shift off it (forms.solvers.shift_off)
+            res = solver.solve(model.operator(t.k), shift_off(t.target))
         except Exception as err:  # noqa: BLE001 - one failed solve must not stop the gallery
             row["flags"].append(_fail(err))
             solver.destroy()
@@ -498,17 +492,7 @@ def fig_phase_diagram(opts: argparse.Namespace, fe: list[FETask]):  # noqa: ANN2
                  "closed_form_vs_numerical": phase_diagram.measured_differences(records, rows)}
 
 
-def _finite_h_tools():  # noqa: ANN202
-    """Helper A's finite-H continuation and small-k slope (Skipped if not available)."""
-    try:
-        from analytic.branches import follow_branch
-        from analytic.smallk import lambda_smallk
-    except ImportError as err:
-        raise Skipped(f"needs analytic.branches / analytic.smallk (helper A): {err}") from None
-    return follow_branch, lambda_smallk
-
-
-def _unstable_branch(follow_branch, p: Params, n: int, hk: np.ndarray):  # noqa: ANN001, ANN202
+def _unstable_branch(p: Params, n: int, hk: np.ndarray):  # noqa: ANN202
     """``H Re Lambda`` on the partner of cut-off ``n`` that grows at small ``k``."""
     best = None
     for sign in (-1, 1):
@@ -534,7 +518,6 @@ def fig_finiteH(opts: argparse.Namespace, fe: list[FETask]):  # noqa: ANN201, N8
     """Fig. finiteH: H Re Lambda vs Hk; left: gamma f and n (H = 0.5), right: H (n = 0)."""
     import matplotlib.pyplot as plt
 
-    follow_branch, lambda_smallk = _finite_h_tools()
     hk = np.linspace(0.02, 3.0, max(opts.n_q // 4, 12))
     base = Params(f=0.3, beta=0.5, Delta=0.7, H=0.5)
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.6))
@@ -542,7 +525,7 @@ def fig_finiteH(opts: argparse.Namespace, fe: list[FETask]):  # noqa: ANN201, N8
     signs = {}
     for i, gf in enumerate(gfs):
         p = base.replace(gamma=gf / base.f)
-        g, sign, res = _unstable_branch(follow_branch, p, 0, hk)
+        g, sign, res = _unstable_branch(p, 0, hk)
         signs[f"gf={gf}"] = sign
         a1.plot(hk, g, "-", color=f"C{i}", lw=1.6, label=f"gamma f = {gf:g}, n = 0")
         finite_h_tasks(fe, "finiteH", f"gamma f = {gf:g}, n = 0", f"C{i}", p, 0, res, 0,
@@ -551,7 +534,7 @@ def fig_finiteH(opts: argparse.Namespace, fe: list[FETask]):  # noqa: ANN201, N8
                 color="k", lw=0.8)
     p = base.replace(gamma=0.9 / base.f)
     for n, ls in ((1, "--"), (2, ":")):
-        g, sign, res = _unstable_branch(follow_branch, p, n, hk)
+        g, sign, res = _unstable_branch(p, n, hk)
         a1.plot(hk, g, ls, color="C2", lw=1.6, label=f"gamma f = 0.9, n = {n}")
         finite_h_tasks(fe, "finiteH", f"gamma f = 0.9, n = {n}", "C2", p, n, res, 0,
                        opts.fe_points)
@@ -561,7 +544,7 @@ def fig_finiteH(opts: argparse.Namespace, fe: list[FETask]):  # noqa: ANN201, N8
     hs_ = (0.5, 1.0, 2.0, 5.0, 10.0)
     for i, h in enumerate(hs_):
         p = base.replace(H=h, gamma=3.0)
-        g, _, res = _unstable_branch(follow_branch, p, 0, hk)
+        g, _, res = _unstable_branch(p, 0, hk)
         a2.plot(hk, g, "-", color=f"C{i}", lw=1.6, label=f"H = {h:g}")
         finite_h_tasks(fe, "finiteH", f"H = {h:g}, n = 0", f"C{i}", p, 0, res, 1,
                        opts.fe_points)
@@ -585,13 +568,12 @@ def fig_stress_top(opts: argparse.Namespace, fe: list[FETask]):  # noqa: ANN201
     """Appendix B figure: velocity vs stress top, gamma f = 0.9, n = 0, H = 0.5."""
     import matplotlib.pyplot as plt
 
-    follow_branch, _ = _finite_h_tools()
     hk = np.linspace(0.02, 2.0, max(opts.n_q // 4, 12))
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
     params = {}
     for bc, c in (("velocity", "tab:red"), ("stress", "tab:green")):
         p = Params(f=0.3, beta=0.5, Delta=0.7, H=0.5, gamma=3.0, bc=bc)
-        g, sign, res = _unstable_branch(follow_branch, p, 0, hk)
+        g, sign, res = _unstable_branch(p, 0, hk)
         ax.plot(hk, g, "-", color=c, lw=1.8,
                 label=f"{bc} controlled top (branch 0{'+-'[sign < 0]})")
         finite_h_tasks(fe, "stress_top", f"{bc} top", c, p, 0, res, 0, opts.fe_points)
@@ -664,11 +646,7 @@ def _run(comm: MPI.Comm, opts: argparse.Namespace, names: list[str]) -> int:
     mine = _cli.my_share(comm, [FIGURE_COST[n] for n in names])
     for name in [names[i] for i in mine]:
         fe: list[FETask] = []
-        try:
-            figs[name] = MAKERS[name](opts, fe)
-        except Skipped as why:
-            done[name] = {"status": "skipped", "reason": str(why)}
-            continue
+        figs[name] = MAKERS[name](opts, fe)
         tasks += fe
     t_analytic = time.perf_counter() - t_start
     # FE: every rank sees every figure's tasks and solves its share (collective).

@@ -14,10 +14,10 @@ kept. Written to ``--out``:
   infinite-strip value, and ``|Lambda_block - Lambda_inf|`` on log axes;
 - ``block_mode.png``: that mode for the largest ``L``: stresses and slip along the interface;
 - ``finite_block.json``: parameters, reference, timings, versions, and the long-block limit
-  from the cross-section model alone (:func:`forms.strip.kulikovskii_limit`: the global mode
-  of a long block is made of two spatial waves ``k1, k2``; either they have equal spatial
-  growth ``Im k1 = Im k2`` (Kulikovskii's condition, convective instability with reflections)
-  or they pinch, ``k1 = k2`` (saddle point, absolute instability)), drawn in
+  from the cross-section model alone (:func:`forms.spatial_stability.kulikovskii_limit`: the
+  global mode of a long block is made of two spatial waves ``k1, k2``; either they have equal
+  spatial growth ``Im k1 = Im k2`` (Kulikovskii's condition, convective instability with
+  reflections) or they pinch, ``k1 = k2`` (saddle point, absolute instability)), drawn in
   ``finite_block.png`` too.
 
 Example::
@@ -39,15 +39,11 @@ import _cli
 import mode_shape  # imports pyvista before dolfinx (see there)
 import numpy as np
 
-from forms.strip import (
-    build_strip_problem,
-    follow_branch,
-    interface_stresses,
-    kulikovskii_limit,
-    most_unstable_k,
-    normalise,
-    solve_modes,
-)
+from analytic.branches import parse_branch_label
+from forms.cross_section_continuation import follow_branch, most_unstable_k
+from forms.mode_postprocessing import interface_stresses, normalise
+from forms.spatial_stability import kulikovskii_limit
+from forms.strip import build_strip_problem, solve_modes
 from forms.tracking import Branch, waveguide_lambda
 from meshes.strip import strip_mesh
 
@@ -92,7 +88,8 @@ def validate(args: argparse.Namespace):
     if math.isinf(params.H):
         raise _cli.ParameterError("H = inf is outside its allowed range here (a finite block)")
     lengths = _cli.parse_k(args.lengths, name="--lengths")
-    branches = [mode_shape.parse_branch(b) for b in args.branches.split(",") if b.strip()]
+    branches = [parse_branch_label(b, name="--branches") for b in args.branches.split(",")
+                if b.strip()]
     if not branches:
         raise _cli.ParameterError("--branches is empty (give e.g. 0-,0+)")
     k_scan = _cli.parse_k(args.k_scan, name="--k-scan")

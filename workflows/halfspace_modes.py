@@ -8,7 +8,8 @@ Appendix C, or the shear family near ``z = -1``) is the reference. The FE comput
 
 - with the PML layer of :mod:`forms.pml` (two layer settings, failure flags), and
 - with plain strips of the heights ``--H-trunc`` and the top conditions ``--bc-trunc``
-  (B's cross-section model; flag: reflection estimate at the top).
+  (the cross-section model of :mod:`forms.cross_section`; flag: reflection estimate at the
+  top).
 
 Every row says whether the code trusted its number (``trusted``, ``flags``) and how far it is
 from the analytic root; ``summary.json`` counts the *silent failures* (trusted but wrong by

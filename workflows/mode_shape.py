@@ -2,7 +2,8 @@
 
 Solves the Bloch-periodic strip (:mod:`forms.strip`) at one wavenumber ``k`` near a target,
 keeps the eigenvalue whose mode really carries ``exp(-i k x)`` (a one-wavelength cell also holds
-``0, -k, 2k, ...``: see :func:`forms.strip.harmonic_content`), and writes to ``--out``:
+``0, -k, 2k, ...``: see :func:`forms.mode_postprocessing.harmonic_content`), and writes to
+``--out``:
 
 - ``mode.xdmf`` (+ ``.h5``): ``Re(u exp(i Im(Lambda) t))`` over one period ``T = 2 pi/|Im
   Lambda|`` (``--phases`` steps, growth factored out; XDMF stores vertex values), for ParaView;
@@ -47,16 +48,15 @@ import dolfinx.io  # noqa: E402
 import dolfinx.plot  # noqa: E402
 import ufl  # noqa: E402
 
-from forms.elasticity import sigma  # noqa: E402
-from forms.strip import (  # noqa: E402
-    build_strip_problem,
+from analytic.branches import parse_branch_label  # noqa: E402
+from forms.cross_section_continuation import (  # noqa: E402
     cross_section_mode,
     follow_branch,
-    interface_stresses,
     most_unstable_k,
-    normalise,
-    solve_modes,
 )
+from forms.elasticity import sigma  # noqa: E402
+from forms.mode_postprocessing import interface_stresses, normalise  # noqa: E402
+from forms.strip import build_strip_problem, solve_modes  # noqa: E402
 from forms.tracking import Branch, waveguide_lambda  # noqa: E402
 from meshes.interval import grading_ratio  # noqa: E402
 from meshes.strip import strip_mesh, wavelength  # noqa: E402
@@ -104,21 +104,13 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def parse_branch(spec: str) -> tuple[int, int]:
-    """``"0-"`` -> ``(0, -1)``; raises :class:`ParameterError` on anything else."""
-    s = spec.strip()
-    if len(s) >= 2 and s[-1] in "+-" and s[:-1].isdigit():
-        return int(s[:-1]), (1 if s[-1] == "+" else -1)
-    raise _cli.ParameterError(f"--branch = {spec!r} is not of the form n+ or n- (n = 0, 1, ...)")
-
-
 def validate(args: argparse.Namespace):
     """Check every option before anything collective or any file is created."""
     params = _cli.params_from_args(args)
     if math.isinf(params.H):
         raise _cli.ParameterError("H = inf is outside its allowed range here (a finite strip)")
     _cli.check_k(args.k, name="k")
-    branch = parse_branch(args.branch)
+    branch = parse_branch_label(args.branch, name="--branch")
     k_scan = _cli.parse_k(args.k_scan, name="--k-scan") if args.most_unstable else None
     _cli.positive_int("--wavelengths", args.wavelengths, 1, 64)
     _cli.positive_int("--cells-per-wavelength", args.cells_per_wavelength, 2)
@@ -353,8 +345,9 @@ def _run(comm, args: argparse.Namespace, params, branch: tuple[int, int], k_scan
     def wg(k: float) -> complex:
         return waveguide_lambda(params, b, k)
 
-    # The branch is followed from small k (continuation, forms.strip.follow_branch): a k-wise
-    # waveguide target can land on another branch. Every rank alike (COMM_SELF solves).
+    # The branch is followed from small k (continuation,
+    # forms.cross_section_continuation.follow_branch): a k-wise waveguide target can land on
+    # another branch. Every rank alike (COMM_SELF solves).
     k = float(args.k)
     if args.most_unstable:
         k, lam_branch = most_unstable_k(params, wg, k_scan)

@@ -3,8 +3,8 @@
 For a sequence of meshes (one wavelength at ``k``, P2, refined in both directions) prints and
 writes ``strip_benchmark.csv``: unknowns, and wall times of assembly (``K, M, M_Gamma``), building
 ``P``, the three products ``P^H A P``, the friction rows, and the PEP solve, plus the relative
-error against the check value of DESIGN.md (default case only). Run serially and under
-``mpirun -n 2`` to see the scaling::
+error against the check value of docs/design.md section 4 (default case only). Run serially and
+under ``mpirun -n 2`` to see the scaling::
 
     ./run python workflows/strip_benchmark.py
     ./run mpirun -n 2 python workflows/strip_benchmark.py

@@ -7,8 +7,8 @@ Cases (parameters in ``summary.json``):
 
 - ``finite_H``: velocity top, paper defaults (``f=0.3, gamma=3, beta=0.5, Delta=0.7,
   H=0.5``), ``k = 1``, branch ``0-``; reference: the exact root
-  (``analytic.branches.polish_root``, = DESIGN's check value ``0.2716852879456 -
-  6.5866951866228i``). Cross-section FE, P1..P4, several uniform meshes.
+  (``analytic.branches.polish_root``, = the check value of docs/design.md section 4,
+  ``0.2716852879456 - 6.5866951866228i``). Cross-section FE, P1..P4, several uniform meshes.
 - ``halfspace``: the same ``f, gamma, beta, Delta``, ``H = inf``, ``k = 0.3``: the
   dilatational instability; reference ``analytic.halfspace.dilatational_root``. Cross-section
   FE with the PML layer of :mod:`forms.pml` (one layer setting, i.e. without the second,
@@ -304,7 +304,8 @@ def _run(comm, args: argparse.Namespace) -> int:
             sec, r = _best(lambda: polish_root(p_fin, K_FINITE, TARGET_FINITE), args.repeats)
             mine.append(_row("finite_H", "analytic", 0, 0, 0, sec, complex(r.value),
                              0.2716852879456 - 6.5866951866228j,
-                             "Newton on det M; error vs DESIGN check value (13 digits)"))
+                             "Newton on det M; error vs the check value of docs/design.md"
+                             " section 4 (13 digits)"))
             sec, r = _best(lambda: dilatational_root(K_HALF, p_half), args.repeats)
             ref2 = dilatational_root(K_HALF, p_half, guess=complex(
                 np.sqrt(1 - (p_half.beta * target_half / (-1j * K_HALF)) ** 2)))

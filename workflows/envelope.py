@@ -1,0 +1,159 @@
+"""Envelope of the growth rate over every mode, max Re Lambda(k), out to large k H (exact roots).
+
+    mpirun -n N python workflows/envelope.py [--bc velocity] [--k 0.05:100:48log] [--out DIR]
+
+At every k the argument principle counts every exact root in the region R of the sweep
+(``analytic.spectrum.Region``: phase velocities up to ``--c-max`` c_d) and the fastest one is
+kept; the grid maximum is then refined by a golden-section search on k. Answers: where is the
+global maximum of the growth rate over k, and what does the envelope do as k H grows? The
+half-space (k H -> infinity) maximum of the dilatational family (``analytic.halfspace``) is drawn
+for comparison. Writes ``envelope.csv``, ``summary.json``, ``envelope.png``. ``--k`` accepts
+``start:stop:count`` (linear), ``start:stop:countlog`` (geometric) or a comma list.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+
+import _cli
+import numpy as np
+
+from analytic import halfspace
+from analytic.spectrum import Region, fastest_root
+
+PETSC_PREFIXES: tuple[str, ...] = ()
+OUTPUTS = ("envelope.csv", "summary.json", "envelope.png", "run.json", "run.lock")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Command-line options."""
+    ap = _cli.make_parser(__doc__, PETSC_PREFIXES, petsc=False)
+    _cli.add_param_arguments(ap)
+    ap.add_argument("--k", default="0.05:100:48log", help="k grid (see above)")
+    ap.add_argument("--c-max", type=float, default=Region().c_max,
+                    help="region: largest phase velocity, in units of c_d")
+    ap.add_argument("--re-min", type=float, default=Region().re_min, help="region: smallest Re")
+    ap.add_argument("--out", default=os.path.join("out", "envelope"), help="output folder")
+    return ap
+
+
+def parse_grid(spec: str) -> np.ndarray:
+    """``a:b:nlog`` geometric grids, otherwise :func:`_cli.parse_k`."""
+    if spec.endswith("log") and spec.count(":") == 2:
+        a, b, n = spec[:-3].split(":")
+        try:
+            a, b, n = float(a), float(b), int(n)
+        except ValueError:
+            raise _cli.ParameterError(f"--k = {spec!r} is not start:stop:countlog") from None
+        if not (0 < a < b and math.isfinite(b) and 2 <= n <= 100000):
+            raise _cli.ParameterError(f"--k = {spec!r}: need 0 < start < stop, 2 <= count")
+        return np.geomspace(a, b, n)
+    return np.unique(_cli.parse_k(spec))
+
+
+def golden_max(fun: object, a: float, b: float, iters: int = 14) -> tuple[float, float]:
+    """Maximum of ``fun`` on ``[a, b]`` by golden-section search: ``(x, fun(x))``."""
+    g = (math.sqrt(5) - 1) / 2
+    c, d = b - g * (b - a), a + g * (b - a)
+    fc, fd = fun(c), fun(d)
+    for _ in range(iters):
+        if fc > fd:
+            b, d, fd = d, c, fc
+            c = b - g * (b - a)
+            fc = fun(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + g * (b - a)
+            fd = fun(d)
+    return (c, fc) if fc > fd else (d, fd)
+
+
+def main(comm: object = None, argv: list[str] | None = None) -> int:
+    """Compute the envelope (k values shared over the ranks by cost)."""
+    args, comm = _cli.start(build_parser(), argv, comm)
+    p = _cli.params_from_args(args)
+    if not math.isfinite(p.H):
+        raise _cli.ParameterError("H = inf is outside its allowed range here (a finite strip)")
+    k = parse_grid(args.k)
+    region = Region(args.re_min, 2.0, args.c_max)
+    config = {"params": p.as_dict(), "k": args.k, "region": region.as_dict(p)}
+    with _cli.RunFolder(comm, args.out, "envelope", config, outputs=OUTPUTS) as run:
+        mine = _cli.my_share(comm, [region.im_max(p, kk) ** 1.5 for kk in k])
+        local = {}
+        for i in mine:
+            z, n, bx = fastest_root(p, float(k[i]), region)
+            local[i] = (z, n)
+        rows = {}
+        for part in comm.allgather(local):
+            rows.update(part)
+        ks = [float(v) for v in k]
+        re = np.array([rows[i][0].real if rows[i][0] is not None else np.nan
+                       for i in range(len(k))])
+        j = int(np.nanargmax(re))
+        best = None
+        if comm.rank == 0:
+            lo, hi = ks[max(j - 1, 0)], ks[min(j + 1, len(ks) - 1)]
+
+            def growth(kk: float) -> float:
+                z = fastest_root(p, kk, region)[0]
+                return z.real if z is not None else -np.inf
+
+            kb, _ = golden_max(growth, lo, hi)
+            zb = fastest_root(p, kb, region)[0]
+            best = {"k": kb, "kH": kb * p.H, "re_lambda": zb.real, "im_lambda": zb.imag,
+                    "phase_velocity_over_c_d": abs(zb.imag) / kb * p.beta,
+                    "grid_k": ks[j], "at_grid_edge": j in (0, len(ks) - 1)}
+            hs = halfspace.max_growth("dilatational", p.replace(H=math.inf))
+            with open(run.file("envelope.csv"), "w", newline="") as fh:
+                w = csv.writer(fh)
+                w.writerow(["k", "kH", "re_lambda_max", "im_lambda", "roots_in_region"])
+                for i, kk in enumerate(ks):
+                    z, n = rows[i]
+                    w.writerow([repr(kk), repr(kk * p.H), repr(z.real) if z else "",
+                                repr(z.imag) if z else "", n])
+            summary = {"parameters": p.as_dict(), "region": region.as_dict(p),
+                       "global_max_on_grid": best,
+                       "halfspace_dilatational_max": {"growth": hs.growth, "q": hs.q_growth},
+                       "large_kH": {"kH": ks[-1] * p.H, "re_lambda_max": float(re[-1])},
+                       "versions": _cli.versions(), "command": _cli.command()}
+            with open(run.file("summary.json"), "w") as fh:
+                json.dump(summary, fh, indent=1)
+            plot(run.file("envelope.png"), p, np.array(ks), re, best, hs.growth, config)
+            _cli.say(f"global maximum on [{ks[0]:g}, {ks[-1]:g}]: Re Lambda = "
+                     f"{best['re_lambda']:.6f} at k = {best['k']:.5g} (k H = {best['kH']:.4g}),"
+                     f" Im Lambda = {best['im_lambda']:.6g}; at k H = {ks[-1] * p.H:g}: "
+                     f"{re[-1]:.6f}")
+    return 0
+
+
+def plot(path: str, p: object, k: np.ndarray, re: np.ndarray, best: dict, hs: float,
+         meta: dict) -> None:
+    """envelope.png: max Re Lambda against k H (log axis)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    ax.semilogx(k * p.H, re, "o-", ms=3, color="k", label="max Re Lambda over every mode in R")
+    ax.plot([best["kH"]], [best["re_lambda"]], "*", ms=15, color="gold", mec="k",
+            label=f"maximum: {best['re_lambda']:.5f} at k H = {best['kH']:.3g}")
+    ax.axhline(hs, color="tab:blue", ls="--", lw=1,
+               label=f"half-space dilatational maximum {hs:.2g}")
+    ax.axhline(0, color="0.5", lw=0.6)
+    ax.set_xlabel("k H")
+    ax.set_ylabel(r"growth rate max Re $\Lambda$")
+    ax.set_title(f"bc={p.bc}, f={p.f:g}, gamma={p.gamma:g}, beta={p.beta:g}, "
+                 f"Delta={p.Delta:g}, H={p.H:g}", fontsize=9)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130, metadata=_cli.png_metadata(meta, "growth-rate envelope"))
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    _cli.run(main)

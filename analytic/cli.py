@@ -89,7 +89,9 @@ def params_from_args(args: argparse.Namespace) -> Params:
 
 
 def parse_k(spec: str, name: str = "--k") -> np.ndarray:
-    """Parse ``start:stop:count`` (inclusive, linear) or ``k1,k2,...`` (no value twice).
+    """Parse ``start:stop:count`` (inclusive, linear) or ``k1,k2,...`` (as given).
+
+    Callers merge duplicates with ``np.unique``.
 
     Raises:
         ParameterError: On malformed input or a non-positive / non-finite value.
@@ -116,10 +118,6 @@ def parse_k(spec: str, name: str = "--k") -> np.ndarray:
             values = np.array([float(v) for v in s.split(",") if v.strip()])
         except ValueError:
             raise malformed from None
-        _, first, counts = np.unique(values, return_index=True, return_counts=True)
-        if np.any(counts > 1):
-            dup = values[np.sort(first[counts > 1])[0]]
-            raise ParameterError(f"{name} = {spec!r}: the value {dup:g} is given more than once")
     return check_k(values, name=name.lstrip("-"))
 
 

@@ -353,8 +353,3 @@ def test_run_folder_verdict_is_collective(tmp_path):
     with _cli.RunFolder(comm, out, "t", {"a": 1}, resume=True) as run:
         assert run.resumed
 
-
-@pytest.mark.serial
-def test_duplicate_k_is_refused():
-    with pytest.raises(_cli.ParameterError, match="0.5 is given more than once"):
-        _cli.parse_k("0.5,1,0.5")

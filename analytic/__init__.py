@@ -3,9 +3,10 @@
 Finite H (this package's ``finite_h``, ``branches``, ``smallk``): the spectrum
 ``det M(Lambda, k, H) = 0``, branches followed from the waveguide cut-offs, small-k asymptotics.
 Generic root tools: ``roots``. Physical units: ``units``. Half-space: ``halfspace``, ``largek``.
+Deformable substrate (finite ``mu2``, issue 9): ``twobody`` (the branch tools dispatch on it).
 """
 
-from analytic import halfspace, largek
+from analytic import halfspace, largek, twobody
 from analytic.branches import (
     BranchResult,
     branch_label,
@@ -27,6 +28,7 @@ from analytic.halfspace import (
 from analytic.params import ParameterError, Params, check_k
 from analytic.roots import ContourError, Root, count_zeros, polish, winding_number, zeros_in_box
 from analytic.smallk import lambda_smallk, slope
+from analytic.twobody import det_twobody, generalized_rayleigh
 from analytic.units import Conversion, Physical, to_dimensionless, to_physical
 
 __all__ = [
@@ -35,6 +37,9 @@ __all__ = [
     "dilatational_root",
     "halfspace",
     "largek",
+    "twobody",
+    "det_twobody",
+    "generalized_rayleigh",
     "max_growth",
     "s",
     "s_tilde",

@@ -53,7 +53,8 @@ def default_discretisation(p: Params, region: Region, k_max: float, rtol: float 
     errors go as ``h^8``; graded meshes (large ``k H``) lose a factor of about 3 (stress top,
     ``k = 13``: 3.6e-8 with 7 per wavelength) and few cells lose some more (stress top,
     ``k = 1``: 13 cells, 4.9 per wavelength, gave 2.4e-8 where 1e-8 was aimed at), so
-    ``10 (2e-10 / rtol)^(1/8)`` cells per wavelength; at least 6 cells.
+    ``11 (2e-10 / rtol)^(1/8)`` cells per wavelength (``alpha_pc = 2``, ``k = 4``: 10 gave
+    1.006e-8 on a shear-family root); at least 6 cells.
 
     The mesh is uniform: the region holds modes that oscillate through the whole strip (up to
     ``W``) as well as modes that decay over ``1/k >= 1/W`` above the interface, and both need
@@ -61,7 +62,7 @@ def default_discretisation(p: Params, region: Region, k_max: float, rtol: float 
     """
     w = region.im_max(p, k_max)
     waves = w * p.H / (2.0 * math.pi)
-    per_wave = 10.0 * (2e-10 / rtol) ** 0.125
+    per_wave = 11.0 * (2e-10 / rtol) ** 0.125
     cells = int(max(6, math.ceil(per_wave * waves)))
     return 4, cells, 1.0
 

@@ -4,8 +4,9 @@
 
 At every k the argument principle counts every exact root in the region R of the sweep
 (``analytic.spectrum.Region``: phase velocities up to ``--c-max`` c_d) and the fastest one is
-kept; the grid maximum is then refined by a golden-section search on k. Answers: where is the
-global maximum of the growth rate over k, and what does the envelope do as k H grows? The
+kept; the three largest grid values are refined by sampling between their neighbours.
+Answers: where is the global maximum of the growth rate over k, and what does the envelope do
+as k H grows? The
 half-space (k H -> infinity) maximum of the dilatational family (``analytic.halfspace``) is drawn
 for comparison. Writes ``envelope.csv``, ``summary.json``, ``envelope.png``. ``--k`` accepts
 ``start:stop:count`` (linear), ``start:stop:countlog`` (geometric) or a comma list.
@@ -55,21 +56,21 @@ def parse_grid(spec: str) -> np.ndarray:
     return np.unique(_cli.parse_k(spec))
 
 
-def golden_max(fun: object, a: float, b: float, iters: int = 14) -> tuple[float, float]:
-    """Maximum of ``fun`` on ``[a, b]`` by golden-section search: ``(x, fun(x))``."""
-    g = (math.sqrt(5) - 1) / 2
-    c, d = b - g * (b - a), a + g * (b - a)
-    fc, fd = fun(c), fun(d)
-    for _ in range(iters):
-        if fc > fd:
-            b, d, fd = d, c, fc
-            c = b - g * (b - a)
-            fc = fun(c)
-        else:
-            a, c, fc = c, d, fd
-            d = a + g * (b - a)
-            fd = fun(d)
-    return (c, fc) if fc > fd else (d, fd)
+def refine(growth: object, ks: list[float], re: np.ndarray, top: int = 3, points: int = 12
+           ) -> tuple[float, float]:
+    """Best of ``points`` samples between the neighbours of each of the ``top`` largest values.
+
+    The envelope is a maximum over families (a new mode takes over as k grows): it has kinks
+    and many nearly equal local maxima, so a one-peak search does not apply.
+    """
+    best = (float("nan"), -np.inf)
+    for j in np.argsort(np.nan_to_num(re, nan=-np.inf))[::-1][:top]:
+        lo, hi = ks[max(j - 1, 0)], ks[min(j + 1, len(ks) - 1)]
+        for kk in [ks[j], *np.linspace(lo, hi, points)]:
+            g = growth(float(kk))
+            if g > best[1]:
+                best = (float(kk), g)
+    return best
 
 
 def main(comm: object = None, argv: list[str] | None = None) -> int:
@@ -96,17 +97,17 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         j = int(np.nanargmax(re))
         best = None
         if comm.rank == 0:
-            lo, hi = ks[max(j - 1, 0)], ks[min(j + 1, len(ks) - 1)]
-
             def growth(kk: float) -> float:
                 z = fastest_root(p, kk, region)[0]
                 return z.real if z is not None else -np.inf
 
-            kb, _ = golden_max(growth, lo, hi)
+            kb, _ = refine(growth, ks, re)
             zb = fastest_root(p, kb, region)[0]
             best = {"k": kb, "kH": kb * p.H, "re_lambda": zb.real, "im_lambda": zb.imag,
                     "phase_velocity_over_c_d": abs(zb.imag) / kb * p.beta,
-                    "grid_k": ks[j], "at_grid_edge": j in (0, len(ks) - 1)}
+                    "grid_k_of_largest_value": ks[j], "at_grid_edge": j in (0, len(ks) - 1),
+                    "refinement": "12 samples between the neighbours of the 3 largest grid "
+                    "values"}
             hs = halfspace.max_growth("dilatational", p.replace(H=math.inf))
             with open(run.file("envelope.csv"), "w", newline="") as fh:
                 w = csv.writer(fh)

@@ -45,7 +45,7 @@ import time  # noqa: E402
 import _cli  # noqa: E402
 import numpy as np  # noqa: E402
 
-from analytic.params import Params  # noqa: E402
+from analytic.params import Params, require_rigid  # noqa: E402
 from analytic.spectrum import (  # noqa: E402
     Region,
     follow_family,
@@ -97,6 +97,7 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
         duplicate values dropped.
     """
     params = _cli.params_from_args(args)
+    require_rigid(params, "the certified sweep (cross-section model)")
     if not math.isfinite(params.H):
         raise _cli.ParameterError("H = inf is outside its allowed range here: the cross-section"
                                   " model needs a finite H > 0")

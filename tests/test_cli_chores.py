@@ -261,7 +261,7 @@ def test_interrupted_run_says_resume_continues(tmp_path, nproc):
     finally:
         if proc.poll() is None:
             proc.kill()
-    assert proc.returncode != 0
+    assert proc.returncode != 0, err[-2000:]
     said = [ln for ln in _lines(err) if "--resume" in ln]
     assert len(said) == 1, err[-2000:]
     assert ("interrupted (Ctrl-C)" if nproc == 1 else "stopped") in said[0]

@@ -730,6 +730,13 @@ def _on_terminate(signum: int, frame: object) -> None:
     os._exit(128 + signum)
 
 
+def _on_interrupt(signum: int, frame: object) -> None:
+    """Ctrl-C: exit at once (a KeyboardInterrupt raised inside a finaliser would be lost)."""
+    _tell_watcher("why", "interrupted (Ctrl-C)")
+    _close_folder()
+    os._exit(128 + signum)
+
+
 def run(main: Callable[..., int | None]) -> None:
     """Run ``main()`` (the ``__main__`` block of every workflow) and exit with its code.
 
@@ -744,6 +751,13 @@ def run(main: Callable[..., int | None]) -> None:
     for s in (signal.SIGTERM, signal.SIGHUP):
         with contextlib.suppress(ValueError):
             signal.signal(s, _on_terminate)
+    # Ctrl-C: not if ignored (a background job). gmsh's import sets SIG_DFL and every
+    # gmsh.finalize() restores the handler found at its import (gmsh.oldsig): made ours.
+    if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
+        signal.signal(signal.SIGINT, _on_interrupt)
+        gmsh = sys.modules.get("gmsh")
+        if gmsh is not None and getattr(gmsh, "oldsig", None) is not None:
+            gmsh.oldsig = _on_interrupt
     try:
         code = main()
     except ParameterError as err:

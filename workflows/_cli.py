@@ -515,7 +515,7 @@ class RunFolder:
         if verdict is not None:
             raise ParameterError(verdict)
         _STATE["folder"] = self
-        _tell_watcher("folder", os.path.abspath(self.path), "1" if self.resumable else "0")
+        _tell_watcher("folder", self.path, "1" if self.resumable else "0")
         return self
 
     def close(self) -> None:
@@ -727,6 +727,7 @@ def _on_terminate(signum: int, frame: object) -> None:
     _tell_watcher("why", f"stopped by {name} (under mpirun: every rank is stopped when one of "
                          "them fails or is killed, or the job was interrupted)")
     _close_folder()
+    _flush()
     os._exit(128 + signum)
 
 
@@ -734,6 +735,7 @@ def _on_interrupt(signum: int, frame: object) -> None:
     """Ctrl-C: exit at once (a KeyboardInterrupt raised inside a finaliser would be lost)."""
     _tell_watcher("why", "interrupted (Ctrl-C)")
     _close_folder()
+    _flush()
     os._exit(128 + signum)
 
 
@@ -769,6 +771,7 @@ def run(main: Callable[..., int | None]) -> None:
     except KeyboardInterrupt:
         _tell_watcher("why", "interrupted (Ctrl-C)")
         _close_folder()
+        _flush()
         os._exit(130)
     except SystemExit:
         _close_folder()
@@ -777,15 +780,24 @@ def run(main: Callable[..., int | None]) -> None:
     except BaseException as err:  # noqa: BLE001 - reported, then every rank is stopped
         _close_folder()
         traceback.print_exc()
-        _tell_watcher("why", f"stopped: rank {rank()} failed ({type(err).__name__}: {err})")
+        first = (str(err).strip().splitlines() or [""])[0]
+        _tell_watcher("why", f"stopped: rank {rank()} failed ({type(err).__name__}: {first})")
         if world_size() > 1:
             from mpi4py import MPI
 
+            _flush()
             MPI.COMM_WORLD.Abort(1)
+        _flush()
         os._exit(1)
     _close_folder()
     _watcher_done()
     sys.exit(int(code or 0))
+
+
+def _flush() -> None:
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
 
 
 def _close_folder() -> None:

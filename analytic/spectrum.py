@@ -98,9 +98,12 @@ def nudged_boxes(box: Box) -> list[Box]:
     """The box and slightly moved copies (used when a root sits on an edge)."""
     a, b, c, d = box
     out = [box]
+    # moves of 3 % of re_min (at least 3e-4) and 1e-4 of the height: a root closer than that
+    # to an edge makes the contour too expensive to resolve (seen at k = 76.5, H = 0.5: a root
+    # 1.3e-4 from Re = -0.01); the rectangle actually used is always reported
     for s in (1.0, -1.0, 2.0, -2.0):
-        da = 1e-4 * s * max(abs(a), 1e-2)
-        dw = 1e-5 * s * max(abs(c), abs(d))
+        da = 0.03 * s * max(abs(a), 1e-2)
+        dw = 1e-4 * s * max(abs(c), abs(d))
         out.append((a - da, b, c - dw, d + dw))
     return out
 
@@ -320,3 +323,43 @@ def fastest_root(p: Params, k: float, region: Region) -> tuple[complex | None, i
         return None, 0, bx
     best = max(roots, key=lambda r: r.value.real)
     return complex(best.value), len(roots), bx
+
+
+def family_peak(p: Params, k0: float, z0: complex, lo: float, hi: float, *, steps: int = 40,
+                dk: float = 0.05) -> tuple[float, complex]:
+    """Largest ``Re Lambda`` of the root family through ``(k0, z0)`` for ``k`` in ``[lo, hi]``.
+
+    Golden-section search on ``k``; the root at each ``k`` is reached from ``(k0, z0)`` by
+    polishing in steps of at most ``dk`` (the family's growth rate is smooth, unlike the
+    envelope, which jumps between families).
+
+    Returns:
+        ``(k, Lambda)`` at the maximum found.
+    """
+    from analytic.branches import polish_root
+
+    cache: dict[float, complex] = {}
+
+    def growth(k: float) -> float:
+        z = complex(z0)
+        n = max(1, int(math.ceil(abs(k - k0) / dk)))
+        for i in range(1, n + 1):
+            z = polish_root(p, k0 + (k - k0) * i / n, z).value
+        cache[k] = z
+        return z.real
+
+    g = (math.sqrt(5.0) - 1.0) / 2.0
+    a, b = lo, hi
+    c, d = b - g * (b - a), a + g * (b - a)
+    fc, fd = growth(c), growth(d)
+    for _ in range(steps):
+        if fc > fd:
+            b, d, fd = d, c, fc
+            c = b - g * (b - a)
+            fc = growth(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + g * (b - a)
+            fd = growth(d)
+    k = c if fc > fd else d
+    return k, cache[k]

@@ -22,12 +22,14 @@ from petsc4py import PETSc
 
 from analytic.params import Params
 from forms.elasticity import cross_section_gradients, mass_density, stiffness_density
-from forms.friction import FrictionLaw, FrictionOperator, apply_dirichlet, friction_operator
+from forms.friction import (
+    DIRICHLET_DIAGONAL,
+    FrictionLaw,
+    FrictionOperator,
+    apply_dirichlet,
+    friction_operator,
+)
 from meshes.interval import default_cells, grading_ratio, interval_mesh
-
-#: Diagonal put in the Dirichlet rows of the constant term (see forms.friction.apply_dirichlet):
-#: these rows read ``u_d = 0`` for every Lambda; their eigenvalues are at infinity.
-DIRICHLET_DIAGONAL = 1.0
 
 
 def stiffness_blocks(
@@ -43,8 +45,12 @@ def stiffness_blocks(
     return k0, k1, k2
 
 
-def _owned_global(V: dolfinx.fem.FunctionSpace, local_dofs: np.ndarray) -> np.ndarray:
-    """Unrolled local dof indices -> owned global PETSc rows (ghosts dropped)."""
+def owned_global_rows(V: dolfinx.fem.FunctionSpace, local_dofs: np.ndarray) -> np.ndarray:
+    """Unrolled local dof indices -> owned global PETSc rows (ghosts dropped).
+
+    For the row arguments of :func:`forms.friction.friction_operator` and
+    :func:`forms.friction.apply_dirichlet` on any 1D model (also :mod:`forms.pml`).
+    """
     bs = V.dofmap.index_map_bs
     imap = V.dofmap.index_map
     local_dofs = np.asarray(local_dofs, dtype=np.int64)
@@ -116,12 +122,12 @@ class CrossSectionModel:
         for a in (*blocks, mass, imass):
             a.assemble()
 
-        x_bottom = _owned_global(V, dolfinx.fem.locate_dofs_topological(V.sub(0), fdim, bottom))
-        y_bottom = _owned_global(V, dolfinx.fem.locate_dofs_topological(V.sub(1), fdim, bottom))
+        x_bottom = owned_global_rows(V, dolfinx.fem.locate_dofs_topological(V.sub(0), fdim, bottom))
+        y_bottom = owned_global_rows(V, dolfinx.fem.locate_dofs_topological(V.sub(1), fdim, bottom))
         dirichlet = [y_bottom]
         if params.bc == "velocity":
             dirichlet.append(
-                _owned_global(V, dolfinx.fem.locate_dofs_topological(V.sub(0), fdim, top))
+                owned_global_rows(V, dolfinx.fem.locate_dofs_topological(V.sub(0), fdim, top))
             )
         self.interface_x, self.interface_y = x_bottom, y_bottom
         self.dirichlet_dofs = np.concatenate(dirichlet)
@@ -175,9 +181,10 @@ class CrossSectionModel:
         Each ``Tm`` is a :class:`~forms.friction.FrictionOperator` in :attr:`form`: the friction
         row operation applied to the stiffness block ``Km`` (``T0`` also holds the mass ``M`` and
         the interface mass ``B``), with the Dirichlet rows applied (diagonal
-        :data:`DIRICHLET_DIAGONAL` in the constant term of ``T0`` only). All matrices share one
-        nonzero pattern. :meth:`operator` combines them for one ``k``; at fixed ``Lambda`` they
-        give a quadratic eigenproblem in ``k`` (:func:`forms.spatial_stability.spatial_roots`).
+        :data:`forms.friction.DIRICHLET_DIAGONAL` in the constant term of ``T0`` only). All
+        matrices share one nonzero pattern. :meth:`operator` combines them for one ``k``; at
+        fixed ``Lambda`` they give a quadratic eigenproblem in ``k``
+        (:func:`forms.spatial_stability.spatial_roots`).
 
         Returns:
             ``(T0, T1, T2)``, owned by the model: read them, do not modify or destroy them.

@@ -17,6 +17,22 @@ in the 2D strip)::
 
 and the y-row of the interface node keeps ``u_y = 0``. All other rows are ``(K + L^2 M) u = 0``.
 
+**Two deformable bodies (the general case).** With a substrate, the interface carries two
+nodes per point, slider side ``(u_x1, u_y1)`` and substrate side ``(u_x2, u_y2)``. The model
+(:mod:`forms.layered`) eliminates ``u_y2 = u_y1`` and writes ``u_x1 = s + u_x2`` (``s`` the
+slip) by a map ``P`` and reduces ``P^H A P``: the reduced row of ``u_y`` is then
+``R_y1 + R_y2 = 0`` (normal traction continuous), the row of ``u_x2`` is ``R_x1 + R_x2 = 0``
+(shear traction continuous) and the row of ``s`` is ``R_x1``. The friction law replaces the
+row of ``s``::
+
+    rx(L)/d(L) R_x1 + ry(L)/d(L) R_y1 + ux(L)/d(L) (B s)_x = 0,
+
+with the reactions ``R_1`` of the *slider alone* (``reactions=`` below: the reduced matrices of
+the slider's part of ``K`` and ``M``), and nothing is constrained at the interface. The rigid
+substrate is the special case without substrate nodes: ``s = u_x1``, the slider is the whole
+mesh (``reactions`` = the matrices themselves, the default) and the tie ``u_y2 = u_y1``
+becomes the Dirichlet row ``u_y1 = 0``.
+
 Two equivalent matrix forms of ``T(L) u = 0`` are produced by :func:`friction_operator`:
 
 - ``"polynomial"``: multiply the x-rows by ``d(L)``: ``T(L) = sum_j L^j A_j`` with degree 3
@@ -52,6 +68,10 @@ from petsc4py import PETSc
 from analytic.params import Params
 
 Poly = tuple[float, ...]
+
+#: Diagonal put in the Dirichlet rows of the constant term (:func:`apply_dirichlet`): these rows
+#: read ``u_d = 0`` for every Lambda; their eigenvalues are at infinity. Every model uses this one.
+DIRICHLET_DIAGONAL = 1.0
 
 
 def _polymul(a: Poly, b: Poly) -> Poly:
@@ -221,6 +241,7 @@ def friction_operator(
     x_dofs: np.ndarray,
     y_dofs: np.ndarray,
     form: str = "polynomial",
+    reactions: tuple[PETSc.Mat, PETSc.Mat | None] | None = None,
 ) -> FrictionOperator:
     """Build ``T(L)`` from assembled (unconstrained) ``K``, ``M`` and interface mass ``B``.
 
@@ -238,10 +259,15 @@ def friction_operator(
         x_dofs: Global row indices (owned by this rank) of the interface ``u_x``.
         y_dofs: Global row indices of the matching ``u_y`` (same order, same owner).
         form: ``"polynomial"`` (PEP) or ``"split"`` (NEP).
+        reactions: ``(K_1, M_1)`` whose rows at ``x_dofs``/``y_dofs`` are the slider's
+            reactions ``R_1 = (K_1 + L^2 M_1) u`` (two deformable bodies: the slider's part of
+            ``K``, ``M``; their patterns within ``stiffness``'s). Default ``(stiffness, mass)``:
+            the rigid substrate.
 
     Returns:
         The :class:`FrictionOperator`; apply Dirichlet rows with :func:`apply_dirichlet`.
     """
+    src_k, src_m = (stiffness, mass) if reactions is None else reactions
     x_dofs = np.asarray(x_dofs, dtype=np.int64)
     y_dofs = np.asarray(y_dofs, dtype=np.int64)
     if x_dofs.shape != y_dofs.shape:
@@ -269,18 +295,19 @@ def friction_operator(
     if form == "split":
         interior.append((0.0, 0.0))
 
-    for m in (stiffness, mass, interface_mass):
+    for m in (stiffness, mass, interface_mass, src_k, src_m):
         if m is not None:
             m.assemble()
     # Rows needed for the x-row replacement (read before anything is modified).
     rows = []
+    old_cols = {ix: _local_rows(stiffness, ix) for ix in x_dofs.tolist()}  # entries to clear
     for ix, iy in zip(x_dofs.tolist(), y_dofs.tolist(), strict=True):
         rows.append(
             {
-                "Kx": _local_rows(stiffness, ix),
-                "Mx": _local_rows(mass, ix),
-                "Ky": _local_rows(stiffness, iy),
-                "My": _local_rows(mass, iy),
+                "Kx": _local_rows(src_k, ix),
+                "Mx": _local_rows(src_m, ix),
+                "Ky": _local_rows(src_k, iy),
+                "My": _local_rows(src_m, iy),
                 "Bx": _local_rows(interface_mass, ix),
             }
         )
@@ -294,13 +321,14 @@ def friction_operator(
             a.axpy(cm, mass, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
         coef = x_terms[t]
         for ix, src in zip(x_dofs.tolist(), rows, strict=True):
-            new: dict[int, complex] = {c: 0.0 for c in src["Kx"]}
+            new: dict[int, complex] = {c: 0.0 for c in old_cols[ix]}
             for key, row in src.items():
                 c = coef.get(key, 0.0)
                 if c == 0.0:
                     continue
                 for col, v in row.items():
-                    new[col] = new.get(col, 0.0) + c * v
+                    if v != 0.0:  # structural zeros (a slider part) may lie outside the row
+                        new[col] = new.get(col, 0.0) + c * v
             if new:
                 cols = np.fromiter(new.keys(), dtype=PETSc.IntType, count=len(new))
                 vals = np.fromiter(new.values(), dtype=PETSc.ScalarType, count=len(new))
@@ -313,7 +341,8 @@ def friction_operator(
 
 
 def apply_dirichlet(
-    matrices: list[PETSc.Mat], dofs: np.ndarray, constant_term: int = 0, diagonal: float = 1.0
+    matrices: list[PETSc.Mat], dofs: np.ndarray, constant_term: int = 0,
+    diagonal: float = DIRICHLET_DIAGONAL,
 ) -> None:
     """Impose ``u_d = 0`` on the global rows ``dofs`` (rows and columns zeroed, pattern kept).
 

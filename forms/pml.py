@@ -50,9 +50,15 @@ from mpi4py import MPI
 
 from analytic import finite_h
 from analytic.params import Params
-from forms.cross_section import DIRICHLET_DIAGONAL, _owned_global
+from forms.cross_section import owned_global_rows
 from forms.elasticity import cross_section_gradients, mass_density, stiffness_density
-from forms.friction import FrictionLaw, FrictionOperator, apply_dirichlet, friction_operator
+from forms.friction import (
+    DIRICHLET_DIAGONAL,
+    FrictionLaw,
+    FrictionOperator,
+    apply_dirichlet,
+    friction_operator,
+)
 from forms.solvers import PolynomialSolver, SolveResult, SplitSolver
 from meshes.layered import geometric_sizes, interval_from_vertices, layer_count
 
@@ -270,9 +276,9 @@ class HalfSpaceModel:
         for a in mats:
             a.assemble()
         loc = dolfinx.fem.locate_dofs_topological
-        x_bottom = _owned_global(V, loc(V.sub(0), fdim, bottom))
-        y_bottom = _owned_global(V, loc(V.sub(1), fdim, bottom))
-        clamp = [_owned_global(V, loc(V.sub(c), fdim, top)) for c in (0, 1)]
+        x_bottom = owned_global_rows(V, loc(V.sub(0), fdim, bottom))
+        y_bottom = owned_global_rows(V, loc(V.sub(1), fdim, bottom))
+        clamp = [owned_global_rows(V, loc(V.sub(c), fdim, top)) for c in (0, 1)]
         self.interface_x, self.interface_y = x_bottom, y_bottom
         self.dirichlet_dofs = np.concatenate([y_bottom, *clamp])
         self.op: FrictionOperator = friction_operator(self.law, *mats, x_bottom, y_bottom,

@@ -34,15 +34,19 @@ from petsc4py import PETSc
 
 from analytic.params import ParameterError, Params
 from forms.elasticity import mass_density, stiffness_density
-from forms.friction import FrictionLaw, FrictionOperator, apply_dirichlet, friction_operator
+from forms.friction import (
+    DIRICHLET_DIAGONAL,
+    FrictionLaw,
+    FrictionOperator,
+    apply_dirichlet,
+    friction_operator,
+)
 from forms.mode_postprocessing import harmonic_content
 from forms.periodic import BlochMap, bloch_map, reduce_matrix
 from forms.solvers import PolynomialSolver
 from meshes.strip import INTERFACE, LEFT, RIGHT, TOP, StripMesh, edge_dofs
 
 LATERAL_CONDITIONS = ("free", "roller", "clamped")
-#: Diagonal of the Dirichlet rows in the constant term (their eigenvalues are at infinity).
-DIRICHLET_DIAGONAL = 1.0
 
 
 @dataclass

@@ -1,8 +1,12 @@
 """Waveguide branches: labels, k-independent targets and tracking by eigenvector overlap.
 
+Used for SLEPc targets of one branch (mode shapes, finite block, tests). The dispersion sweep
+does not track by overlap any more: its labels come from exact continuation and its
+completeness from root counts (:mod:`analytic.spectrum`, :mod:`forms.certified`).
+
 A branch ``(n, sign)`` starts at the dilatational waveguide cut-off
-``Lambda_0 = sign * i (2n+1) pi / (2 beta H)`` as ``k -> 0`` (DESIGN.md section 4); its label is
-``f"{n}{'+' if sign > 0 else '-'}"`` (``"0-"`` is the unstable partner of ``n = 0`` for the
+``Lambda_0 = sign * i (2n+1) pi / (2 beta H)`` as ``k -> 0`` (docs/design.md section 4); its
+label is ``f"{n}{'+' if sign > 0 else '-'}"`` (``"0-"`` is the unstable partner of ``n = 0`` for the
 paper's defaults). Each ``k`` is solved near the frictionless waveguide dispersion
 ``Lambda_wg = sign * i sqrt(((2n+1) pi/(2H))**2 + k**2) / beta`` (:func:`waveguide_lambda`),
 which does not depend on the previous ``k``: solves are independent and deterministic, so a
@@ -22,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from analytic.branches import parse_branch_label
 from analytic.params import Params
 
 #: Smallest |<u_prev, u>| (unit vectors) accepted as the same branch at the next k.
@@ -46,18 +51,13 @@ class Branch:
 
     @classmethod
     def parse(cls, label: str) -> Branch:
-        """Inverse of :attr:`label`."""
-        return cls(int(label[:-1]), 1 if label[-1] == "+" else -1)
+        """Inverse of :attr:`label` (:func:`analytic.branches.parse_branch_label`)."""
+        return cls(*parse_branch_label(label))
 
 
 def branches(count: int) -> list[Branch]:
     """Branches ``n = 0 .. count-1``, both partners: ``0-, 0+, 1-, 1+, ...``."""
     return [Branch(n, s) for n in range(count) for s in (-1, 1)]
-
-
-def cutoff(p: Params, b: Branch) -> complex:
-    """Waveguide cut-off ``Lambda_0 = sign i (2n+1) pi / (2 beta H)``."""
-    return complex(0.0, b.sign * (2 * b.n + 1) * math.pi / (2.0 * p.beta * p.H))
 
 
 def waveguide_lambda(p: Params, b: Branch, k: float) -> complex:

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 import dolfinx
 import dolfinx.io.gmshio
 import gmsh
@@ -67,21 +69,43 @@ def interval_mesh(
         raise ValueError(f"cells = {cells!r} must be >= 1")
     if ratio < 1.0:
         raise ValueError(f"ratio = {ratio!r} must be >= 1")
-    progression = ratio ** (1.0 / (cells - 1)) if cells > 1 else 1.0
     if comm.rank == 0:
         # gmsh 4.8 has no isInitialized(): own a gmsh session for the duration of this call.
         gmsh.initialize()
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("interval")
-        p0 = gmsh.model.geo.addPoint(0.0, 0.0, 0.0)
-        p1 = gmsh.model.geo.addPoint(H, 0.0, 0.0)
-        line = gmsh.model.geo.addLine(p0, p1)
-        gmsh.model.geo.mesh.setTransfiniteCurve(line, cells + 1, "Progression", progression)
-        gmsh.model.geo.synchronize()
-        gmsh.model.addPhysicalGroup(1, [line], 1)
-        gmsh.model.mesh.generate(1)
+        _gmsh_interval(H, cells, ratio)
     msh, _, _ = dolfinx.io.gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=1)
     if comm.rank == 0:
         gmsh.finalize()
     return msh
+
+
+def _gmsh_interval(H: float, cells: int, ratio: float) -> None:
+    """Mesh the graded line ``0 < y < H`` in the current gmsh session."""
+    progression = ratio ** (1.0 / (cells - 1)) if cells > 1 else 1.0
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.model.add("interval")
+    p0 = gmsh.model.geo.addPoint(0.0, 0.0, 0.0)
+    p1 = gmsh.model.geo.addPoint(H, 0.0, 0.0)
+    line = gmsh.model.geo.addLine(p0, p1)
+    gmsh.model.geo.mesh.setTransfiniteCurve(line, cells + 1, "Progression", progression)
+    gmsh.model.geo.synchronize()
+    gmsh.model.addPhysicalGroup(1, [line], 1)
+    gmsh.model.mesh.generate(1)
+
+
+def interval_vertices(H: float, cells: int, ratio: float = 1.0) -> np.ndarray:
+    """The increasing vertex coordinates :func:`interval_mesh` uses (gmsh, on the calling rank).
+
+    For layered stacks (:mod:`forms.layered`) that must reproduce the cross-section model's
+    mesh exactly (the same gmsh nodes, not a re-computed progression).
+    """
+    if not (math.isfinite(H) and H > 0) or cells < 1 or ratio < 1.0:
+        raise ValueError(f"bad interval: H={H!r}, cells={cells!r}, ratio={ratio!r}")
+    gmsh.initialize()
+    try:
+        _gmsh_interval(H, cells, ratio)
+        _, coords, _ = gmsh.model.mesh.getNodes()
+    finally:
+        gmsh.finalize()
+    return np.sort(np.asarray(coords, dtype=float).reshape(-1, 3)[:, 0])
 

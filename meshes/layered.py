@@ -1,8 +1,10 @@
-"""Interval meshes from explicit vertex coordinates (the cross-section model with a PML layer).
+"""Interval meshes from explicit vertex coordinates (PML layers, layered stacks of two bodies).
 
 :func:`interval_from_vertices` builds a dolfinx interval mesh whose vertices are given (rank 0
 of the communicator passes them, dolfinx distributes the cells); :func:`geometric_sizes` makes
-cell sizes that grow geometrically from ``h0`` to ``h_max`` (then stay) to fill a length.
+cell sizes that grow geometrically from ``h0`` to ``h_max`` (then stay) to fill a length;
+:func:`interval_from_pieces` joins disconnected pieces (two bodies with their own nodes at the
+interface, :mod:`forms.layered`).
 """
 
 from __future__ import annotations
@@ -75,3 +77,37 @@ def layer_count(length: float, h0: float, h_max: float, growth: float) -> int:
     if grown >= length:
         return max(1, math.ceil(math.log(1 + length * (growth - 1.0) / h0) / math.log(growth)))
     return n_grow + math.ceil((length - grown) / h_max)
+
+
+def interval_from_pieces(comm: MPI.Comm, pieces: list[np.ndarray]) -> dolfinx.mesh.Mesh:
+    """Interval mesh made of disconnected pieces (read on rank 0 of ``comm``).
+
+    Each piece is a strictly increasing vertex array; consecutive pieces may touch (the last
+    vertex of one equal to the first of the next) but get *separate* vertices there, so a
+    continuous Lagrange space has two independent nodes at the common point (the two sides of
+    an interface that may slip).
+
+    Args:
+        comm: Communicator the mesh is distributed over.
+        pieces: Vertex arrays (only rank 0's are used).
+
+    Returns:
+        The dolfinx mesh (geometric dimension 1).
+    """
+    if comm.rank == 0:
+        coords, cells, start = [], [], 0
+        for piece in pieces:
+            x = np.asarray(piece, dtype=np.float64)
+            if x.ndim != 1 or len(x) < 2 or not np.all(np.diff(x) > 0):
+                raise ValueError("each piece must be a strictly increasing 1D array, length >= 2")
+            idx = start + np.arange(len(x))
+            cells.append(np.column_stack([idx[:-1], idx[1:]]))
+            coords.append(x)
+            start += len(x)
+        cell_arr = np.vstack(cells).astype(np.int64)
+        coord_arr = np.concatenate(coords).reshape(-1, 1)
+    else:
+        cell_arr = np.empty((0, 2), dtype=np.int64)
+        coord_arr = np.empty((0, 1), dtype=np.float64)
+    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.interval, 1, dim=1))
+    return dolfinx.mesh.create_mesh(comm, cell_arr, coord_arr, domain)

@@ -17,6 +17,7 @@ import numpy as np
 
 import dolfinx.mesh
 import gmsh
+import ufl
 from dolfinx.io import gmshio
 from mpi4py import MPI
 
@@ -161,3 +162,49 @@ def edge_dofs(mesh: StripMesh, x_coordinates: np.ndarray, which: int) -> np.ndar
     axis, value = {INTERFACE: (1, 0.0), TOP: (1, mesh.height), LEFT: (0, 0.0),
                    RIGHT: (0, mesh.length)}[which]
     return np.flatnonzero(np.abs(x_coordinates[:, axis] - value) < tol).astype(np.int32)
+
+
+def layered_strip_mesh(comm: MPI.Comm, length: float, pieces: list[np.ndarray], nx: int
+                       ) -> dolfinx.mesh.Mesh:
+    """Triangles on ``0 < x < length`` times the bodies of a layered stack (two-body strip).
+
+    Each piece (increasing ``y`` vertices of one body, e.g. :meth:`forms.layered.Stack.pieces`)
+    becomes a structured grid of ``nx`` columns, every quadrilateral cut into two triangles;
+    the bodies get *separate* nodes where they touch (``y = 0``), as in
+    :func:`meshes.layered.interval_from_pieces`, so the slider may slip on the substrate. The
+    left and right edges carry matching nodes (same ``y``). Built on rank 0 of ``comm``.
+
+    Args:
+        comm: Communicator of the mesh (collective).
+        length: ``L`` (extent in x).
+        pieces: Vertex ``y`` arrays of the bodies (only rank 0's are used).
+        nx: Columns of cells along x.
+
+    Returns:
+        The dolfinx mesh (geometric dimension 2, triangles, no facet tags: locate by
+        coordinates and by the body of the adjacent cell).
+    """
+    if not (math.isfinite(length) and length > 0) or int(nx) != nx or nx < 1:
+        raise ParameterError(f"bad strip: length = {length!r}, nx = {nx!r}")
+    if comm.rank == 0:
+        coords, cells, start = [], [], 0
+        xs = np.linspace(0.0, length, int(nx) + 1)
+        for piece in pieces:
+            ys = np.asarray(piece, dtype=float)
+            ny = len(ys) - 1
+            X, Y = np.meshgrid(xs, ys, indexing="ij")  # node (i, j) -> i * (ny + 1) + j
+            coords.append(np.column_stack([X.ravel(), Y.ravel()]))
+            i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+            n00 = start + i.ravel() * (ny + 1) + j.ravel()
+            n10, n01 = n00 + ny + 1, n00 + 1
+            n11 = n10 + 1
+            cells.append(np.column_stack([n00, n10, n11]))
+            cells.append(np.column_stack([n00, n11, n01]))
+            start += (nx + 1) * (ny + 1)
+        cell_arr = np.vstack(cells).astype(np.int64)
+        coord_arr = np.vstack(coords)
+    else:
+        cell_arr = np.empty((0, 3), dtype=np.int64)
+        coord_arr = np.empty((0, 2), dtype=np.float64)
+    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1, dim=2))
+    return dolfinx.mesh.create_mesh(comm, cell_arr, coord_arr, domain)

@@ -1,9 +1,12 @@
 """Branch tracking by eigenvector overlap (forms.tracking), on synthetic candidates."""
 
 import numpy as np
+import pytest
 
 from analytic.params import Params
 from forms.tracking import Branch, branches, normalized, track_branch, waveguide_lambda
+
+pytestmark = pytest.mark.serial  # pure numpy: once is enough
 
 
 def _vec(theta, n=6):

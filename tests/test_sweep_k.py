@@ -102,6 +102,7 @@ def _by_k(rows):
     return d
 
 
+@pytest.mark.slow  # measured 13-32 s on the loaded 2-core machine
 @pytest.mark.serial
 def test_sparse_and_dense_k_lists_give_the_same_labels_and_values(tmp_path):
     sparse, dense = tmp_path / "sparse", tmp_path / "dense"
@@ -130,6 +131,7 @@ def test_duplicate_k_values_are_merged(tmp_path):
     assert len(labels_at_1) == len(set(labels_at_1))
 
 
+@pytest.mark.slow  # measured 13-32 s on the loaded 2-core machine
 @pytest.mark.serial
 def test_large_k_no_duplicated_root_and_every_exact_root_reported(tmp_path):
     """--k 50,51 (the stable roots of the issue, -0.19999+100.746i and -0.8212+102.820i, are
@@ -156,6 +158,7 @@ def test_large_k_no_duplicated_root_and_every_exact_root_reported(tmp_path):
         assert min(abs(v - z) for v in at50.values()) < 1e-3
 
 
+@pytest.mark.slow  # measured 13-32 s on the loaded 2-core machine
 @pytest.mark.serial
 def test_alpha_pc_2_branch_0plus_followed_through_its_brief_instability(tmp_path):
     out = tmp_path / "apc"
@@ -179,6 +182,7 @@ def test_alpha_pc_2_branch_0plus_followed_through_its_brief_instability(tmp_path
         assert len(ex) == 1 and abs(ex[0].value - z) < 1e-8 * abs(z)
 
 
+@pytest.mark.slow  # measured 13-32 s on the loaded 2-core machine
 @pytest.mark.serial
 @pytest.mark.parametrize("bc", ["velocity", "stress"])
 def test_most_unstable_is_the_maximum_of_the_exact_roots(tmp_path, bc):
@@ -197,6 +201,7 @@ def test_most_unstable_is_the_maximum_of_the_exact_roots(tmp_path, bc):
     assert best["certificate"]["certified"] and best["status"] == "ok"
 
 
+@pytest.mark.slow  # measured 13-32 s on the loaded 2-core machine
 @pytest.mark.serial
 def test_two_ranks_give_the_same_spectrum_and_plot(tmp_path):
     one, two = tmp_path / "one", tmp_path / "two"

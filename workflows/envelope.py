@@ -4,7 +4,7 @@
 
 At every k the argument principle counts every exact root in the region R of the sweep
 (``analytic.spectrum.Region``: phase velocities up to ``--c-max`` c_d) and the fastest one is
-kept; the three largest grid values are refined by sampling between their neighbours.
+kept; the largest local maxima of the samples are refined along their root's family.
 Answers: where is the global maximum of the growth rate over k, and what does the envelope do
 as k H grows? The
 half-space (k H -> infinity) maximum of the dilatational family (``analytic.halfspace``) is drawn
@@ -24,7 +24,8 @@ import _cli
 import numpy as np
 
 from analytic import halfspace
-from analytic.spectrum import Region, fastest_root
+from analytic.roots import ContourError
+from analytic.spectrum import Region, family_peak, fastest_root
 
 PETSC_PREFIXES: tuple[str, ...] = ()
 OUTPUTS = ("envelope.csv", "summary.json", "envelope.png", "run.json", "run.lock")
@@ -56,21 +57,32 @@ def parse_grid(spec: str) -> np.ndarray:
     return np.unique(_cli.parse_k(spec))
 
 
-def refine(growth: object, ks: list[float], re: np.ndarray, top: int = 3, points: int = 12
-           ) -> tuple[float, float]:
-    """Best of ``points`` samples between the neighbours of each of the ``top`` largest values.
+def refine(p: object, region: Region, ks: list[float], zs: list, top: int = 6) -> dict:
+    """Refine the ``top`` largest local maxima of the sampled envelope.
 
     The envelope is a maximum over families (a new mode takes over as k grows): it has kinks
-    and many nearly equal local maxima, so a one-peak search does not apply.
+    and many nearly equal local maxima. At each local maximum of the samples the fastest root's
+    own family is maximised over the neighbouring interval (:func:`family_peak`), and the
+    result is checked to be the fastest root in the region there (argument principle).
     """
-    best = (float("nan"), -np.inf)
-    for j in np.argsort(np.nan_to_num(re, nan=-np.inf))[::-1][:top]:
+    re = np.array([z.real if z is not None else -np.inf for z in zs])
+    interior = [j for j in range(len(ks)) if np.isfinite(re[j])
+                and re[j] >= re[max(j - 1, 0)] and re[j] >= re[min(j + 1, len(ks) - 1)]]
+    best = {"k": ks[int(np.argmax(re))], "Lambda": zs[int(np.argmax(re))], "fastest": True}
+    peaks = []
+    for j in sorted(interior, key=lambda i: -re[i])[:top]:
         lo, hi = ks[max(j - 1, 0)], ks[min(j + 1, len(ks) - 1)]
-        for kk in [ks[j], *np.linspace(lo, hi, points)]:
-            g = growth(float(kk))
-            if g > best[1]:
-                best = (float(kk), g)
-    return best
+        k, z = family_peak(p, ks[j], zs[j], lo, hi)
+        try:
+            zf = fastest_root(p, k, region)[0]
+        except ContourError:
+            zf = None
+        fastest = zf is not None and abs(zf - z) <= 1e-8 * abs(z)
+        peaks.append({"k": k, "re_lambda": z.real, "im_lambda": z.imag,
+                      "fastest_in_region": fastest})
+        if fastest and z.real > best["Lambda"].real:
+            best = {"k": k, "Lambda": z, "fastest": True}
+    return {"best": best, "peaks": peaks}
 
 
 def main(comm: object = None, argv: list[str] | None = None) -> int:
@@ -86,7 +98,11 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         mine = _cli.my_share(comm, [region.im_max(p, kk) ** 1.5 for kk in k])
         local = {}
         for i in mine:
-            z, n, bx = fastest_root(p, float(k[i]), region)
+            try:
+                z, n, bx = fastest_root(p, float(k[i]), region)
+            except ContourError as err:  # reported, the run goes on
+                _cli.say(f"k = {k[i]:g}: no count ({err})", err=True)
+                z, n = None, -1
             local[i] = (z, n)
         rows = {}
         for part in comm.allgather(local):
@@ -97,17 +113,14 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         j = int(np.nanargmax(re))
         best = None
         if comm.rank == 0:
-            def growth(kk: float) -> float:
-                z = fastest_root(p, kk, region)[0]
-                return z.real if z is not None else -np.inf
-
-            kb, _ = refine(growth, ks, re)
-            zb = fastest_root(p, kb, region)[0]
+            ref = refine(p, region, ks, [rows[i][0] for i in range(len(k))])
+            kb, zb = ref["best"]["k"], ref["best"]["Lambda"]
             best = {"k": kb, "kH": kb * p.H, "re_lambda": zb.real, "im_lambda": zb.imag,
                     "phase_velocity_over_c_d": abs(zb.imag) / kb * p.beta,
                     "grid_k_of_largest_value": ks[j], "at_grid_edge": j in (0, len(ks) - 1),
-                    "refinement": "12 samples between the neighbours of the 3 largest grid "
-                    "values"}
+                    "refinement": "each of the 6 largest local maxima of the samples: "
+                    "golden-section on its root's family, checked to be the fastest in R",
+                    "local_peaks": ref["peaks"]}
             hs = halfspace.max_growth("dilatational", p.replace(H=math.inf))
             with open(run.file("envelope.csv"), "w", newline="") as fh:
                 w = csv.writer(fh)
@@ -115,7 +128,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                 for i, kk in enumerate(ks):
                     z, n = rows[i]
                     w.writerow([repr(kk), repr(kk * p.H), repr(z.real) if z else "",
-                                repr(z.imag) if z else "", n])
+                                repr(z.imag) if z else "", n])  # n = -1: count failed
             summary = {"parameters": p.as_dict(), "region": region.as_dict(p),
                        "global_max_on_grid": best,
                        "halfspace_dilatational_max": {"growth": hs.growth, "q": hs.q_growth},

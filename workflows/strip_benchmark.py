@@ -20,9 +20,9 @@ import _cli
 from mpi4py import MPI
 
 from analytic.params import Params
-from forms.friction import FrictionLaw, apply_dirichlet, friction_operator
+from forms.friction import DIRICHLET_DIAGONAL, FrictionLaw, apply_dirichlet, friction_operator
 from forms.solvers import PolynomialSolver
-from forms.strip import DIRICHLET_DIAGONAL, build_strip_problem
+from forms.strip import build_strip_problem
 from meshes.strip import strip_mesh, wavelength
 
 CHECK_VALUE = 0.2716852879456 - 6.5866951866228j

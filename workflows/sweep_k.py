@@ -166,6 +166,7 @@ def write_outputs(out: str, params: Params, region: Region, k: np.ndarray,
         most = {"k": best["k"], "re_lambda": best["re_lambda"], "im_lambda": best["im_lambda"],
                 "branch": best["label"], "status": best["status"],
                 "rel_error": best["rel_error"], "error_estimate": best["error_estimate"],
+                "at_edge_of_k_range": best["k"] in (float(k[0]), float(k[-1])),
                 "certificate": {
                     "statement": "largest Re Lambda over every eigenvalue in the region R at "
                     "every swept k; at each k the FE count in R equals the exact "

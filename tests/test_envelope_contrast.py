@@ -1,0 +1,62 @@
+"""Smoke tests of workflows/envelope.py and workflows/contrast.py (serial and mpirun -n 2),
+checked against the exact roots they are built on."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+from _workflows import run_workflow
+
+from analytic import Params, roots_in_box
+from analytic.spectrum import Region
+
+pytestmark = pytest.mark.serial  # the scenes are subprocesses (their own mpirun)
+
+
+@pytest.mark.parametrize("nproc", [1, 2])
+def test_envelope_is_the_fastest_exact_root(tmp_path, nproc):
+    out = tmp_path / "env"
+    proc = run_workflow("envelope.py", ["--k", "1,3,6", "--out", str(out)], nproc=nproc)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    with open(out / "envelope.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    p, region = Params(), Region()
+    for r in rows:
+        k = float(r["k"])
+        exact = max(z.value.real for z in roots_in_box(p, k, region.box(p, k)))
+        assert float(r["re_lambda_max"]) == pytest.approx(exact, rel=1e-10)
+    s = json.loads((out / "summary.json").read_text())
+    best = s["global_max_on_grid"]
+    assert best["re_lambda"] >= max(float(r["re_lambda_max"]) for r in rows)
+    assert (out / "envelope.png").stat().st_size > 10000
+
+
+@pytest.mark.parametrize("nproc", [1, 2])
+def test_contrast_rigid_limit_and_rows(tmp_path, nproc):
+    out = tmp_path / "c"
+    proc = run_workflow("contrast.py", ["--mu2-grid", "3,1e6", "--H2s", "H", "--k", "1,2",
+                                        "--out", str(out)], nproc=nproc)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    s = json.loads((out / "summary.json").read_text())
+    rows = s["rows"]
+    assert [r["mu2"] for r in rows] == [3.0, 1e6]
+    # a stiff substrate approaches the rigid model: its largest growth over the same k samples
+    rigid = Params()
+    region = Region(1e-4, 2.0, 4.0)
+    ks = np.unique(np.concatenate([[1.0, 2.0], np.linspace(1.0, 2.0, 8)]))
+    exact = max(z.value.real for k in ks for z in roots_in_box(rigid, k, region.box(rigid, k)))
+    # mu2 = 1e6: roots move by O(1/mu2) (docs/twobody.md: first order in 1/mu2)
+    assert rows[1]["re_lambda"] == pytest.approx(exact, abs=1e-4)
+    assert rows[0]["re_lambda"] < rows[1]["re_lambda"]
+
+
+@pytest.mark.parametrize("script, bad, word", [("contrast.py", ["--H2s", "0"], "--H2s"),
+                                               ("contrast.py", ["--mu2", "-1"], "mu2"),
+                                               ("envelope.py", ["--k", "2:1:10log"], "--k")])
+def test_bad_input_one_line(tmp_path, script, bad, word):
+    proc = run_workflow(script, [*bad, "--out", str(tmp_path / "o")])
+    assert proc.returncode == 2
+    lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and word in lines[0], proc.stderr
+    assert not (tmp_path / "o").exists()

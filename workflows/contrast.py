@@ -1,0 +1,187 @@
+"""Largest growth rate against the material contrast mu2 (two bodies, exact roots, counted).
+
+    mpirun -n N python workflows/contrast.py [--mu2 0.1:100:13log] [--H2s 0.5,inf] [--out DIR]
+
+For every substrate stiffness ``mu2`` (density ``rho2 = --rho2 * (mu2)^--rho2-exponent``: 0 keeps
+the density, 1 keeps the shear-wave speed) and every substrate height of ``--H2s``, the growth
+rate is maximised over every mode and over k: at each k of ``--k`` the argument principle
+counts every exact root of ``analytic.twobody`` in the region R of the sweep (``Re >=
+--re-min``, phase velocities up to ``--c-max`` c_d), the fastest is kept, and the largest grid
+values are refined by sampling between their neighbours (as ``envelope.py``). For a half-space
+substrate (``inf``) the region stays in ``Re > 0``, on the physical sheet. Is the curve
+monotonic in mu2? Writes ``contrast.csv``, ``summary.json``, ``contrast.png``; parallel over the
+(mu2, H2) pairs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+
+import _cli
+import numpy as np
+
+from analytic.roots import ContourError
+from analytic.spectrum import Region, fastest_root
+
+PETSC_PREFIXES: tuple[str, ...] = ()
+OUTPUTS = ("contrast.csv", "summary.json", "contrast.png", "run.json", "run.lock")
+
+
+def grid(spec: str, name: str) -> np.ndarray:
+    """``a:b:nlog`` (geometric), ``a:b:n`` or a comma list, positive values."""
+    if spec.endswith("log") and spec.count(":") == 2:
+        try:
+            a, b, n = (float(v) for v in spec[:-3].split(":"))
+        except ValueError:
+            raise _cli.ParameterError(f"{name} = {spec!r} is not start:stop:countlog") from None
+        if not (0 < a < b and math.isfinite(b) and 2 <= n <= 10000):
+            raise _cli.ParameterError(f"{name} = {spec!r}: need 0 < start < stop, 2 <= count")
+        return np.geomspace(a, b, int(n))
+    return np.unique(_cli.parse_k(spec, name=name))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Command-line options."""
+    ap = _cli.make_parser(__doc__, PETSC_PREFIXES, petsc=False)
+    _cli.add_param_arguments(ap)
+    ap.add_argument("--mu2-grid", default="0.1:100:13log", help="substrate stiffnesses mu2")
+    ap.add_argument("--rho2-exponent", type=float, default=0.0,
+                    help="material line rho2 = --rho2 * mu2^e (0: fixed density)")
+    ap.add_argument("--H2s", default="H,inf",
+                    help="substrate heights, comma list ('H': the slider's, 'inf': half-space)")
+    ap.add_argument("--k", default="0.1:20:16log", help="k grid of the maximisation")
+    ap.add_argument("--c-max", type=float, default=Region().c_max,
+                    help="region: largest phase velocity, in units of c_d")
+    ap.add_argument("--re-min", type=float, default=1e-4,
+                    help="region: smallest Re Lambda (> 0: unstable modes, physical sheet)")
+    ap.add_argument("--out", default=os.path.join("out", "contrast"), help="output folder")
+    return ap
+
+
+def heights(spec: str, H: float) -> list[float]:
+    """``--H2s`` as numbers."""
+    out = []
+    for tok in spec.split(","):
+        tok = tok.strip()
+        try:
+            v = H if tok == "H" else float(tok)
+        except ValueError:
+            raise _cli.ParameterError(f"--H2s: {tok!r} is not a number, 'H' or 'inf'") from None
+        if not v > 0:
+            raise _cli.ParameterError(f"--H2s: {tok!r} is outside its allowed range > 0")
+        out.append(v)
+    return out
+
+
+def best_over_k(p: object, ks: np.ndarray, region: Region) -> dict:
+    """Fastest root over every mode in R and over k (grid, then local samples)."""
+
+    def growth(k: float) -> tuple[float, complex | None, int]:
+        try:
+            z, n, _ = fastest_root(p, float(k), region)
+        except ContourError:
+            return -np.inf, None, -1
+        return (z.real if z is not None else -np.inf), z, n
+
+    vals = [growth(k) for k in ks]
+    re = np.array([v[0] for v in vals])
+    failed = int(sum(v[2] < 0 for v in vals))
+    best = (float(ks[int(np.argmax(re))]), *vals[int(np.argmax(re))])
+    for j in np.argsort(re)[::-1][:2]:
+        if not np.isfinite(re[j]):
+            continue
+        lo, hi = ks[max(j - 1, 0)], ks[min(j + 1, len(ks) - 1)]
+        for k in np.linspace(lo, hi, 8):
+            g = growth(k)
+            if g[0] > best[1]:
+                best = (float(k), *g)
+    k, g, z, _ = best
+    return {"k": k, "re_lambda": g if np.isfinite(g) else None,
+            "im_lambda": z.imag if z is not None else None, "failed_counts": failed}
+
+
+def main(comm: object = None, argv: list[str] | None = None) -> int:
+    """Run the contrast scan."""
+    args, comm = _cli.start(build_parser(), argv, comm)
+    p0 = _cli.params_from_args(args)
+    if not math.isfinite(p0.H):
+        raise _cli.ParameterError("H = inf is outside its allowed range here (a finite slider)")
+    mus = grid(args.mu2_grid, "--mu2-grid")
+    ks = grid(args.k, "--k")
+    h2s = heights(args.H2s, p0.H)
+    if not (math.isfinite(args.rho2_exponent) and abs(args.rho2_exponent) <= 4):
+        raise _cli.ParameterError(f"--rho2-exponent = {args.rho2_exponent} is outside its "
+                                  "allowed range -4..4")
+    region = Region(args.re_min, 2.0, args.c_max)
+    cases = [(m, h) for h in h2s for m in mus]
+    params = [p0.replace(mu2=float(m), rho2=float(p0.rho2 * m ** args.rho2_exponent), H2=h)
+              for m, h in cases]  # validates every case before any work
+    config = {"params": p0.as_dict(), "mu2_grid": args.mu2_grid, "H2s": h2s, "k": args.k,
+              "rho2_exponent": args.rho2_exponent, "region": region.as_dict(p0)}
+    with _cli.RunFolder(comm, args.out, "contrast", config, outputs=OUTPUTS) as run:
+        mine = _cli.my_share(comm, [1.0 + (not math.isfinite(h)) for _, h in cases])
+        local = {i: best_over_k(params[i], ks, region) for i in mine}
+        res: dict[int, dict] = {}
+        for part in comm.allgather(local):
+            res.update(part)
+        if comm.rank == 0:
+            rows = [{"mu2": float(m), "rho2": params[i].rho2, "H2": h, **res[i]}
+                    for i, (m, h) in enumerate(cases)]
+            with open(run.file("contrast.csv"), "w", newline="") as fh:
+                w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+                w.writeheader()
+                w.writerows(rows)
+            curves = {}
+            for h in h2s:
+                g = np.array([r["re_lambda"] if r["re_lambda"] is not None else 0.0
+                              for r in rows if r["H2"] == h])
+                d = np.sign(np.diff(g))
+                d = d[d != 0]
+                curves[str(h)] = {"max_growth": float(g.max()),
+                                  "mu2_at_max": float(mus[int(np.argmax(g))]),
+                                  "monotonic": bool(np.all(d >= 0) or np.all(d <= 0)),
+                                  "direction_changes": int(np.sum(d[1:] != d[:-1]))}
+            summary = {"config": config, "curves": curves, "rows": rows,
+                       "note": "re_lambda None: no root in the region at any k of the grid",
+                       "versions": _cli.versions(), "command": _cli.command()}
+            with open(run.file("summary.json"), "w") as fh:
+                json.dump(summary, fh, indent=1)
+            plot(run.file("contrast.png"), p0, rows, h2s, config)
+            for h, c in curves.items():
+                _cli.say(f"H2 = {h}: max growth {c['max_growth']:.4f} at mu2 = "
+                         f"{c['mu2_at_max']:.3g}; monotonic in mu2: {c['monotonic']}")
+    return 0
+
+
+def plot(path: str, p: object, rows: list[dict], h2s: list[float], meta: dict) -> None:
+    """contrast.png: largest growth rate against mu2 for each H2."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7.5, 4.5))
+    for h in h2s:
+        sel = [r for r in rows if r["H2"] == h]
+        mu = [r["mu2"] for r in sel]
+        g = [r["re_lambda"] if r["re_lambda"] is not None else np.nan for r in sel]
+        ax.semilogx(mu, g, "o-", ms=4, label=f"H2 = {h:g}" if math.isfinite(h) else
+                    "H2 = inf (half-space)")
+    ax.axvline(1.0, color="0.6", lw=0.6, ls=":")
+    ax.set_xlabel("substrate stiffness mu2 (slider: 1)")
+    ax.set_ylabel(r"largest growth rate max Re $\Lambda$")
+    ax.set_title(f"bc={p.bc}, bc2={p.bc2}, f={p.f:g}, gamma={p.gamma:g}, beta={p.beta:g}, "
+                 f"Delta={p.Delta:g}, H={p.H:g}; rho2 = {p.rho2:g} mu2^"
+                 f"{meta['rho2_exponent']:g}", fontsize=8)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130, metadata=_cli.png_metadata(meta, "growth rate vs contrast"))
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    _cli.run(main)

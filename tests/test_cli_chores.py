@@ -68,7 +68,8 @@ MPI_SCENES = ("mode_shape.py", "finite_block.py")
 
 #: Every scene serially; under mpirun -n 2 the ones where the defects were reported (the code
 #: path, _cli.start / RunFolder, is the same in every scene).
-RUNS = ([(s, 1) for s in (*SCENES, "benchmark.py", "sweep_k.py", "envelope.py")]
+RUNS = ([(s, 1) for s in (*SCENES, "benchmark.py", "sweep_k.py", "envelope.py", "contrast.py",
+                          "time_domain.py")]
         + [(s, 2) for s in MPI_SCENES])
 
 

@@ -89,7 +89,9 @@ def params_from_args(args: argparse.Namespace) -> Params:
 
 
 def parse_k(spec: str, name: str = "--k") -> np.ndarray:
-    """Parse ``start:stop:count`` (inclusive, linear) or ``k1,k2,...``.
+    """Parse ``start:stop:count`` (inclusive, linear) or ``k1,k2,...`` (as given).
+
+    Callers merge duplicates with ``np.unique``.
 
     Raises:
         ParameterError: On malformed input or a non-positive / non-finite value.

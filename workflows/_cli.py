@@ -515,7 +515,7 @@ class RunFolder:
         if verdict is not None:
             raise ParameterError(verdict)
         _STATE["folder"] = self
-        _tell_watcher("folder", os.path.abspath(self.path), "1" if self.resumable else "0")
+        _tell_watcher("folder", self.path, "1" if self.resumable else "0")
         return self
 
     def close(self) -> None:
@@ -727,6 +727,15 @@ def _on_terminate(signum: int, frame: object) -> None:
     _tell_watcher("why", f"stopped by {name} (under mpirun: every rank is stopped when one of "
                          "them fails or is killed, or the job was interrupted)")
     _close_folder()
+    _flush()
+    os._exit(128 + signum)
+
+
+def _on_interrupt(signum: int, frame: object) -> None:
+    """Ctrl-C: exit at once (a KeyboardInterrupt raised inside a finaliser would be lost)."""
+    _tell_watcher("why", "interrupted (Ctrl-C)")
+    _close_folder()
+    _flush()
     os._exit(128 + signum)
 
 
@@ -744,6 +753,13 @@ def run(main: Callable[..., int | None]) -> None:
     for s in (signal.SIGTERM, signal.SIGHUP):
         with contextlib.suppress(ValueError):
             signal.signal(s, _on_terminate)
+    # Ctrl-C: not if ignored (a background job). gmsh's import sets SIG_DFL and every
+    # gmsh.finalize() restores the handler found at its import (gmsh.oldsig): made ours.
+    if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
+        signal.signal(signal.SIGINT, _on_interrupt)
+        gmsh = sys.modules.get("gmsh")
+        if gmsh is not None and getattr(gmsh, "oldsig", None) is not None:
+            gmsh.oldsig = _on_interrupt
     try:
         code = main()
     except ParameterError as err:
@@ -755,6 +771,7 @@ def run(main: Callable[..., int | None]) -> None:
     except KeyboardInterrupt:
         _tell_watcher("why", "interrupted (Ctrl-C)")
         _close_folder()
+        _flush()
         os._exit(130)
     except SystemExit:
         _close_folder()
@@ -763,15 +780,24 @@ def run(main: Callable[..., int | None]) -> None:
     except BaseException as err:  # noqa: BLE001 - reported, then every rank is stopped
         _close_folder()
         traceback.print_exc()
-        _tell_watcher("why", f"stopped: rank {rank()} failed ({type(err).__name__}: {err})")
+        first = (str(err).strip().splitlines() or [""])[0]
+        _tell_watcher("why", f"stopped: rank {rank()} failed ({type(err).__name__}: {first})")
         if world_size() > 1:
             from mpi4py import MPI
 
+            _flush()
             MPI.COMM_WORLD.Abort(1)
+        _flush()
         os._exit(1)
     _close_folder()
     _watcher_done()
     sys.exit(int(code or 0))
+
+
+def _flush() -> None:
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
 
 
 def _close_folder() -> None:

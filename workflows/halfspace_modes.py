@@ -83,7 +83,7 @@ def _check(args: argparse.Namespace) -> tuple:
     base = _cli.params_from_args(args)
     p = Params(f=base.f, gamma=base.gamma, beta=base.beta, Delta=base.Delta, H=math.inf,
                alpha_pc=base.alpha_pc, alpha_ld=base.alpha_ld)
-    ks = np.sort(_cli.parse_k(args.k))
+    ks = np.unique(_cli.parse_k(args.k))  # sorted, duplicates merged
     _cli.positive_int("--degree", args.degree, 1, 6)
     if not (math.isfinite(args.attenuation) and args.attenuation > 0):
         raise _cli.ParameterError(f"--attenuation = {args.attenuation} must be > 0")

@@ -1,0 +1,357 @@
+"""The workflows' shared chores (workflows/_cli.py): output folder, lock, provenance, options,
+messages, work sharing; and the ``python -m analytic`` command line.
+
+Workflows run as subprocesses (tests/_workflows.py), serially and under ``mpirun -n 2``, with a
+timeout: a hang is a failure. Bad-input paths exit before any computation, so they are fast;
+the few real runs are tiny. The subprocess tests launch their own mpirun, so they are marked
+serial; the in-process RunFolder test runs in both passes (under mpirun it checks that every
+rank gets the same verdict).
+"""
+
+import csv
+import io
+import itertools
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+import pytest
+from _workflows import ROOT, run_workflow
+
+sys.path.insert(0, os.path.join(ROOT, "workflows"))
+import _cli  # noqa: E402
+
+#: Bad input must be refused before any computation: generous against a loaded machine, but
+#: a hang (a rank waiting in a collective forever) still fails.
+QUICK = 120
+#: Every workflow (benchmark.py runs on one rank only) with a cheap valid argument set.
+SCENES = {
+    "mode_shape.py": ["--source", "cross-section", "--no-render", "--phases", "1"],
+    "finite_block.py": ["--lengths", "2", "--cells-per-unit", "2", "--ny", "2", "--degree", "1",
+                        "--targets", "1", "--nev", "2", "--no-kulikovskii", "--k-scan",
+                        "0.5:1.5:3"],
+    "halfspace_modes.py": ["--k", "0.3", "--degree", "2", "--H-trunc", ""],
+    "work_precision.py": ["--tiny", "--repeats", "1", "--no-dense"],
+    "strip_benchmark.py": ["--levels", "1", "--nx0", "4", "--ny0", "2"],
+    "figures.py": ["--only", "both", "--no-fe", "--n-q", "20"],
+    "phase_diagram.py": ["--f", "0.3", "--beta", "0.5", "--n-gamma", "2"],
+}
+FINITE_BLOCK = SCENES["finite_block.py"]
+
+
+def _lines(text):
+    return [ln for ln in text.replace("\r", "\n").splitlines() if ln.strip()]
+
+
+def _one_error_line(res, *needles):
+    assert res.returncode == 2, res.stderr[-2000:]
+    lines = _lines(res.stderr)
+    assert len(lines) == 1, res.stderr[-2000:]
+    assert lines[0].startswith("error:"), lines
+    for n in needles:
+        assert n in lines[0], lines
+    return lines[0]
+
+
+def _analytic(args, nproc=1):
+    return run_workflow(os.path.join("..", "analytic", "__main__.py"), args, nproc, QUICK)
+
+
+# ------------------------------------------------------------------------- output folder
+#: Where the defects were reported under mpirun: these scenes are also run with -n 2.
+MPI_SCENES = ("mode_shape.py", "finite_block.py")
+
+
+#: Every scene serially; under mpirun -n 2 the ones where the defects were reported (the code
+#: path, _cli.start / RunFolder, is the same in every scene).
+RUNS = ([(s, 1) for s in (*SCENES, "benchmark.py", "sweep_k.py", "envelope.py", "contrast.py",
+                          "time_domain.py")]
+        + [(s, 2) for s in MPI_SCENES])
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("script,nproc", RUNS)
+def test_out_is_an_existing_file(tmp_path, script, nproc):
+    """Was a hang under mpirun (rank 0 raised, rank 1 waited) and a traceback serially."""
+    target = tmp_path / "taken"
+    target.write_text("not a folder")
+    res = run_workflow(script, ["--out", str(target)], nproc, QUICK)
+    _one_error_line(res, "--out", "not a folder")
+    assert target.read_text() == "not a folder"
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("script,nproc", [("mode_shape.py", 1), ("finite_block.py", 2)])
+def test_out_cannot_be_created(script, nproc):
+    """Was: every workflow computed in full, then failed writing."""
+    res = run_workflow(script, ["--out", "/proc/no/such/folder"], nproc, QUICK)
+    _one_error_line(res, "--out", "cannot be created")
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("nproc", [1])
+def test_out_with_foreign_files_is_refused(tmp_path, nproc):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    res = run_workflow("phase_diagram.py", ["--out", str(out)], nproc, QUICK)
+    _one_error_line(res, "notes.txt")
+    assert sorted(os.listdir(out)) == ["notes.txt"]
+
+
+# ------------------------------------------------------------------ lock and provenance
+@pytest.mark.serial
+@pytest.mark.parametrize("nproc", [2])
+def test_lock_of_a_live_run_is_respected(tmp_path, nproc):
+    out = tmp_path / "out"
+    out.mkdir()
+    lock = {"pid": os.getpid(), "host": socket.gethostname(), "time": "now", "command": "x"}
+    (out / _cli.LOCK).write_text(json.dumps(lock))
+    res = run_workflow("finite_block.py", [*FINITE_BLOCK, "--out", str(out)], nproc, QUICK)
+    _one_error_line(res, "in use by another run", f"pid {os.getpid()}")
+    assert json.loads((out / _cli.LOCK).read_text()) == lock  # left alone
+    assert sorted(os.listdir(out)) == [_cli.LOCK]
+
+
+@pytest.mark.serial
+def test_stale_lock_is_taken_over_and_released(tmp_path):
+    dead = subprocess.Popen(["true"])
+    dead.wait()
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / _cli.LOCK).write_text(json.dumps({"pid": dead.pid, "host": socket.gethostname()}))
+    res = run_workflow("figures.py", [*SCENES["figures.py"], "--out", str(out)], 1, 300)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert not (out / _cli.LOCK).exists()
+    record = json.loads((out / _cli.RECORD).read_text())
+    assert record["scene"] == "figures" and "figures.py" in record["runs"][0]["command"]
+    assert "numpy" in record["runs"][0]["versions"]
+
+
+@pytest.fixture(scope="module")
+def finished_block(tmp_path_factory):
+    """A tiny finite_block run (beta 0.5) to resume from."""
+    out = tmp_path_factory.mktemp("block") / "out"
+    res = run_workflow("finite_block.py", [*FINITE_BLOCK, "--out", str(out)], 1, 300)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert not (out / _cli.LOCK).exists()
+    return out
+
+
+def _csv_rows(out):
+    with open(out / "finite_block.csv") as fh:
+        return list(csv.DictReader(fh))
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("resume,nproc", [(True, 1), (True, 2), (False, 1)])
+def test_other_parameters_are_refused(finished_block, nproc, resume):
+    """Was: --resume with another --beta silently appended rows of a different problem."""
+    before = _csv_rows(finished_block)
+    args = [*FINITE_BLOCK, "--beta", "0.6", "--out", str(finished_block)]
+    res = run_workflow("finite_block.py", [*args, "--resume"] if resume else args, nproc, QUICK)
+    line = _one_error_line(res, "params.beta", "0.5", "0.6")
+    assert ("--resume" in line) == resume
+    assert _csv_rows(finished_block) == before
+    assert not (finished_block / _cli.LOCK).exists()
+
+
+@pytest.mark.serial
+def test_resume_without_record_is_refused(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "finite_block.csv").write_text("L,re_lambda\n2,0.1\n")
+    res = run_workflow("finite_block.py", [*FINITE_BLOCK, "--resume", "--out", str(out)], 1,
+                       QUICK)
+    _one_error_line(res, "--resume", "no run record")
+
+
+# --------------------------------------------------------------------------- options
+@pytest.mark.serial
+@pytest.mark.parametrize("nproc", [1, 2])
+@pytest.mark.parametrize("script,typo,name", [("mode_shape.py", ["-beta", "0.8"], "-beta"),
+                                              ("finite_block.py", ["-k", "3"], "-k"),
+                                              ("halfspace_modes.py", ["-pep_type", "linear"],
+                                               "-pep_type")])
+def test_single_dash_typo_is_refused(tmp_path, script, typo, name, nproc):
+    """Was: -beta 0.8 ran with beta 0.5 and exit 0 (the option went to PETSc, unused)."""
+    out = tmp_path / "out"
+    res = run_workflow(script, [*typo, "--out", str(out)], nproc, QUICK)
+    _one_error_line(res, f"option {name}")
+    assert not out.exists()
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("script,nproc", RUNS)
+def test_abbreviation_is_refused(tmp_path, script, nproc):
+    out = tmp_path / "out"
+    res = run_workflow(script, ["--ou", str(out)], nproc, QUICK)
+    _one_error_line(res, "--ou")
+    assert not out.exists()
+
+
+@pytest.mark.serial
+def test_abbreviation_is_refused_by_analytic():
+    _one_error_line(_analytic(["branch", "--k", "1", "--be", "0.4"]), "--be")
+
+
+@pytest.mark.serial
+def test_scene_option_reaches_its_solver(tmp_path):
+    """-bench_pep_type is strip_benchmark's: accepted and read by its PEP (a bad value fails)."""
+    res = run_workflow("strip_benchmark.py", [*SCENES["strip_benchmark.py"], "-bench_pep_type",
+                                              "nonsense", "--out", str(tmp_path / "o")], 1, 300)
+    assert res.returncode != 0 and "nonsense" in res.stderr
+    res = run_workflow("strip_benchmark.py", [*SCENES["strip_benchmark.py"], "-bench_pep_type",
+                                              "toar", "--out", str(tmp_path / "p")], 1, 300)
+    assert res.returncode == 0, res.stderr[-2000:]
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("script,prefixes,nproc", [
+    ("finite_block.py", ("block_", "xs_", "kroots_"), 2),
+    ("halfspace_modes.py", ("pml_", "trunc_"), 1),
+    ("work_precision.py", ("wp_pep_", "wp_nep_"), 1),
+    ("figures.py", ("gallery_cs_", "pml_"), 1)])
+def test_help_lists_the_prefixes_once(script, prefixes, nproc):
+    res = run_workflow(script, ["--help"], nproc, QUICK)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.count("usage:") == 1
+    text = " ".join(res.stdout.split())
+    for p in prefixes:
+        assert f"'{p}'" in text
+
+
+# ------------------------------------------------------------------- interruptions
+def _children(pid):
+    out = subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True).stdout
+    return [int(x) for x in out.split()]
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("nproc", [1, 2])
+def test_interrupted_run_says_resume_continues(tmp_path, nproc):
+    """Serial: Ctrl-C. mpirun -n 2: one rank killed. Was: silence (exit 137 or 130)."""
+    out = tmp_path / "out"
+    args = [*FINITE_BLOCK, "--lengths", "2:40:60", "--out", str(out)]
+    cmd = [sys.executable, os.path.join(ROOT, "workflows", "finite_block.py"), *args]
+    if nproc > 1:
+        cmd = ["mpirun", "-n", str(nproc), sys.executable, "-m", "mpi4py", *cmd[1:]]
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("PMIX_", "OMPI_COMM_"))}
+    env["PYTHONPATH"] = ROOT + os.pathsep + env.get("PYTHONPATH", "")
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=env, cwd=ROOT)
+    try:
+        deadline = time.monotonic() + 240
+        while time.monotonic() < deadline and proc.poll() is None:
+            if (out / "finite_block.csv").exists() and len(_csv_rows(out)) >= 2:
+                break
+            time.sleep(0.2)
+        assert proc.poll() is None, "the run ended before it could be interrupted"
+        if nproc == 1:
+            proc.send_signal(signal.SIGINT)
+        else:
+            ranks = [c for c in _children(proc.pid) if "finite_block" in
+                     open(f"/proc/{c}/cmdline").read()]
+            assert len(ranks) == nproc
+            os.kill(max(ranks), signal.SIGKILL)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode != 0, err[-2000:]
+    said = [ln for ln in _lines(err) if "--resume" in ln]
+    assert len(said) == 1, err[-2000:]
+    assert ("interrupted (Ctrl-C)" if nproc == 1 else "stopped") in said[0]
+    assert str(out) in said[0]
+    assert not (out / _cli.LOCK).exists()
+    assert len(_csv_rows(out)) >= 2
+
+
+# ------------------------------------------------------------------------- analytic
+@pytest.mark.serial
+@pytest.mark.parametrize("nproc", [1, 2])
+def test_analytic_bad_input_once(nproc):
+    _one_error_line(_analytic(["branch", "--k", "1", "--beta", "0.8"], nproc), "beta")
+
+
+@pytest.mark.serial
+def test_analytic_k_range_gives_the_real_reason():
+    """Was: "neither start:stop:count nor a comma list" for a well-formed but empty range."""
+    line = _one_error_line(_analytic(["branch", "--k", "2:1:10"]), "--k", "stop")
+    assert "neither" not in line
+
+
+@pytest.mark.serial
+def test_analytic_branch_flags_doubtful_rows():
+    """Was: NaN rows, no flag column, exit 0 (stress top, gamma = 1e4: branches lost)."""
+    res = _analytic(["branch", "--k", "0.5,1", "--bc", "stress", "--gamma", "1e4"])
+    assert res.returncode == 1, res.stderr
+    rows = list(csv.DictReader(io.StringIO(res.stdout)))
+    assert rows and "flag" in rows[0]
+    nan_rows = [r for r in rows if r["re_lambda"] == "nan"]
+    assert nan_rows and all(r["flag"] for r in nan_rows)
+    assert "flagged" in res.stderr
+
+
+# ---------------------------------------------------------------- in-process helpers
+@pytest.mark.serial
+@pytest.mark.parametrize("size", [1, 2, 3])
+@pytest.mark.parametrize("n", [0, 1, 5, 7])
+def test_share_by_cost_is_lpt(size, n):
+    costs = [((7 * i) % 5) + 1.0 for i in range(n)]
+    share = _cli.share_by_cost(costs, size)
+    assert sorted(i for part in share for i in part) == list(range(n))
+    assert share == _cli.share_by_cost(costs, size)  # deterministic: every rank agrees
+    loads = [sum(costs[i] for i in part) for part in share]
+    best = min((max(sum(c for c, r in zip(costs, a, strict=True) if r == q)
+                    for q in range(size)) for a in itertools.product(range(size), repeat=n)),
+               default=0.0)
+    assert max(loads, default=0.0) <= 4 / 3 * best + 1e-12  # Graham's bound for LPT
+
+
+@pytest.mark.serial
+def test_split_keeps_values_with_their_options():
+    p = _cli.make_parser("x", ("strip_",))
+    p.add_argument("--target", type=complex)
+    p.add_argument("--flag", action="store_true")
+    mine, petsc = _cli.split_petsc(p, ["--target", "-0.3-6j", "-strip_pep_ncv", "40", "--flag",
+                                       "-log_view", "-strip_st_type", "sinvert"])
+    assert mine == ["--target=-0.3-6j", "--flag"]
+    assert petsc == ["-strip_pep_ncv", "40", "-log_view", "-strip_st_type", "sinvert"]
+    _cli.check_petsc_options(p, petsc)
+    with pytest.raises(_cli.ParameterError, match="-xs_pep_nev"):
+        _cli.check_petsc_options(p, ["-xs_pep_nev", "3"])
+
+
+def test_run_folder_verdict_is_collective(tmp_path):
+    """Every rank raises the same error (rank 0 decides), none waits: no hang under mpirun."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    base = comm.bcast(str(tmp_path), root=0)
+    taken = os.path.join(base, "file")
+    if comm.rank == 0:
+        with open(taken, "w") as fh:
+            fh.write("x")
+    comm.Barrier()
+    with pytest.raises(_cli.ParameterError) as err:
+        _cli.RunFolder(comm, taken, "t", {"a": 1}).open()
+    assert comm.allgather(str(err.value)) == [str(err.value)] * comm.size
+    out = os.path.join(base, "out")
+    with _cli.RunFolder(comm, out, "t", {"a": 1}) as run:
+        assert os.path.exists(run.file(_cli.LOCK))
+        if comm.rank == 0:  # a second run on the same folder, while this one holds it
+            with pytest.raises(_cli.ParameterError, match="in use by another run"):
+                _cli.RunFolder(MPI.COMM_SELF, out, "t", {"a": 1}).open()
+        comm.Barrier()
+    comm.Barrier()
+    assert not os.path.exists(os.path.join(out, _cli.LOCK))
+    with pytest.raises(_cli.ParameterError, match="a = 1 there, 2 now"):
+        _cli.RunFolder(comm, out, "t", {"a": 2}, resume=True).open()
+    with _cli.RunFolder(comm, out, "t", {"a": 1}, resume=True) as run:
+        assert run.resumed
+

@@ -6,7 +6,8 @@
   ``finite_block.py``);
 - :func:`save_png`: a figure as PNG with :func:`_cli.png_metadata` (command, parameters).
 
-matplotlib is imported inside the functions (only the ranks that draw load it).
+matplotlib is imported inside the functions (only the ranks that draw load it). No pyvista
+here: a scene that renders with it imports it before dolfinx itself (see ``mode_shape.py``).
 """
 
 from __future__ import annotations

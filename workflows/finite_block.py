@@ -36,7 +36,7 @@ import sys
 import time
 
 import _cli
-import _plots
+import _plots  # matplotlib only: no pyvista/VTK here, so no import order to keep
 import numpy as np
 
 from analytic.branches import parse_branch_label

@@ -404,6 +404,34 @@ def follow(family: str, qs: Sequence[float] | np.ndarray, p: Params, *,
     return out
 
 
+def dilatational_tracks(qs: np.ndarray, p: Params) -> dict[str, list[HalfSpaceRoot]]:
+    """Both ``kappa_d`` roots continued over ``qs`` (:func:`follow`, dilatational family).
+
+    Args:
+        qs: Wavenumbers (monotone).
+        p: Parameters.
+
+    Returns:
+        ``{"unstable": roots, "stable": roots}``, one root per ``q`` for each function.
+    """
+    return {b: follow("dilatational", qs, p, branch=b) for b in ("unstable", "stable")}
+
+
+def physical_curve(roots: list[HalfSpaceRoot], attr: Callable[[HalfSpaceRoot], float],
+                   sheet: str = "physical") -> np.ndarray:
+    """``attr(root)`` where the root is converged and on ``sheet``, NaN elsewhere (gaps show).
+
+    Args:
+        roots: A track (e.g. of :func:`dilatational_tracks`).
+        attr: Quantity of a root, e.g. ``lambda r: r.growth``.
+        sheet: ``"physical"`` (``s``) or ``"s_tilde"``.
+
+    Returns:
+        One value per root.
+    """
+    return np.array([attr(r) if (r.converged and r.sheet == sheet) else np.nan for r in roots])
+
+
 def count_roots(q: float, p: Params, box: tuple[float, float, float, float], *,
                 sheet: str = "physical") -> int:
     """Argument-principle count of the roots of ``s`` (or ``s~``) inside a box of the ``z``-plane.

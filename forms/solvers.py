@@ -4,6 +4,7 @@
   form ``sum_j L^j A_j``.
 - :class:`SplitSolver`: SLEPc NEP on the split rational form ``sum_i phi_i(L) E_i`` (NLEIGS by
   default; ``-nep_type ciss`` with a region for "all eigenvalues in a box").
+- :func:`dense_companion_eig`: the dense baseline (LAPACK on the companion pencil, serial).
 
 Both take their defaults from setters and call ``setFromOptions()`` last, so the PETSc options
 database (command line) wins: with the default empty prefix ``-pep_type``, ``-st_type``,
@@ -22,6 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg
 
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -318,3 +320,40 @@ def _collect(eps, reasons: type, op: FrictionOperator, target: complex) -> Solve
         pairs.append(Eigenpair(lam, relative_residual(op, lam, v, norms), v))
     pairs.sort(key=lambda p: abs(p.value - target))
     return SolveResult(pairs, nconv, reason, eps.getIterationNumber(), dropped)
+
+
+def dense_companion_eig(op: FrictionOperator, target: complex) -> complex:
+    """Nearest-to-target eigenvalue of ``sum_j L^j A_j`` by a dense companion linearisation.
+
+    ``A_j`` are the PETSc matrices of a polynomial :class:`forms.friction.FrictionOperator`
+    (serial). First companion form: ``L B z = A z`` with ``z = (x, L x, ..., L^(d-1) x)``,
+    ``A = [[0, I, ...], ..., [-A_0, -A_1, ..., -A_(d-1)]]``, ``B = diag(I, ..., I, A_d)``,
+    solved by LAPACK (``scipy.linalg.eig``): the dense baseline of the work-precision study.
+
+    Args:
+        op: Polynomial operator on ``MPI.COMM_SELF``.
+        target: Where the wanted eigenvalue is.
+
+    Returns:
+        The finite eigenvalue nearest ``target`` (the spurious root ``L = -1`` of the cleared
+        denominator excluded).
+    """
+    mats = []
+    for a in op.matrices:
+        d = a.copy().convert("dense")
+        mats.append(np.array(d.getDenseArray(), dtype=complex))
+        d.destroy()
+    deg = len(mats) - 1
+    n = mats[0].shape[0]
+    big_a = np.zeros((deg * n, deg * n), dtype=complex)
+    big_b = np.eye(deg * n, dtype=complex)
+    for i in range(deg - 1):
+        big_a[i * n:(i + 1) * n, (i + 1) * n:(i + 2) * n] = np.eye(n)
+    for j in range(deg):
+        big_a[(deg - 1) * n:, j * n:(j + 1) * n] = -mats[j]
+    big_b[(deg - 1) * n:, (deg - 1) * n:] = mats[deg]
+    w = scipy.linalg.eig(big_a, big_b, right=False, overwrite_a=True, overwrite_b=True,
+                         check_finite=False)
+    w = w[np.isfinite(w)]
+    w = w[np.abs(w + 1.0) > 1e-8]  # the spurious root of the cleared denominator (L = -1)
+    return complex(w[np.argmin(np.abs(w - target))])

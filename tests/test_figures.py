@@ -2,7 +2,6 @@
 
 import json
 import os
-import sys
 
 import numpy as np
 import pytest
@@ -83,19 +82,17 @@ def test_figures_bad_input(tmp_path, args, word):
 @pytest.mark.serial
 def test_gap_tracks_are_continuous_and_switch_sheet():
     """The data behind Fig. gaps: each curve is one continuous root, solid (s) then dashed (s~)."""
-    sys.path.insert(0, os.path.join(ROOT, "workflows"))
-    import figures
-
+    from analytic.halfspace import dilatational_tracks, physical_curve
     from analytic.params import Params
 
     p = Params(gamma=0.96 / 0.3)
     steps = {}
     for n in (80, 160):
         qs = np.logspace(-2, 2, n)
-        tracks = figures.dilatational_tracks(qs, p)
+        tracks = dilatational_tracks(qs, p)
         for branch, roots in tracks.items():
-            solid = figures.physical_curve(roots, lambda r: r.growth)
-            dashed = figures.physical_curve(roots, lambda r: r.growth, "s_tilde")
+            solid = physical_curve(roots, lambda r: r.growth)
+            dashed = physical_curve(roots, lambda r: r.growth, "s_tilde")
             assert np.all(np.isfinite(solid) ^ np.isfinite(dashed))  # exactly one at each q
             assert np.isfinite(solid).any() and np.isfinite(dashed).any()
             g = np.array([r.growth for r in roots])

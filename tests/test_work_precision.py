@@ -50,17 +50,15 @@ def test_bad_repeats_exits_2(tmp_path):
 
 def test_dense_companion_matches_pep():
     """The dense baseline solves the same polynomial problem as SLEPc's PEP."""
-    import work_precision
-
     from mpi4py import MPI
 
     from analytic.params import Params
     from forms.cross_section import CrossSectionModel
-    from forms.solvers import PolynomialSolver
+    from forms.solvers import PolynomialSolver, dense_companion_eig
 
     model = CrossSectionModel(MPI.COMM_SELF, Params(), degree=3, cells=6)
     op = model.operator(1.0)
-    lam_dense = work_precision.dense_companion_eig(op, -6.6j)
+    lam_dense = dense_companion_eig(op, -6.6j)
     solver = PolynomialSolver(MPI.COMM_SELF, nev=1)
     res = solver.solve(op, -6.6j)
     lam_pep = res.pairs[0].value

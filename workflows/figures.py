@@ -11,7 +11,8 @@ Figures (``--only`` takes a comma list of these names):
 - ``comparison``: ``Re lambda`` and ``Re z`` vs ``q`` for several ``gamma f``, exact roots of
   ``s(z, q)`` and Eqs. (analytic_spectrum), (kappa_d)+(kappa_d1) (Fig. comparison);
 - ``both``: dilatational and shear instabilities at small ``Delta`` (Fig. both);
-- ``phase_diagram``: Fig. stability_diagram (via ``workflows/phase_diagram.py``);
+- ``phase_diagram``: Fig. stability_diagram (:mod:`analytic.phase_diagram`, as
+  ``workflows/phase_diagram.py``);
 - ``modified1`` / ``modified2``: effect of ``alpha_PC`` / ``alpha_LD`` (Figs. modified1/2);
 - ``stress_top``: velocity vs stress top condition at finite ``H`` (Appendix B figure),
   ``analytic.branches``;
@@ -44,14 +45,16 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import _cli
+import _plots
 import numpy as np
-import phase_diagram
 
 from mpi4py import MPI
 
 from analytic import halfspace as hs
 from analytic import largek as lk
+from analytic import phase_diagram as pd
 from analytic.branches import follow_branch
+from analytic.halfspace import dilatational_tracks, physical_curve
 from analytic.params import ParameterError, Params
 from analytic.smallk import lambda_smallk
 from forms.cross_section import CrossSectionModel
@@ -69,17 +72,6 @@ FIGURES = ("finiteH", "comparison", "both", "phase_diagram", "modified1", "modif
 
 
 # ------------------------------------------------------------------------------- data helpers
-def dilatational_tracks(qs: np.ndarray, p: Params) -> dict[str, list[hs.HalfSpaceRoot]]:
-    """Both ``kappa_d`` roots (``"unstable"``/``"stable"`` functions) continued over ``qs``."""
-    return {b: hs.follow("dilatational", qs, p, branch=b) for b in ("unstable", "stable")}
-
-
-def physical_curve(roots: list[hs.HalfSpaceRoot], attr: Callable[[hs.HalfSpaceRoot], float],
-                   sheet: str = "physical") -> np.ndarray:
-    """``attr(root)`` where the root is converged and on ``sheet``, NaN elsewhere (gaps show)."""
-    return np.array([attr(r) if (r.converged and r.sheet == sheet) else np.nan for r in roots])
-
-
 def overlay(ax, name: str, opts: argparse.Namespace, panel: int = 0) -> None:  # noqa: ANN001
     """Plot ``opts.overlay/<name>.csv`` (columns x, y, label[, panel]) as markers."""
     if not opts.overlay:
@@ -480,16 +472,18 @@ def fig_modified2(opts: argparse.Namespace, fe: list[FETask]):  # noqa: ANN201
 
 
 def fig_phase_diagram(opts: argparse.Namespace, fe: list[FETask]):  # noqa: ANN201, ARG001
-    """Fig. stability_diagram, from workflows/phase_diagram.py (analytic spectrum, no FE)."""
-    args = phase_diagram.parse(["--n-gamma", str(opts.n_gamma)])
-    rows = phase_diagram.check(args)
-    grid = phase_diagram.gamma_grid(args.gamma_min, args.gamma_max, args.n_gamma)
-    records = [r for f, b in rows for fam in phase_diagram.FAMILIES for g in grid
-               for r in phase_diagram.boundary_records(f, b, fam, float(g), args.delta_max)
+    """Fig. stability_diagram (:mod:`analytic.phase_diagram`; analytic spectrum, no FE).
+
+    The paper's rows on the default window, as ``workflows/phase_diagram.py --n-gamma N``.
+    """
+    rows, window = list(pd.PAPER_ROWS), pd.Window()
+    grid = pd.gamma_grid(window.gamma_min, window.gamma_max, opts.n_gamma)
+    records = [r for f, b, fam, g in pd.tasks(rows, grid)
+               for r in pd.boundary_records(f, b, fam, g, window.delta_max)
                if "dropped" not in r]
-    fig = phase_diagram.draw(rows, records, args)
-    return fig, {"rows": rows, "n_gamma": args.n_gamma,
-                 "closed_form_vs_numerical": phase_diagram.measured_differences(records, rows)}
+    fig = _plots.draw_phase_diagram(rows, records, window)
+    return fig, {"rows": rows, "n_gamma": opts.n_gamma,
+                 "closed_form_vs_numerical": pd.measured_differences(records, rows)}
 
 
 def _unstable_branch(p: Params, n: int, hk: np.ndarray):  # noqa: ANN202
@@ -612,7 +606,7 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
-def check(opts: argparse.Namespace) -> list[str]:
+def validate(opts: argparse.Namespace) -> list[str]:
     """Validate options before anything is written; returns the figure names."""
     names = list(FIGURES) if opts.only is None else [n.strip() for n in opts.only.split(",")
                                                       if n.strip()]
@@ -631,7 +625,7 @@ def check(opts: argparse.Namespace) -> list[str]:
 def main(comm: MPI.Comm | None = None, argv: list[str] | None = None) -> int:
     """Make the figures and their FE points (both split over ranks); rank 0 writes the index."""
     opts, comm = _cli.start(build_parser(), argv, comm)
-    names = check(opts)  # every rank: same input, same verdict, before any collective
+    names = validate(opts)  # every rank: same input, same verdict, before any collective
     parameters = {"figures": names, "n_q": opts.n_q, "n_gamma": opts.n_gamma,
                   "overlay": opts.overlay, "fe_points": opts.fe_points, "fe": not opts.no_fe}
     with _cli.RunFolder(comm, opts.out, "figures", parameters,

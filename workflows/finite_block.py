@@ -36,7 +36,7 @@ import sys
 import time
 
 import _cli
-import mode_shape  # imports pyvista before dolfinx (see there)
+import _plots  # matplotlib only: no pyvista/VTK here, so no import order to keep
 import numpy as np
 
 from analytic.branches import parse_branch_label
@@ -337,7 +337,7 @@ def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, b
                              title, meta, kul)
         if interface is not None:
             _, lam_b, L_b = last
-            mode_shape.plot_interface(
+            _plots.plot_interface(
                 interface, os.path.join(args.out, "block_mode.png"),
                 f"most unstable mode of a block, L = {L_b:g}, {args.lateral} ends:"
                 f" Lambda = {lam_b.real:.5f} {lam_b.imag:+.5f}i", meta)

@@ -42,6 +42,7 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 import pyvista  # noqa: E402, F401, I001
 
 import _cli  # noqa: E402
+import _plots  # noqa: E402
 
 import dolfinx.fem  # noqa: E402
 import dolfinx.io  # noqa: E402
@@ -238,39 +239,6 @@ def render_mode(grid, out_png: str, title: str, color: str, lam: complex, k: flo
     plotter.close()
 
 
-def plot_interface(data: dict[str, np.ndarray], out_png: str, title: str, meta: dict) -> None:
-    """Shear/normal stress perturbation and slip along the interface at phase 0 (rank 0).
-
-    The legends stand right of the axes, so they never hide a peak.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    x = data["x"]
-    fig, axes = plt.subplots(2, 1, figsize=(11.5, 6), sharex=True)
-    ax = axes[0]
-    for key, label, col in (("sxy", r"shear $\delta\sigma_{xy}$", "tab:blue"),
-                            ("syy", r"normal $\delta\sigma_{yy}$", "tab:red")):
-        ax.plot(x, data[key].real, color=col, label=label + " (Re, phase 0)")
-        ax.plot(x, np.abs(data[key]), color=col, ls=":", lw=1, label=label + " envelope")
-    ax.axhline(0, color="k", lw=0.5)
-    ax.set_ylabel(r"stress / $\max|u|$ ($\mu = 1$)")
-    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
-    ax.set_title(title, fontsize=10)
-    ax = axes[1]
-    ax.plot(data["x_slip"], data["ux"].real, color="k", label=r"slip $\delta u_x$ (Re)")
-    ax.plot(data["x_slip"], np.abs(data["ux"]), color="k", ls=":", lw=1, label="envelope")
-    ax.axhline(0, color="k", lw=0.5)
-    ax.set_xlabel(r"$x$ (units $c_s t_0$)")
-    ax.set_ylabel(r"$\delta u_x(y=0)$")
-    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
-    fig.tight_layout()
-    fig.savefig(out_png, dpi=130, metadata=_cli.png_metadata(meta, title))
-    plt.close(fig)
-
-
 def _write_outputs(args, meta: dict, title: str, u, params, length: float, k: float,
                    lam: complex) -> None:
     """XDMF/PVD files (collective), then CSV, PNGs and JSON on rank 0."""
@@ -309,7 +277,8 @@ def _write_outputs(args, meta: dict, title: str, u, params, length: float, k: fl
             f.write(f"{row[0]:.12g},{row[1].real:.12g},{row[1].imag:.12g},"
                     f"{row[2].real:.12g},{row[2].imag:.12g},{row[3].real:.12g},"
                     f"{row[3].imag:.12g}\n")
-    plot_interface(data, os.path.join(args.out, "interface_tractions.png"), title, meta)
+    _plots.plot_interface(data, os.path.join(args.out, "interface_tractions.png"), title,
+                          meta)
     if grid is not None:
         for name, fractions in (("mode_shape.png", (0.0,)),
                                 ("mode_phases.png", (0.0, 0.25, 0.5, 0.75))):

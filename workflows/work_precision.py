@@ -37,7 +37,6 @@ import time
 
 import _cli
 import numpy as np
-import scipy.linalg
 
 from mpi4py import MPI
 
@@ -47,7 +46,7 @@ from analytic.largek import z_linear
 from analytic.params import Params
 from forms.cross_section import CrossSectionModel
 from forms.pml import RESOLUTION, HalfSpaceModel, design_layer
-from forms.solvers import PolynomialSolver, SplitSolver
+from forms.solvers import PolynomialSolver, SplitSolver, dense_companion_eig
 
 #: Options prefixes of the SLEPc objects (PEP and NEP solvers).
 PETSC_PREFIXES = ("wp_pep_", "wp_nep_")
@@ -96,34 +95,6 @@ def _best(fn, repeats: int, budget: float = 5.0):
         if spent > budget:
             break
     return best, out
-
-
-def dense_companion_eig(op, target: complex) -> complex:
-    """Nearest-to-target eigenvalue of ``sum_j L^j A_j`` by a dense companion linearisation.
-
-    ``A_j`` are the PETSc matrices of a polynomial :class:`forms.friction.FrictionOperator`
-    (serial). First companion form: ``L B z = A z`` with ``z = (x, L x, ..., L^(d-1) x)``,
-    ``A = [[0, I, ...], ..., [-A_0, -A_1, ..., -A_(d-1)]]``, ``B = diag(I, ..., I, A_d)``.
-    """
-    mats = []
-    for a in op.matrices:
-        d = a.copy().convert("dense")
-        mats.append(np.array(d.getDenseArray(), dtype=complex))
-        d.destroy()
-    deg = len(mats) - 1
-    n = mats[0].shape[0]
-    big_a = np.zeros((deg * n, deg * n), dtype=complex)
-    big_b = np.eye(deg * n, dtype=complex)
-    for i in range(deg - 1):
-        big_a[i * n:(i + 1) * n, (i + 1) * n:(i + 2) * n] = np.eye(n)
-    for j in range(deg):
-        big_a[(deg - 1) * n:, j * n:(j + 1) * n] = -mats[j]
-    big_b[(deg - 1) * n:, (deg - 1) * n:] = mats[deg]
-    w = scipy.linalg.eig(big_a, big_b, right=False, overwrite_a=True, overwrite_b=True,
-                         check_finite=False)
-    w = w[np.isfinite(w)]
-    w = w[np.abs(w + 1.0) > 1e-8]  # the spurious root of the cleared denominator (L = -1)
-    return complex(w[np.argmin(np.abs(w - target))])
 
 
 def finite_points(comm, p, cells: dict, repeats: int, dense: bool, lam_ref: complex,

@@ -27,8 +27,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from analytic.branches import BranchResult, follow_branch, follow_root
-from analytic.finite_h import cutoff
+from analytic.branches import BranchResult, branch_cutoff, follow_branch, follow_root
 from analytic.params import ParameterError, Params
 from analytic.roots import Box, ContourError, Root, zeros_in_box
 
@@ -162,7 +161,7 @@ def plan_families(p: Params, region: Region, k_max: float, re_floor: float = -3.
     waveguide = []
     n = 0
     while True:
-        lam0 = cutoff(n, 1, p)
+        lam0 = branch_cutoff(n, 1, p)
         if abs(lam0.imag) > w:
             break
         waveguide += [(n, 1), (n, -1)]
@@ -170,7 +169,7 @@ def plan_families(p: Params, region: Region, k_max: float, re_floor: float = -3.
     k_seed = SEED_KH / p.H
     box = (re_floor, region.re_max, -w, w)
     roots, box = exact_roots(p, k_seed, box)
-    cut = [cutoff(nn, s, p) for nn, s in waveguide]
+    cut = [branch_cutoff(nn, s, p) for nn, s in waveguide]
     spacing = math.pi / (p.beta * p.H)
     others = [r.value for r in roots
               if not cut or min(abs(r.value - c) for c in cut) > 0.05 * spacing]

@@ -67,6 +67,17 @@ def default_discretisation(p: Params, region: Region, k_max: float, rtol: float 
     return 4, cells, 1.0
 
 
+def substrate_cells(p: Params, region: Region, k_max: float, rtol: float = 1e-8) -> int:
+    """Cells of a deformable substrate (finite ``H2``).
+
+    The rule of :func:`default_discretisation` with the substrate's shear-wave speed ``c_s2``.
+    """
+    c2 = math.sqrt(p.mu2 / p.rho2)
+    waves = region.im_max(p, k_max) * p.H2 / (2.0 * math.pi * c2)
+    per_wave = 11.0 * (2e-10 / rtol) ** 0.125
+    return int(max(6, math.ceil(per_wave * waves)))
+
+
 @dataclass
 class KResult:
     """Everything computed at one ``k`` (JSON-able through :meth:`as_dict`).
@@ -122,9 +133,21 @@ class CertifiedSolver:
     def __init__(self, params: Params, region: Region, degree: int, cells: int, ratio: float,
                  k_max: float, rtol: float) -> None:
         self.params, self.region, self.rtol = params, region, rtol
-        kw = {"cells": cells, "k_max": k_max, "ratio": ratio, "form": "polynomial"}
-        self.models = [CrossSectionModel(MPI.COMM_SELF, params, degree=degree, **kw),
-                       CrossSectionModel(MPI.COMM_SELF, params, degree=degree + 1, **kw)]
+        if params.two_body:
+            # two deformable bodies: the layered model (identical to CrossSectionModel for a
+            # rigid substrate), the substrate meshed by the same rule (its own wave speed)
+            from forms.layered import LayeredModel, stack_from_params
+
+            self.cells2 = substrate_cells(params, region, k_max, rtol)
+            stack = stack_from_params(params, degree=degree, cells=cells, cells2=self.cells2,
+                                      k_max=k_max, ratio=ratio, ratio2=1.0)
+            self.models = [LayeredModel(MPI.COMM_SELF, stack, params, degree=d)
+                           for d in (degree, degree + 1)]
+        else:
+            self.cells2 = 0
+            kw = {"cells": cells, "k_max": k_max, "ratio": ratio, "form": "polynomial"}
+            self.models = [CrossSectionModel(MPI.COMM_SELF, params, degree=degree, **kw),
+                           CrossSectionModel(MPI.COMM_SELF, params, degree=degree + 1, **kw)]
         self.banded = [BandedModel(m) for m in self.models]
         self.degree, self.cells, self.ratio = degree, cells, ratio
 

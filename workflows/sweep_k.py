@@ -45,7 +45,7 @@ import time  # noqa: E402
 import _cli  # noqa: E402
 import numpy as np  # noqa: E402
 
-from analytic.params import Params, require_rigid  # noqa: E402
+from analytic.params import Params  # noqa: E402
 from analytic.spectrum import (  # noqa: E402
     Region,
     follow_family,
@@ -97,7 +97,9 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
         duplicate values dropped.
     """
     params = _cli.params_from_args(args)
-    require_rigid(params, "the certified sweep (cross-section model)")
+    if params.two_body and not math.isfinite(params.H2):
+        raise _cli.ParameterError("H2 = inf is outside its allowed range here: the certified "
+                                  "sweep needs a finite substrate (H2 > 0 finite)")
     if not math.isfinite(params.H):
         raise _cli.ParameterError("H = inf is outside its allowed range here: the cross-section"
                                   " model needs a finite H > 0")
@@ -293,7 +295,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         costs = [region.im_max(params, float(k[i])) for i in todo]
         mine = [todo[j] for j in _cli.my_share(comm, costs)]
         solver = CertifiedSolver(params, region, degree, cells, ratio, float(k[-1]), args.rtol)
-        unknowns = solver.unknowns
+        unknowns, solver_cells2 = solver.unknowns, solver.cells2
         bar = None
         if comm.rank == 0 and not args.quiet and mine:
             from tqdm import tqdm
@@ -322,8 +324,10 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
             meta = {"parameters": params.as_dict(),
                     "k": {"spec": args.k, "count": len(k), "merged_duplicates": merged,
                           "min": float(k[0]), "max": float(k[-1])},
-                    "discretisation": {"model": "cross-section (1D in y), polynomial form",
+                    "discretisation": {"model": "cross-section (1D in y), polynomial form"
+                                       + (", layered (two bodies)" if params.two_body else ""),
                                        "degree": degree, "cells": cells, "grading_ratio": ratio,
+                                       "substrate_cells": solver_cells2,
                                        "unknowns": unknowns, "rtol": args.rtol,
                                        "error_estimate": f"P{degree + 1} on the same mesh, one "
                                        f"Newton solve from the P{degree} value"},

@@ -40,6 +40,7 @@ import _plots  # matplotlib only: no pyvista/VTK here, so no import order to kee
 import numpy as np
 
 from analytic.branches import parse_branch_label
+from analytic.params import require_rigid  # noqa: E402
 from forms.cross_section_continuation import follow_branch, most_unstable_k
 from forms.mode_postprocessing import interface_stresses, normalise
 from forms.spatial_stability import kulikovskii_limit
@@ -85,6 +86,7 @@ def build_parser() -> argparse.ArgumentParser:
 def validate(args: argparse.Namespace):
     """Check every option before anything collective or any file is created."""
     params = _cli.params_from_args(args)
+    require_rigid(params, "finite_block.py (rigid substrate)")
     if math.isinf(params.H):
         raise _cli.ParameterError("H = inf is outside its allowed range here (a finite block)")
     lengths = _cli.parse_k(args.lengths, name="--lengths")

@@ -35,7 +35,10 @@ import numpy as np
 from mpi4py import MPI
 
 from analytic.halfspace import follow
-from analytic.params import Params
+from analytic.params import (
+    Params,
+    require_rigid,  # noqa: E402
+)
 from forms.pml import solve_halfspace, solve_truncated
 
 #: Options prefixes of the SLEPc objects: the PML solves and the truncated strips.
@@ -81,6 +84,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _check(args: argparse.Namespace) -> tuple:
     """Validate everything before any output or collective call."""
     base = _cli.params_from_args(args)
+    require_rigid(base, "halfspace_modes.py (PML, rigid substrate)")
     p = Params(f=base.f, gamma=base.gamma, beta=base.beta, Delta=base.Delta, H=math.inf,
                alpha_pc=base.alpha_pc, alpha_ld=base.alpha_ld)
     ks = np.unique(_cli.parse_k(args.k))  # sorted, duplicates merged

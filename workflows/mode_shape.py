@@ -50,6 +50,7 @@ import dolfinx.plot  # noqa: E402
 import ufl  # noqa: E402
 
 from analytic.branches import parse_branch_label  # noqa: E402
+from analytic.params import require_rigid  # noqa: E402
 from forms.cross_section_continuation import (  # noqa: E402
     cross_section_mode,
     follow_branch,
@@ -108,6 +109,7 @@ def build_parser() -> argparse.ArgumentParser:
 def validate(args: argparse.Namespace):
     """Check every option before anything collective or any file is created."""
     params = _cli.params_from_args(args)
+    require_rigid(params, "mode_shape.py (2D strip, rigid substrate)")
     if math.isinf(params.H):
         raise _cli.ParameterError("H = inf is outside its allowed range here (a finite strip)")
     _cli.check_k(args.k, name="k")

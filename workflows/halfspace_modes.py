@@ -35,10 +35,7 @@ import numpy as np
 from mpi4py import MPI
 
 from analytic.halfspace import follow
-from analytic.params import (
-    Params,
-    require_rigid,  # noqa: E402
-)
+from analytic.params import Params, require_rigid
 from forms.pml import solve_halfspace, solve_truncated
 
 #: Options prefixes of the SLEPc objects: the PML solves and the truncated strips.

@@ -30,7 +30,14 @@ import numpy as np
 
 from analytic.finite_h import cutoff, det_M
 from analytic.params import ParameterError, Params, check_k
-from analytic.roots import ContourError, Root, count_zeros, polish, zeros_in_box
+from analytic.roots import (
+    ContourError,
+    Root,
+    count_zeros,
+    polish,
+    winding_numbers,
+    zeros_in_box,
+)
 from analytic.smallk import slope
 from analytic.twobody import branch_sheet, cutoff_twobody, det_twobody
 
@@ -178,6 +185,25 @@ def _count(p: Params, k: float, z: complex, r: float) -> int:
         except ContourError:
             continue
     return -1
+
+
+def _count_pair(p: Params, k1: float, k2: float, z: complex, r: float) -> tuple[int, int]:
+    """:func:`_count` at two wavenumbers; rigid substrate: one ``det_M`` call per refinement."""
+    if p.two_body:
+        return _count(p, k1, z, r), _count(p, k2, z, r)
+
+    def both(zz: np.ndarray) -> np.ndarray:
+        ks = np.concatenate([np.full(zz.shape, k1), np.full(zz.shape, k2)])
+        return det_M(np.concatenate([zz, zz]), ks, p).reshape(2, zz.size)
+
+    for shrink in (1.0, 0.93, 1.07):
+        box = _box_around(z, r * shrink)
+        try:
+            c1, c2 = winding_numbers(both, box, 2, n_initial=_n_initial(p, box))
+            return c1, c2
+        except ContourError:
+            continue
+    return _count(p, k1, z, r), _count(p, k2, z, r)
 
 
 def branch_cutoff(n: int, sign: int, p: Params) -> complex:
@@ -383,7 +409,7 @@ def _continue(p: Params, label: str, n: int, sign: int, ks: np.ndarray,
             # and a root approaching ours within the step is seen at one end or the other.
             centre = 0.5 * (L_cur + r.value)
             rad = max(2.0 * corr, dL, 1e-9 * abs(r.value))
-            ok = _count(p, k_new, centre, rad) == 1 and _count(p, k_cur, centre, rad) == 1
+            ok = _count_pair(p, k_new, k_cur, centre, rad) == (1, 1)
         return r, ok, corr, dL
 
     while target_i < ks.size and steps < max_steps:

@@ -106,13 +106,17 @@ def _even_pair(kappa: np.ndarray, H: float) -> tuple[np.ndarray, np.ndarray]:
 def _columns_fields(P: np.ndarray, k: np.ndarray, vals: list[tuple[np.ndarray, np.ndarray]],
                     kinds: tuple[str, ...]) -> np.ndarray:
     """Fields (u_x, u_y, s_xy, s_yy) of each column from (value, derivative) of its potential."""
-    out = []
-    for (v, d), kind in zip(vals, kinds, strict=True):
+    shape = np.broadcast(P, k).shape  # every column's fields broadcast to it on assignment
+    out = np.empty(shape + (4, 4), dtype=complex)  # (..., 4 fields, 4 columns)
+    for j, ((v, d), kind) in enumerate(zip(vals, kinds, strict=True)):
+        # filled in place (np.stack of small arrays dominated the cost of det_M)
         if kind == "psi":
-            out.append(np.stack([d, 1j * k * v, P * v, 2j * k * d], axis=-1))
+            out[..., 0, j], out[..., 1, j] = d, 1j * k * v
+            out[..., 2, j], out[..., 3, j] = P * v, 2j * k * d
         else:
-            out.append(np.stack([-1j * k * v, d, -2j * k * d, P * v], axis=-1))
-    return np.stack(out, axis=-1)  # (..., 4 fields, 4 columns)
+            out[..., 0, j], out[..., 1, j] = -1j * k * v, d
+            out[..., 2, j], out[..., 3, j] = -2j * k * d, P * v
+    return out
 
 
 def _boundary_fields(Lambda: np.ndarray, k: np.ndarray, p: Params, basis: str

@@ -228,7 +228,9 @@ def plot_dispersion(path: str, params: Params, region: Region, results: list[KRe
           if r["status"] == "ok"]
     bad = [(r["k"], r["re_lambda"], r["im_lambda"]) for res in results for r in res.rows
            if r["status"] != "ok"]
-    for pts, style in ((ok, {"marker": ".", "ms": 3.5, "color": "k", "label": "FE, ok"}),
+    # hollow markers above the lines: both stay visible on dense grids
+    for pts, style in ((ok, {"marker": "o", "ms": 3.2, "mfc": "none", "mew": 0.6, "color": "k",
+                             "label": "FE, ok"}),
                        (bad, {"marker": "x", "ms": 6, "color": "crimson",
                               "label": "FE, flagged"})):
         if pts:

@@ -59,6 +59,51 @@ def owned_global_rows(V: dolfinx.fem.FunctionSpace, local_dofs: np.ndarray) -> n
     return (bs * (imap.local_range[0] + nodes[owned]) + comps[owned]).astype(np.int64)
 
 
+class KOperator:
+    """``T(Lambda; k) = T0 + k T1 + k^2 T2`` combined from three k-blocks of one pattern.
+
+    Shared by :class:`CrossSectionModel` and :class:`forms.layered.LayeredModel`: the blocks
+    are checked to share one nonzero pattern once, and :meth:`at` recombines them in place by
+    two ``axpy`` per matrix (skipped when ``k`` is unchanged).
+
+    Args:
+        parts: ``[T0, T1, T2]`` (owned: destroyed by :meth:`destroy`).
+        law: The friction law of the blocks.
+    """
+
+    def __init__(self, parts: list[FrictionOperator], law: FrictionLaw) -> None:
+        base = parts[0]
+        for part in parts[1:]:
+            for a, b in zip(base.matrices, part.matrices, strict=True):
+                if a.getInfo()["nz_used"] != b.getInfo()["nz_used"]:
+                    raise RuntimeError("k-blocks do not share one nonzero pattern")
+        self.parts = parts
+        self.op = FrictionOperator(
+            matrices=[a.duplicate(copy=True) for a in base.matrices],
+            functions=list(base.functions), form=base.form, constant_term=base.constant_term,
+            law=law,
+        )
+        self._k: float | None = None
+
+    def at(self, k: float) -> FrictionOperator:
+        """The operator at ``k`` (its matrices are reused between calls)."""
+        k = float(k)
+        if self._k != k:
+            same = PETSc.Mat.Structure.SAME_NONZERO_PATTERN
+            for j, a in enumerate(self.op.matrices):
+                self.parts[0].matrices[j].copy(a, structure=same)
+                a.axpy(k, self.parts[1].matrices[j], structure=same)
+                a.axpy(k * k, self.parts[2].matrices[j], structure=same)
+            self._k = k
+        return self.op
+
+    def destroy(self) -> None:
+        """Destroy the blocks and the combined operator."""
+        for part in self.parts:
+            part.destroy()
+        self.op.destroy()
+
+
 class CrossSectionModel:
     """Assembled cross-section operator ``T(Lambda; k)`` for one mesh and one parameter set.
 
@@ -143,17 +188,7 @@ class CrossSectionModel:
             self._parts.append(op)
         for a in (*blocks, mass, imass):
             a.destroy()
-        base = self._parts[0]
-        for part in self._parts[1:]:
-            for a, b in zip(base.matrices, part.matrices, strict=True):
-                if a.getInfo()["nz_used"] != b.getInfo()["nz_used"]:
-                    raise RuntimeError("k-blocks do not share one nonzero pattern")
-        self._op = FrictionOperator(
-            matrices=[a.duplicate(copy=True) for a in base.matrices],
-            functions=list(base.functions), form=form, constant_term=base.constant_term,
-            law=self.law,
-        )
-        self._k: float | None = None
+        self._kop = KOperator(self._parts, self.law)
         # Dof coordinates of the owned nodes, for canonical (partition-independent) vectors.
         n_owned = V.dofmap.index_map.size_local
         self._y_owned = V.tabulate_dof_coordinates()[:n_owned, 0].copy()
@@ -161,19 +196,11 @@ class CrossSectionModel:
     @property
     def size(self) -> int:
         """Global number of unknowns."""
-        return self._op.matrices[0].getSize()[0]
+        return self._kop.op.matrices[0].getSize()[0]
 
     def operator(self, k: float) -> FrictionOperator:
         """``T(Lambda; k)`` as a :class:`FrictionOperator` (matrices reused between calls)."""
-        k = float(k)
-        if self._k != k:
-            same = PETSc.Mat.Structure.SAME_NONZERO_PATTERN
-            for j, a in enumerate(self._op.matrices):
-                self._parts[0].matrices[j].copy(a, structure=same)
-                a.axpy(k, self._parts[1].matrices[j], structure=same)
-                a.axpy(k * k, self._parts[2].matrices[j], structure=same)
-            self._k = k
-        return self._op
+        return self._kop.at(k)
 
     def k_blocks(self) -> tuple[FrictionOperator, FrictionOperator, FrictionOperator]:
         """The three parts of ``T(Lambda; k) = T0(Lambda) + k T1(Lambda) + k^2 T2(Lambda)``.
@@ -209,6 +236,4 @@ class CrossSectionModel:
 
     def destroy(self) -> None:
         """Destroy the PETSc matrices."""
-        for part in self._parts:
-            part.destroy()
-        self._op.destroy()
+        self._kop.destroy()

@@ -50,7 +50,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from analytic.params import ParameterError, Params
-from forms.cross_section import owned_global_rows
+from forms.cross_section import KOperator, owned_global_rows
 from forms.elasticity import cross_section_gradients, stiffness_density
 from forms.friction import (
     DIRICHLET_DIAGONAL,
@@ -477,16 +477,7 @@ class LayeredModel:
             self._parts.append(op)
         for a in (*full, *slider_parts, imass):
             a.destroy()
-        base = self._parts[0]
-        for part in self._parts[1:]:
-            for a, b in zip(base.matrices, part.matrices, strict=True):
-                if a.getInfo()["nz_used"] != b.getInfo()["nz_used"]:
-                    raise RuntimeError("k-blocks do not share one nonzero pattern")
-        self._op = FrictionOperator(
-            matrices=[a.duplicate(copy=True) for a in base.matrices],
-            functions=list(base.functions), form=form, constant_term=base.constant_term,
-            law=self.law)
-        self._k: float | None = None
+        self._kop = KOperator(self._parts, self.law)
         n_owned = V.dofmap.index_map.size_local
         self._y_owned = V.tabulate_dof_coordinates()[:n_owned, 0].copy()
         # Body of each owned node (the two y = 0 nodes differ only by this).
@@ -500,7 +491,7 @@ class LayeredModel:
     @property
     def size(self) -> int:
         """Global number of unknowns (reduced: without the eliminated ``u_y2``)."""
-        return self._op.matrices[0].getSize()[0]
+        return self._kop.op.matrices[0].getSize()[0]
 
     def k_blocks(self) -> tuple[FrictionOperator, FrictionOperator, FrictionOperator]:
         """``(T0, T1, T2)`` with ``T(L; k) = T0(L) + k T1(L) + k^2 T2(L)`` (owned by the model).
@@ -512,15 +503,7 @@ class LayeredModel:
 
     def operator(self, k: float) -> FrictionOperator:
         """``T(Lambda; k)`` as a :class:`FrictionOperator` (matrices reused between calls)."""
-        k = float(k)
-        if self._k != k:
-            same = PETSc.Mat.Structure.SAME_NONZERO_PATTERN
-            for j, a in enumerate(self._op.matrices):
-                self._parts[0].matrices[j].copy(a, structure=same)
-                a.axpy(k, self._parts[1].matrices[j], structure=same)
-                a.axpy(k * k, self._parts[2].matrices[j], structure=same)
-            self._k = k
-        return self._op
+        return self._kop.at(k)
 
     def full_vector(self, vec: PETSc.Vec) -> PETSc.Vec:
         """Displacement on all nodes (both sides of the interface) from a solution vector.
@@ -566,8 +549,6 @@ class LayeredModel:
 
     def destroy(self) -> None:
         """Destroy the PETSc matrices."""
-        for part in self._parts:
-            part.destroy()
-        self._op.destroy()
+        self._kop.destroy()
         if self._reduction is not None:
             self._reduction.destroy()

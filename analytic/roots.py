@@ -266,29 +266,62 @@ def winding_number(
             its phase cannot be resolved (a zero or pole on or extremely near the contour).
         ValueError: On a malformed box.
     """
+    def one_row(z: np.ndarray) -> np.ndarray:
+        return _call(fun, z)[None, :]
+
+    return winding_numbers(one_row, box, 1, n_initial=n_initial, max_dphase=max_dphase,
+                           max_rel=max_rel, max_points=max_points, zero_tol=zero_tol,
+                           log=log)[0]
+
+
+def winding_numbers(fun: Callable[[np.ndarray], np.ndarray], box: Sequence[float], m: int, *,
+                    n_initial: int = 32, max_dphase: float = math.pi / 3,
+                    max_rel: float = 0.8, max_points: int = 50000,
+                    zero_tol: float = 1e-12, log: bool = False) -> list[int]:
+    """:func:`winding_number` of ``m`` functions on one contour, sampled together.
+
+    ``fun(z)`` returns an array of shape ``(m, len(z))`` (e.g. one determinant at ``m``
+    wavenumbers in one vectorised call). The samples are refined where *any* row needs it, with
+    the rules and the verification pass of :func:`winding_number` (which is this with
+    ``m = 1``), so each row's count is as reliable; the point is one call of ``fun`` per
+    refinement instead of ``m``.
+
+    Raises:
+        ContourError: As :func:`winding_number`, if any row's contour is unusable.
+    """
     bx = _box_checked(box)
     t = np.linspace(0.0, 4.0, 4 * n_initial, endpoint=False)
-    f = _call(fun, _perimeter_point(bx, t))
+
+    def call(tt: np.ndarray) -> np.ndarray:
+        z = _perimeter_point(bx, tt)
+        return np.asarray(fun(z), dtype=complex).reshape(m, z.size)
+
+    f = call(t)
     min_dt = 4.0 * 1e-12
     verified = False
     while True:
-        if log:
-            dph, bad = _log_increments(f, max_dphase, max_rel)
-            if bad is None:
-                zbad = _perimeter_point(bx, t[~np.isfinite(f.real)][:1])[0]
-                raise ContourError(f"log F not finite on the contour at z = {zbad:.6g}")
-        else:
-            dph, bad = _increments(f, bx, t, max_dphase, max_rel, zero_tol)
+        dph = np.empty(f.shape)
+        bad = np.zeros(t.size, dtype=bool)
+        for r, row in enumerate(f):
+            if log:
+                d, b = _log_increments(row, max_dphase, max_rel)
+                if b is None:
+                    zbad = _perimeter_point(bx, t[~np.isfinite(row.real)][:1])[0]
+                    raise ContourError(f"log F not finite on the contour at z = {zbad:.6g}")
+            else:
+                d, b = _increments(row, bx, t, max_dphase, max_rel, zero_tol)
+            dph[r], bad = d, bad | b
         t_next = np.roll(t, -1)
         t_next[-1] = 4.0  # last interval closes the loop
         dt = t_next - t
         if not bad.any():
             if verified:
-                total = dph.sum() / (2 * math.pi)
-                n = int(round(total))
-                if abs(total - n) > 1e-6:  # cannot happen for a closed sampled loop; a guard
-                    raise ContourError(f"winding number {total} is not an integer")
-                return n
+                totals = dph.sum(axis=1) / (2 * math.pi)
+                counts = [int(round(v)) for v in totals]
+                for v, c in zip(totals, counts, strict=True):
+                    if abs(v - c) > 1e-6:  # cannot happen for a closed sampled loop; a guard
+                        raise ContourError(f"winding number {v} is not an integer")
+                return counts
             # Verification pass: bisect every interval once more. A function that turned by
             # about 2 pi between two samples (aliasing) shows up as a bad interval here.
             bad = dt > 2 * min_dt
@@ -307,66 +340,10 @@ def winding_number(
             raise ContourError(
                 f"contour needs more than max_points = {max_points} samples (near z = {zbad:.6g})"
             )
-        fm = _call(fun, _perimeter_point(bx, tm))
-        t = np.concatenate([t, tm])
-        f = np.concatenate([f, fm])
-        order = np.argsort(t)
-        t, f = t[order], f[order]
-
-
-def winding_numbers(fun: Callable[[np.ndarray], np.ndarray], box: Sequence[float], m: int, *,
-                    n_initial: int = 32, max_dphase: float = math.pi / 3,
-                    max_rel: float = 0.8, max_points: int = 50000,
-                    zero_tol: float = 1e-12) -> list[int]:
-    """:func:`winding_number` of ``m`` functions on one contour, sampled together.
-
-    ``fun(z)`` returns an array of shape ``(m, len(z))`` (e.g. one determinant at ``m``
-    wavenumbers in one vectorised call). The samples are refined where *any* row needs it, with
-    the same rules and the same verification pass, so each row's count is as reliable as
-    :func:`winding_number`'s; the point is one call of ``fun`` per refinement instead of ``m``.
-
-    Raises:
-        ContourError: As :func:`winding_number`, if any row's contour is unusable.
-    """
-    bx = _box_checked(box)
-    t = np.linspace(0.0, 4.0, 4 * n_initial, endpoint=False)
-
-    def call(tt: np.ndarray) -> np.ndarray:
-        z = _perimeter_point(bx, tt)
-        return np.asarray(fun(z), dtype=complex).reshape(m, z.size)
-
-    f = call(t)
-    min_dt = 4.0 * 1e-12
-    verified = False
-    while True:
-        parts = [_increments(row, bx, t, max_dphase, max_rel, zero_tol) for row in f]
-        dph = np.array([d for d, _ in parts])
-        bad = np.any(np.array([b for _, b in parts]), axis=0)
-        t_next = np.roll(t, -1)
-        t_next[-1] = 4.0
-        dt = t_next - t
-        if not bad.any():
-            if verified:
-                totals = dph.sum(axis=1) / (2 * math.pi)
-                counts = [int(round(v)) for v in totals]
-                if any(abs(v - c) > 1e-6 for v, c in zip(totals, counts, strict=True)):
-                    raise ContourError(f"winding numbers {totals} are not integers")
-                return counts
-            bad = dt > 2 * min_dt
-            verified = True
-        elif np.any(dt[bad] < min_dt):
-            zbad = _perimeter_point(bx, t[bad & (dt < min_dt)][:1])[0]
-            raise ContourError(f"phase of a function jumps on the contour near z = {zbad:.6g}")
-        else:
-            verified = False
-        tm = 0.5 * (t[bad] + t_next[bad])
-        if t.size + tm.size > max_points:
-            raise ContourError(f"contour needs more than max_points = {max_points} samples")
         t = np.concatenate([t, tm])
         f = np.concatenate([f, call(tm)], axis=1)
         order = np.argsort(t)
         t, f = t[order], f[:, order]
-
 
 def _increments(f: np.ndarray, bx: Box, t: np.ndarray, max_dphase: float, max_rel: float,
                 zero_tol: float) -> tuple[np.ndarray, np.ndarray]:

@@ -62,6 +62,7 @@ import contextlib
 import fnmatch
 import json
 import logging
+import math
 import os
 import platform
 import shlex
@@ -72,7 +73,10 @@ import sys
 import time
 import traceback
 from collections.abc import Callable, Iterable, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if ROOT not in sys.path:
@@ -324,6 +328,28 @@ def start(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None,
     _STATE["comm"] = comm
     return args, comm
 
+
+
+def parse_grid(spec: str, name: str = "--k", max_count: int = 100000) -> np.ndarray:
+    """A sorted grid without duplicates: ``start:stop:countlog`` (geometric) or :func:`parse_k`.
+
+    Raises:
+        ParameterError: One line naming ``name`` (malformed, ``start >= stop``, a count outside
+            ``2 .. max_count``, a value that is not finite and positive).
+    """
+    import numpy as np
+
+    if spec.endswith("log") and spec.count(":") == 2:
+        a, b, n = spec[:-3].split(":")
+        try:
+            a, b, n = float(a), float(b), int(n)
+        except ValueError:
+            raise ParameterError(f"{name} = {spec!r} is not start:stop:countlog") from None
+        if not (0 < a < b and math.isfinite(b) and 2 <= n <= max_count):
+            raise ParameterError(f"{name} = {spec!r}: need 0 < start < stop, "
+                                 f"2 <= count <= {max_count}")
+        return np.geomspace(a, b, n)
+    return np.unique(parse_k(spec, name=name))
 
 # ------------------------------------------------------------------------------ provenance
 _VERSIONS: dict[str, str] = {}

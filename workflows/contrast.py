@@ -31,19 +31,6 @@ PETSC_PREFIXES: tuple[str, ...] = ()
 OUTPUTS = ("contrast.csv", "summary.json", "contrast.png", "run.json", "run.lock")
 
 
-def grid(spec: str, name: str) -> np.ndarray:
-    """``a:b:nlog`` (geometric), ``a:b:n`` or a comma list, positive values."""
-    if spec.endswith("log") and spec.count(":") == 2:
-        try:
-            a, b, n = (float(v) for v in spec[:-3].split(":"))
-        except ValueError:
-            raise _cli.ParameterError(f"{name} = {spec!r} is not start:stop:countlog") from None
-        if not (0 < a < b and math.isfinite(b) and 2 <= n <= 10000):
-            raise _cli.ParameterError(f"{name} = {spec!r}: need 0 < start < stop, 2 <= count")
-        return np.geomspace(a, b, int(n))
-    return np.unique(_cli.parse_k(spec, name=name))
-
-
 def build_parser() -> argparse.ArgumentParser:
     """Command-line options."""
     ap = _cli.make_parser(__doc__, PETSC_PREFIXES, petsc=False)
@@ -110,8 +97,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     p0 = _cli.params_from_args(args)
     if not math.isfinite(p0.H):
         raise _cli.ParameterError("H = inf is outside its allowed range here (a finite slider)")
-    mus = grid(args.mu2_grid, "--mu2-grid")
-    ks = grid(args.k, "--k")
+    mus = _cli.parse_grid(args.mu2_grid, "--mu2-grid", max_count=10000)
+    ks = _cli.parse_grid(args.k, "--k", max_count=10000)
     h2s = heights(args.H2s, p0.H)
     if not (math.isfinite(args.rho2_exponent) and abs(args.rho2_exponent) <= 4):
         raise _cli.ParameterError(f"--rho2-exponent = {args.rho2_exponent} is outside its "

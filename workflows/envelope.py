@@ -43,20 +43,6 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
-def parse_grid(spec: str) -> np.ndarray:
-    """``a:b:nlog`` geometric grids, otherwise :func:`_cli.parse_k`."""
-    if spec.endswith("log") and spec.count(":") == 2:
-        a, b, n = spec[:-3].split(":")
-        try:
-            a, b, n = float(a), float(b), int(n)
-        except ValueError:
-            raise _cli.ParameterError(f"--k = {spec!r} is not start:stop:countlog") from None
-        if not (0 < a < b and math.isfinite(b) and 2 <= n <= 100000):
-            raise _cli.ParameterError(f"--k = {spec!r}: need 0 < start < stop, 2 <= count")
-        return np.geomspace(a, b, n)
-    return np.unique(_cli.parse_k(spec))
-
-
 def refine(p: object, region: Region, ks: list[float], zs: list, top: int = 6) -> dict:
     """Refine the ``top`` largest local maxima of the sampled envelope.
 
@@ -91,7 +77,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     p = _cli.params_from_args(args)
     if not math.isfinite(p.H):
         raise _cli.ParameterError("H = inf is outside its allowed range here (a finite strip)")
-    k = parse_grid(args.k)
+    k = _cli.parse_grid(args.k)
     region = Region(args.re_min, 2.0, args.c_max)
     config = {"params": p.as_dict(), "k": args.k, "region": region.as_dict(p)}
     with _cli.RunFolder(comm, args.out, "envelope", config, outputs=OUTPUTS) as run:

@@ -23,13 +23,17 @@ its finite-element eigenvalues:
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
+from typing import TypeVar
 
 import numpy as np
 
 from analytic.branches import BranchResult, branch_cutoff, follow_branch, follow_root
 from analytic.params import ParameterError, Params
 from analytic.roots import Box, ContourError, Root, zeros_in_box
+
+T = TypeVar("T")
 
 #: Relative distance within which a continued family value and an exact root are one root.
 SAME_ROOT_RTOL = 1e-7
@@ -109,6 +113,21 @@ def nudged_boxes(box: Box) -> list[Box]:
     return out
 
 
+def on_usable_box(box: Box, k: float, fn: Callable[[Box], T]) -> tuple[T, Box]:
+    """``fn(bx)`` on the first of :func:`nudged_boxes` whose contour is usable, and that box.
+
+    Raises:
+        ContourError: If ``fn`` raises it on every nudged copy of the box.
+    """
+    err: ContourError | None = None
+    for bx in nudged_boxes(box):
+        try:
+            return fn(bx), bx
+        except ContourError as e:
+            err = e
+    raise ContourError(f"no usable contour near {box} at k = {k:g}: {err}")
+
+
 def exact_roots(p: Params, k: float, box: Box) -> tuple[list[Root], Box]:
     """Every exact root in ``box`` at ``k`` (argument principle), and the box actually used.
 
@@ -118,13 +137,7 @@ def exact_roots(p: Params, k: float, box: Box) -> tuple[list[Root], Box]:
     from analytic.branches import _n_initial, spectrum_function
 
     fun = spectrum_function(p, float(k))
-    err: ContourError | None = None
-    for bx in nudged_boxes(box):
-        try:
-            return zeros_in_box(fun, bx, n_initial=_n_initial(p, bx)), bx
-        except ContourError as e:
-            err = e
-    raise ContourError(f"no usable contour near {box} at k = {k:g}: {err}")
+    return on_usable_box(box, k, lambda bx: zeros_in_box(fun, bx, n_initial=_n_initial(p, bx)))
 
 
 def in_box(z: complex, box: Box) -> bool:
@@ -242,6 +255,18 @@ class Labelled:
     note: str
 
 
+def _index_at(f: BranchResult, k: float) -> int | None:
+    """Index of the requested ``k`` in ``f`` if the family has a value there, else ``None``."""
+    i = int(np.searchsorted(f.k, k))
+    return i if i < len(f.k) and f.k[i] == k and np.isfinite(f.Lambda[i]) else None
+
+
+def _labelled(f: BranchResult, i: int, value: complex | None = None) -> Labelled:
+    """The root of family ``f`` at its ``i``-th requested ``k`` (or ``value``), labelled."""
+    z = complex(f.Lambda[i]) if value is None else value
+    return Labelled(z, f.label, bool(f.ok[i]), "" if f.ok[i] else f.flag[i])
+
+
 def label_roots(roots: list[Root], fams: list[BranchResult], k: float) -> list[Labelled]:
     """Give every exact root the label of the family whose continued value it is.
 
@@ -250,18 +275,13 @@ def label_roots(roots: list[Root], fams: list[BranchResult], k: float) -> list[L
     """
     out = []
     unl = 0
+    at_k = [(f, i) for f in fams for i in [_index_at(f, k)] if i is not None]
     for r in roots:
         z = r.value
-        claims = []
-        for f in fams:
-            i = np.searchsorted(f.k, k)
-            if i < len(f.k) and f.k[i] == k and np.isfinite(f.Lambda[i]):
-                if abs(f.Lambda[i] - z) <= SAME_ROOT_RTOL * max(1.0, abs(z)):
-                    claims.append((f, i))
+        claims = [(f, i) for f, i in at_k
+                  if abs(f.Lambda[i] - z) <= SAME_ROOT_RTOL * max(1.0, abs(z))]
         if len(claims) == 1:
-            f, i = claims[0]
-            flag = f.flag[i]
-            out.append(Labelled(z, f.label, bool(f.ok[i]), "" if f.ok[i] else flag))
+            out.append(_labelled(*claims[0], value=z))
         elif not claims:
             out.append(Labelled(z, f"?{unl}", False, "no followed family reaches this root"))
             unl += 1
@@ -287,26 +307,15 @@ def certified_roots(p: Params, k: float, region: Region, fams: list[BranchResult
     from analytic.roots import count_zeros
 
     fun = spectrum_function(p, float(k))
-    err: ContourError | None = None
-    for bx in nudged_boxes(region.box(p, k)):
-        try:
-            n = count_zeros(fun, bx, n_initial=_n_initial(p, bx))
-            break
-        except ContourError as e:
-            err = e
-    else:
-        raise ContourError(f"no usable contour for the region at k = {k:g}: {err}")
-    cand = []
-    for f in fams:
-        i = int(np.searchsorted(f.k, k))
-        if i < len(f.k) and f.k[i] == k and np.isfinite(f.Lambda[i]) and in_box(f.Lambda[i], bx):
-            cand.append((f, i))
+    n, bx = on_usable_box(region.box(p, k), k,
+                          lambda b: count_zeros(fun, b, n_initial=_n_initial(p, b)))
+    cand = [(f, i) for f in fams for i in [_index_at(f, k)]
+            if i is not None and in_box(f.Lambda[i], bx)]
     vals = np.array([f.Lambda[i] for f, i in cand], dtype=complex)
     distinct = all(abs(vals[a] - vals[b]) > SAME_ROOT_RTOL * max(1.0, abs(vals[a]))
                    for a in range(len(vals)) for b in range(a))
     if len(cand) == n and distinct:
-        out = [Labelled(complex(f.Lambda[i]), f.label, bool(f.ok[i]),
-                        "" if f.ok[i] else f.flag[i]) for f, i in cand]
+        out = [_labelled(f, i) for f, i in cand]
     else:
         roots = zeros_in_box(fun, bx, n_initial=_n_initial(p, bx))
         out = label_roots(roots, fams, k)

@@ -24,6 +24,7 @@ exact root are within ``rtol``. Otherwise the status says which check failed.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -60,11 +61,14 @@ def default_discretisation(p: Params, region: Region, k_max: float, rtol: float 
     ``W``) as well as modes that decay over ``1/k >= 1/W`` above the interface, and both need
     the same cell size (a graded mesh, ``k H = 25``, ratio 6.4, left the top roots at 2e-6).
     """
-    w = region.im_max(p, k_max)
-    waves = w * p.H / (2.0 * math.pi)
+    return 4, _cells(region.im_max(p, k_max), p.H, 1.0, rtol), 1.0
+
+
+def _cells(w: float, height: float, c_s: float, rtol: float) -> int:
+    """P4 cells of a layer: ``11 (2e-10/rtol)^(1/8)`` per shear wavelength ``2 pi c_s / w``."""
+    waves = w * height / (2.0 * math.pi * c_s)
     per_wave = 11.0 * (2e-10 / rtol) ** 0.125
-    cells = int(max(6, math.ceil(per_wave * waves)))
-    return 4, cells, 1.0
+    return int(max(6, math.ceil(per_wave * waves)))
 
 
 def substrate_cells(p: Params, region: Region, k_max: float, rtol: float = 1e-8) -> int:
@@ -72,10 +76,7 @@ def substrate_cells(p: Params, region: Region, k_max: float, rtol: float = 1e-8)
 
     The rule of :func:`default_discretisation` with the substrate's shear-wave speed ``c_s2``.
     """
-    c2 = math.sqrt(p.mu2 / p.rho2)
-    waves = region.im_max(p, k_max) * p.H2 / (2.0 * math.pi * c2)
-    per_wave = 11.0 * (2e-10 / rtol) ** 0.125
-    return int(max(6, math.ceil(per_wave * waves)))
+    return _cells(region.im_max(p, k_max), p.H2, math.sqrt(p.mu2 / p.rho2), rtol)
 
 
 @dataclass
@@ -158,8 +159,6 @@ class CertifiedSolver:
 
     def solve(self, k: float, fams: list[BranchResult]) -> KResult:
         """The certified spectrum at ``k`` (see the module docstring)."""
-        import time
-
         t0 = time.perf_counter()
         p, rtol = self.params, self.rtol
         out = KResult(float(k))

@@ -26,23 +26,29 @@ def _solver(p, region, k_max):
     return CertifiedSolver(p, region, deg, cells, ratio, k_max, 1e-8)
 
 
-@pytest.mark.parametrize("k", [1.0, 3.0])
-@pytest.mark.parametrize("bc", ["velocity", "stress"])
-def test_fe_count_equals_exact_count_and_values_match(bc, k):
-    p, region = Params(H=0.5, bc=bc), Region()
+def _solve_and_match(p, k):
+    """Certified solve at ``k`` and an independent exact search (zeros_in_box on the exact
+    determinant) of the same rectangle; returns (result, exact roots, FE values, nearest)."""
+    region = Region()
     fams = families(p, region, np.array([k]))
     solver = _solver(p, region, k)
     try:
         res = solver.solve(k, fams)
     finally:
         solver.destroy()
-    # an independent exact search of the same rectangle (zeros_in_box on det_M)
     exact = roots_in_box(p, k, res.box)
-    assert res.closed and res.n_fe == res.n_exact == len(exact) == len(res.rows)
     fe = np.array([complex(r["re_lambda"], r["im_lambda"]) for r in res.rows])
     ex = np.array([r.value for r in exact])
-    # each FE value matched to a distinct exact root: the nearest-root map is a bijection
     nearest = [int(np.argmin(np.abs(ex - z))) for z in fe]
+    return res, ex, fe, nearest
+
+
+@pytest.mark.parametrize("k", [1.0, 3.0])
+@pytest.mark.parametrize("bc", ["velocity", "stress"])
+def test_fe_count_equals_exact_count_and_values_match(bc, k):
+    res, ex, fe, nearest = _solve_and_match(Params(H=0.5, bc=bc), k)
+    assert res.closed and res.n_fe == res.n_exact == len(ex) == len(res.rows)
+    # each FE value matched to a distinct exact root: the nearest-root map is a bijection
     assert sorted(nearest) == list(range(len(ex)))
     # default discretisation for rtol = 1e-8: measured max error 3.3e-9 over the default sweep
     assert np.max(np.abs(fe - ex[nearest]) / np.abs(ex[nearest])) < 1e-8
@@ -60,18 +66,8 @@ def test_fe_count_equals_exact_count_and_values_match(bc, k):
 ])
 def test_two_body_certified_spectrum(case):
     """Two deformable bodies (layered FE model vs analytic.twobody): counts close, values match."""
-    p, region, k = Params(H=0.5, **case), Region(), 1.5
-    fams = families(p, region, np.array([k]))
-    solver = _solver(p, region, k)
-    try:
-        res = solver.solve(k, fams)
-    finally:
-        solver.destroy()
-    exact = roots_in_box(p, k, res.box)
-    assert res.closed and res.n_fe == res.n_exact == len(exact) == len(res.rows) > 0
-    fe = np.array([complex(r["re_lambda"], r["im_lambda"]) for r in res.rows])
-    ex = np.array([r.value for r in exact])
-    nearest = [int(np.argmin(np.abs(ex - z))) for z in fe]
+    res, ex, fe, nearest = _solve_and_match(Params(H=0.5, **case), 1.5)
+    assert res.closed and res.n_fe == res.n_exact == len(ex) == len(res.rows) > 0
     assert sorted(nearest) == list(range(len(ex)))
     # measured 2.4e-9 at most (mu2 = 3, k = 0.5..3); the rows must meet rtol = 1e-8
     assert np.max(np.abs(fe - ex[nearest]) / np.abs(ex[nearest])) < 1e-8

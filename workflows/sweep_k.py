@@ -149,7 +149,10 @@ def follow_all(comm: object, params: Params, region: Region, k: np.ndarray,
 
 def write_outputs(out: str, params: Params, region: Region, k: np.ndarray,
                   results: list[KResult], fams: list, meta: dict, plot: bool) -> dict:
-    """Rank 0: spectrum.csv, summary.json, dispersion.png; returns the summary."""
+    """Rank 0: spectrum.csv and dispersion.png; returns the summary.
+
+    The caller adds the timings and writes ``summary.json`` once.
+    """
     rows = [r for res in results for r in res.rows]
     tmp = os.path.join(out, ".spectrum.csv.tmp")
     with open(tmp, "w", newline="") as fh:
@@ -195,7 +198,6 @@ def write_outputs(out: str, params: Params, region: Region, k: np.ndarray,
                    "factorizations": res.factorizations}
                   for res in results],
     }
-    _write_json(os.path.join(out, "summary.json"), summary)
     if plot:
         plot_dispersion(os.path.join(out, "dispersion.png"), params, region, results, fams,
                         most, meta["parameters"])

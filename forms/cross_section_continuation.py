@@ -104,7 +104,7 @@ def follow_branch(params: Params, target_of_k: Callable[[float], complex], ks: n
     """One branch of the cross-section model along ``ks``, by continuation.
 
     The first ``k`` is solved near ``target_of_k(k)`` (e.g. the waveguide estimate of
-    :func:`forms.tracking.waveguide_lambda`); every next one near the linear extrapolation of
+    :func:`analytic.tracking.waveguide_lambda`); every next one near the linear extrapolation of
     the last two eigenvalues, so the branch is followed where a ``k``-wise target would jump to
     another one (it does for the stress top, ``0+``, near ``k = 1.4``).
 

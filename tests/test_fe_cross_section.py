@@ -13,10 +13,10 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from analytic.params import Params
+from analytic.tracking import branches, normalized, waveguide_lambda
 from forms.cross_section import CrossSectionModel
 from forms.friction import FrictionLaw
 from forms.solvers import PolynomialSolver, SplitSolver, relative_residual
-from forms.tracking import branches, normalized, waveguide_lambda
 
 logging.disable(logging.INFO)
 

@@ -14,9 +14,9 @@ from mpi4py import MPI
 
 from analytic.branches import follow_branch, polish_root
 from analytic.params import Params
+from analytic.tracking import Branch, waveguide_lambda
 from forms.cross_section import CrossSectionModel
 from forms.solvers import PolynomialSolver
-from forms.tracking import Branch, waveguide_lambda
 
 logging.disable(logging.INFO)
 

@@ -17,6 +17,7 @@ from analytic import largek
 from analytic.halfspace import dilatational_root
 from analytic.params import Params
 from analytic.roots import polish
+from analytic.tracking import normalized
 from analytic.twobody import det_twobody
 from forms.cross_section import CrossSectionModel
 from forms.layered import (
@@ -29,7 +30,6 @@ from forms.layered import (
 )
 from forms.pml import HalfSpaceModel, design_layer
 from forms.solvers import PolynomialSolver, SplitSolver
-from forms.tracking import normalized
 
 logging.disable(logging.INFO)
 COMMS = {"world": MPI.COMM_WORLD, "self": MPI.COMM_SELF}

@@ -127,9 +127,9 @@ def test_bad_strip_arguments(bad):
 def test_strip_matches_cross_section(bc, branch, measured):
     import logging
 
+    from analytic.tracking import Branch, waveguide_lambda
     from forms.cross_section import CrossSectionModel
     from forms.solvers import PolynomialSolver
-    from forms.tracking import Branch, waveguide_lambda
 
     logging.disable(logging.INFO)
     k, params = 1.0, Params(bc=bc)
@@ -172,8 +172,8 @@ def test_follow_branch_stays_on_stress_top_0plus():
     The branch peaks at Re Lambda = 0.23294 near k = 1.545 (checked against the exact root).
     """
     from analytic.branches import polish_root
+    from analytic.tracking import Branch, waveguide_lambda
     from forms.cross_section_continuation import follow_branch
-    from forms.tracking import Branch, waveguide_lambda
 
     params = Params(bc="stress")
     b = Branch.parse("0+")

@@ -41,11 +41,11 @@ import numpy as np
 
 from analytic.branches import parse_branch_label
 from analytic.params import require_rigid  # noqa: E402
+from analytic.tracking import Branch, waveguide_lambda
 from forms.cross_section_continuation import follow_branch, most_unstable_k
 from forms.mode_postprocessing import interface_stresses, normalise
 from forms.spatial_stability import kulikovskii_limit
 from forms.strip import build_strip_problem, solve_modes
-from forms.tracking import Branch, waveguide_lambda
 from meshes.strip import strip_mesh
 
 #: Options prefixes of the SLEPc objects: block solves, cross-section model, spatial roots.

@@ -59,7 +59,7 @@ from forms.cross_section_continuation import (  # noqa: E402
 from forms.elasticity import sigma  # noqa: E402
 from forms.mode_postprocessing import interface_stresses, normalise  # noqa: E402
 from forms.strip import build_strip_problem, solve_modes  # noqa: E402
-from forms.tracking import Branch, waveguide_lambda  # noqa: E402
+from analytic.tracking import Branch, waveguide_lambda  # noqa: E402
 from meshes.interval import grading_ratio  # noqa: E402
 from meshes.strip import strip_mesh, wavelength  # noqa: E402
 

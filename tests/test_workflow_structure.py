@@ -25,9 +25,10 @@ import pytest
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 WORKFLOWS = os.path.join(ROOT, "workflows")
 TESTS = os.path.join(ROOT, "tests")
-#: Functions counted as argument handling (exact names) or plotting (name prefixes).
-CLI_OR_PLOT = {"names": ("build_parser", "validate", "main"),
-               "prefixes": ("plot", "draw", "_plot", "save")}
+#: Functions not counted: argument handling (exact names) and plotting (name prefixes). ``main``
+#: is counted: it is where a scene's calls and writing live, so logic hidden there shows.
+CLI_OR_PLOT = {"names": ("build_parser", "validate"),
+               "prefixes": ("plot", "draw", "_plot")}
 
 
 def scenes() -> list[str]:

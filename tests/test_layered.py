@@ -33,7 +33,7 @@ from forms.solvers import PolynomialSolver, SplitSolver
 
 logging.disable(logging.INFO)
 COMMS = {"world": MPI.COMM_WORLD, "self": MPI.COMM_SELF}
-# DESIGN.md section 4: velocity top, paper defaults, H = 0.5, k = 1, branch 0-.
+# docs/design.md section 4: velocity top, paper defaults, H = 0.5, k = 1, branch 0-.
 CHECK_VALUE = 0.2716852879456 - 6.5866951866228j
 
 # Two-body cases: both tops, both bottoms, finite H2, identical materials, generalized friction.

@@ -132,3 +132,52 @@ def test_layer_design_damps_both_waves(q, gamma, delta, family):
     assert classify_sheet(root.Lambda, q, p.beta, s) == sheet
     assert np.all(np.diff(d.vertices) > 0) and d.top == pytest.approx(2.0 * d.h_phys)
     assert cmath.phase(s) == pytest.approx(d.phi)
+
+
+# ------------------------------------------------------------ forms/halfspace_modes.py
+@pytest.mark.parametrize("comm_name", ["world", "self"])
+@pytest.mark.parametrize("q,sheet", [(0.3, "physical"), (1.0, "s_tilde")])
+def test_solve_k_rows(q, sheet, comm_name):
+    """The rows of one k as halfspace_modes.py writes them: PML trusted and right, a short
+    plain strip flagged and wrong."""
+    from forms.halfspace_modes import COLUMNS, solve_k
+
+    p = _p(3.0, 0.7)
+    root = dilatational_root(q, p)
+    assert root.sheet == sheet
+    rows = solve_k(COMMS[comm_name], p, root, "dilatational", degree=3, attenuation=16.0,
+                   tol=1e-8, heights=[50.0], bcs=["velocity"])
+    assert [(r["method"], r["bc"], r["H"]) for r in rows] == [("pml", "", math.inf),
+                                                              ("truncated", "velocity", 50.0)]
+    pml, strip = rows
+    for r in rows:
+        assert tuple(sorted(r)) == tuple(sorted(COLUMNS)) and r["k"] == q
+        lam = complex(r["re_lambda"], r["im_lambda"])
+        assert r["rel_error"] == pytest.approx(abs(lam - root.Lambda) / abs(root.Lambda))
+    assert pml["trusted"] and pml["flags"] == "" and pml["sheet"] == sheet
+    # P3 layer: measured 4.0e-12 (k = 0.3) and 1.1e-12 (k = 1.0), 2026-11-22.
+    assert pml["rel_error"] < 2e-11
+    # H = 50 reflects (measured errors 3.7e-3, 4.7e-4): flagged.
+    assert not strip["trusted"] and "reflection" in strip["flags"] and strip["rel_error"] > 1e-5
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("silent_rtol", [1e-6, 1e-3])
+def test_silent_failures_and_summary(silent_rtol):
+    from forms.halfspace_modes import failure_summary, merge_rows, silent_failures
+
+    def row(k, method, trusted, err, H=math.inf):  # noqa: N803
+        return {"k": k, "branch": "unstable", "method": method, "bc": "", "H": H,
+                "trusted": trusted, "rel_error": err}
+
+    parts = [[row(0.5, "pml", True, 1e-4), row(0.1, "truncated", False, 1e-2, 50.0)],
+             [row(0.1, "pml", True, 1e-12), row(0.2, "pml", False, math.inf)]]
+    rows = merge_rows(parts)
+    assert [(r["k"], r["method"]) for r in rows] == [(0.1, "pml"), (0.1, "truncated"),
+                                                     (0.2, "pml"), (0.5, "pml")]
+    silent = silent_failures(rows, silent_rtol)
+    assert [r["k"] for r in silent] == ([0.5] if silent_rtol < 1e-4 else [])
+    s = failure_summary(rows, silent)
+    assert (s["rows"], s["trusted"], s["flagged"], s["silent_failures"]) == (4, 2, 2, len(silent))
+    assert s["pml_max_rel_error_trusted"] == 1e-4
+    assert [r["k"] for r in s["silent_failure_rows"]] == [r["k"] for r in silent]

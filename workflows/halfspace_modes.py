@@ -13,7 +13,8 @@ Appendix C, or the shear family near ``z = -1``) is the reference. The FE comput
 
 Every row says whether the code trusted its number (``trusted``, ``flags``) and how far it is
 from the analytic root; ``summary.json`` counts the *silent failures* (trusted but wrong by
-more than ``--silent-rtol``), which must be zero. Ranks share the ``k`` values (one mesh per
+more than ``--silent-rtol``), which must be zero. The rows and the checks are computed by
+:mod:`forms.halfspace_modes`. Ranks share the ``k`` values (one mesh per
 rank). Writes ``DIR/halfspace_modes.csv``, ``DIR/summary.json``, ``DIR/halfspace_modes.png``.
 
 Exit codes: 0 fine; 1 some silent failure; 2 bad input (nothing written).
@@ -27,7 +28,6 @@ import dataclasses
 import json
 import math
 import os
-import time
 
 import _cli
 import numpy as np
@@ -36,7 +36,8 @@ from mpi4py import MPI
 
 from analytic.halfspace import follow
 from analytic.params import Params, require_rigid
-from forms.pml import solve_halfspace, solve_truncated
+from forms import halfspace_modes
+from forms.halfspace_modes import COLUMNS
 
 #: Options prefixes of the SLEPc objects: the PML solves and the truncated strips.
 PETSC_PREFIXES = ("pml_", "trunc_")
@@ -44,10 +45,6 @@ PETSC_PREFIXES = ("pml_", "trunc_")
 OUTPUT_FILES = ("halfspace_modes.csv", "summary.json", "halfspace_modes.png")
 FAMILIES = ("dilatational", "shear")
 BRANCHES = ("unstable", "stable")
-COLUMNS = ("k", "family", "branch", "method", "bc", "H", "re_lambda", "im_lambda",
-           "re_lambda_exact", "im_lambda_exact", "sheet_exact", "sheet", "rel_error",
-           "growth_rel_error", "disagreement", "growth_disagreement", "residual", "attenuation",
-           "reflection", "decay_length_s", "decay_length_d", "dofs", "seconds", "trusted", "flags")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -105,49 +102,6 @@ def _check(args: argparse.Namespace) -> tuple:
         if not (0 < v < 1):
             raise _cli.ParameterError(f"--{name.replace('_', '-')} = {v} must be in (0, 1)")
     return p, ks, hs, bcs, branches
-
-
-def _rel(a: complex, b: complex) -> float:
-    return abs(a - b) / abs(b) if np.isfinite(a) else math.inf
-
-
-def _growth_rel(a: complex, b: complex) -> float:
-    return abs(a.real - b.real) / abs(b.real) if np.isfinite(a) and b.real else math.inf
-
-
-def solve_k(comm, p, k: float, root, args, hs, bcs) -> list[dict]:
-    """All rows of one ``k`` (PML + truncated strips) on ``comm``."""
-    exact = root.Lambda
-    base = {"k": k, "family": args.family, "branch": root.branch or "-",
-            "re_lambda_exact": exact.real, "im_lambda_exact": exact.imag, "sheet_exact": root.sheet,
-            "decay_length_s": root.decay_length_s, "decay_length_d": root.decay_length_d}
-    rows = []
-    t0 = time.perf_counter()
-    sheet = root.sheet if root.sheet != "unphysical" else "physical"
-    r = solve_halfspace(comm, p, k, exact, degree=args.degree, attenuation=args.attenuation,
-                        sheet=sheet, tol=args.tol)
-    rows.append({**base, "method": "pml", "bc": "", "H": math.inf, "re_lambda": r.Lambda.real,
-                 "im_lambda": r.Lambda.imag, "sheet": r.sheet,
-                 "rel_error": _rel(r.Lambda, exact),
-                 "growth_rel_error": _growth_rel(r.Lambda, exact),
-                 "disagreement": r.disagreement, "growth_disagreement": r.growth_disagreement,
-                 "residual": r.residual, "attenuation": r.attenuation, "reflection": math.nan,
-                 "dofs": sum(r.sizes), "seconds": time.perf_counter() - t0,
-                 "trusted": r.ok, "flags": ";".join(r.flags)})
-    for bc in bcs:
-        for H in hs:
-            t0 = time.perf_counter()
-            t = solve_truncated(comm, p, k, float(H), bc, exact, degree=args.degree, tol=args.tol)
-            rows.append({**base, "method": "truncated", "bc": bc, "H": float(H),
-                         "re_lambda": t.Lambda.real, "im_lambda": t.Lambda.imag, "sheet": "",
-                         "rel_error": _rel(t.Lambda, exact),
-                         "growth_rel_error": _growth_rel(t.Lambda, exact),
-                         "disagreement": math.nan, "growth_disagreement": math.nan,
-                         "residual": t.residual, "attenuation": math.nan,
-                         "reflection": t.reflection, "dofs": t.size,
-                         "seconds": time.perf_counter() - t0, "trusted": not t.flags,
-                         "flags": ";".join(t.flags)})
-    return rows
 
 
 def plot(rows: list[dict], roots: list, path: str, title: str, meta: dict) -> None:
@@ -222,13 +176,14 @@ def _run(comm, args: argparse.Namespace, p: Params, ks, hs, bcs, branches) -> in
     costs = [2.0 + len(hs) * len(bcs) for _ in roots]
     mine = []
     for i in _cli.my_share(comm, costs):
-        mine.extend(solve_k(MPI.COMM_SELF, p, roots[i].q, roots[i], args, hs, bcs))
+        mine.extend(halfspace_modes.solve_k(
+            MPI.COMM_SELF, p, roots[i], args.family, degree=args.degree,
+            attenuation=args.attenuation, tol=args.tol, heights=hs, bcs=bcs))
     parts = comm.gather(mine, root=0)
     code = 0
     if comm.rank == 0:
-        rows = sorted((r for part in parts for r in part),
-                      key=lambda r: (r["branch"], r["k"], r["method"], r["bc"], r["H"]))
-        silent = [r for r in rows if r["trusted"] and not r["rel_error"] <= args.silent_rtol]
+        rows = halfspace_modes.merge_rows(parts)
+        silent = halfspace_modes.silent_failures(rows, args.silent_rtol)
         with open(os.path.join(args.out, OUTPUT_FILES[0]), "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=COLUMNS)
             w.writeheader()
@@ -248,16 +203,7 @@ def _run(comm, args: argparse.Namespace, p: Params, ks, hs, bcs, branches) -> in
                 "versions": _cli.versions()}
         meta["params"] = {k: (v if not isinstance(v, float) or math.isfinite(v) else str(v))
                           for k, v in meta["params"].items()}
-        summary = {**meta, "rows": len(rows),
-                   "trusted": sum(r["trusted"] for r in rows),
-                   "flagged": sum(not r["trusted"] for r in rows),
-                   "silent_failures": len(silent),
-                   "silent_failure_rows": [{"k": r["k"], "method": r["method"], "bc": r["bc"],
-                                            "H": r["H"], "rel_error": r["rel_error"]}
-                                           for r in silent],
-                   "pml_max_rel_error_trusted": max(
-                       [r["rel_error"] for r in rows if r["method"] == "pml" and r["trusted"]],
-                       default=math.nan)}
+        summary = {**meta, **halfspace_modes.failure_summary(rows, silent)}
         with open(os.path.join(args.out, OUTPUT_FILES[1]), "w") as fh:
             json.dump(summary, fh, indent=1, default=str)
         title = (f"{args.family} family, f={p.f}, gamma={p.gamma}, beta={p.beta}, "

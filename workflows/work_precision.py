@@ -23,6 +23,7 @@ root itself (Newton on ``det M`` / on ``s`` from a generic start). Time per k: t
 assembled once and not counted; half-space: the layer depends on k, so assembly is counted).
 The Pareto front (no other point both faster and more accurate) is marked.
 
+The points, their errors and the Pareto marks are computed by :mod:`forms.work_precision`.
 Writes ``DIR/work_precision.csv``, ``DIR/summary.json``, ``DIR/work_precision.png``.
 """
 
@@ -33,29 +34,18 @@ import csv
 import json
 import math
 import os
-import time
 
 import _cli
-import numpy as np
 
 from mpi4py import MPI
 
-from analytic.branches import polish_root
-from analytic.halfspace import dilatational_root
-from analytic.largek import z_linear
-from analytic.params import Params
-from forms.cross_section import CrossSectionModel
-from forms.pml import RESOLUTION, HalfSpaceModel, design_layer
-from forms.solvers import PolynomialSolver, SplitSolver, dense_companion_eig
+from forms import work_precision as wp
+from forms.work_precision import COLUMNS, DENSE_MAX, K_FINITE, K_HALF
 
 #: Options prefixes of the SLEPc objects (PEP and NEP solvers).
 PETSC_PREFIXES = ("wp_pep_", "wp_nep_")
 
 OUTPUT_FILES = ("work_precision.csv", "summary.json", "work_precision.png")
-COLUMNS = ("case", "method", "degree", "cells", "dofs", "seconds", "rel_error", "re_lambda",
-           "im_lambda", "pareto", "pareto_fe", "note")
-K_FINITE, TARGET_FINITE = 1.0, 0.3 - 6.6j
-K_HALF = 0.3
 #: Meshes per degree (finite H, uniform cells on H = 0.5).
 FINITE_CELLS = {1: (16, 32, 64, 128, 256, 512), 2: (3, 4, 6, 8, 12, 16, 24),
                 3: (2, 3, 4, 6, 8, 12), 4: (1, 2, 3, 4, 6, 8)}
@@ -64,11 +54,9 @@ HALF_SCALES = {2: (2.0, 1.4, 1.0, 0.7, 0.5), 3: (2.0, 1.4, 1.0, 0.7, 0.5),
                4: (2.5, 2.0, 1.4, 1.0, 0.7, 0.5)}
 TINY_FINITE = {2: (4, 8), 3: (4,)}
 TINY_HALF = {2: (2.0,)}
-#: Errors within this factor count as equal for the Pareto front.
-PARETO_SLACK = 1.25
-#: Largest companion pencil (d n) handed to the dense eigensolver (--tiny: 300). With
-#: Debian's reference LAPACK, d n = 774 takes ~14 s.
-DENSE_MAX = 900
+#: Largest companion pencil (d n) handed to the dense eigensolver with --tiny (else
+#: forms.work_precision.DENSE_MAX).
+TINY_DENSE_MAX = 300
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -79,117 +67,6 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--tiny", action="store_true", help="a few points only (smoke test)")
     ap.add_argument("--no-dense", action="store_true", help="skip the dense baseline")
     return ap
-
-
-def _best(fn, repeats: int, budget: float = 5.0):
-    """``(best wall time, last result)`` of ``fn()`` over ``repeats`` runs.
-
-    Stops repeating once ``budget`` seconds have been spent (slow points vary little).
-    """
-    best, out, spent = math.inf, None, 0.0
-    for _ in range(repeats):
-        t = time.perf_counter()
-        out = fn()
-        dt = time.perf_counter() - t
-        best, spent = min(best, dt), spent + dt
-        if spent > budget:
-            break
-    return best, out
-
-
-def finite_points(comm, p, cells: dict, repeats: int, dense: bool, lam_ref: complex,
-                  dense_max: int = DENSE_MAX) -> list[dict]:
-    """FE points of the finite-H case: every (degree, cells), PEP, NEP, dense."""
-    rows = []
-    for deg, cell_list in cells.items():
-        for n in cell_list:
-            for form, method in (("polynomial", "PEP"), ("split", "NEP")):
-                model = CrossSectionModel(comm, p, degree=deg, cells=n, ratio=1.0, form=form)
-                solver = (PolynomialSolver(comm, nev=1, prefix="wp_pep_") if form == "polynomial"
-                          else SplitSolver(comm, nev=1, prefix="wp_nep_"))
-
-                def run(model=model, solver=solver):
-                    model._k = None  # recombine the k blocks every time (counted)
-                    res = solver.solve(model.operator(K_FINITE), TARGET_FINITE)
-                    lam = res.pairs[0].value if res.pairs else complex("nan")
-                    res.destroy()
-                    return lam
-
-                sec, lam = _best(run, repeats)
-                rows.append(_row("finite_H", method, deg, n, model.size, sec, lam, lam_ref))
-                if form == "polynomial" and dense and 3 * model.size <= dense_max:
-                    def run_dense(model=model):
-                        model._k = None
-                        return dense_companion_eig(model.operator(K_FINITE), TARGET_FINITE)
-
-                    sec, lam = _best(run_dense, repeats)
-                    rows.append(_row("finite_H", "dense", deg, n, model.size, sec, lam, lam_ref,
-                                     "scipy.linalg.eig on the companion pencil"))
-                solver.destroy()
-                model.destroy()
-    return rows
-
-
-def half_points(comm, p, scales: dict, repeats: int, dense: bool, lam_ref: complex,
-                target: complex, dense_max: int = DENSE_MAX) -> list[dict]:
-    """FE points of the half-space case: PML model per (degree, cell-size factor)."""
-    rows = []
-    for deg, factors in scales.items():
-        for c in factors:
-            design = design_layer(K_HALF, target, p.beta, deg,
-                                  resolution=c * RESOLUTION[deg])
-            for form, method in (("polynomial", "PEP"), ("split", "NEP")):
-                def run(design=design, form=form, deg=deg):
-                    model = HalfSpaceModel(comm, p, design, deg, form)
-                    solver = (PolynomialSolver(comm, nev=1, prefix="wp_pep_")
-                              if form == "polynomial" else
-                              SplitSolver(comm, nev=1, radius=0.3, prefix="wp_nep_"))
-                    res = solver.solve(model.op, target)
-                    lam = res.pairs[0].value if res.pairs else complex("nan")
-                    res.destroy()
-                    solver.destroy()
-                    size = model.size
-                    model.destroy()
-                    return lam, size
-
-                sec, (lam, size) = _best(run, repeats)
-                rows.append(_row("halfspace", f"PML {method}", deg, design.cells, size, sec,
-                                 lam, lam_ref, f"cell size x{c}"))
-                if form == "polynomial" and dense and 3 * size <= dense_max:
-                    def run_dense(design=design, deg=deg):
-                        model = HalfSpaceModel(comm, p, design, deg, "polynomial")
-                        lam = dense_companion_eig(model.op, target)
-                        model.destroy()
-                        return lam
-
-                    sec, lam = _best(run_dense, repeats)
-                    rows.append(_row("halfspace", "PML dense", deg, design.cells, size, sec,
-                                     lam, lam_ref, "scipy.linalg.eig on the companion pencil"))
-    return rows
-
-
-def _row(case, method, degree, cells, dofs, sec, lam, ref, note="") -> dict:
-    err = abs(lam - ref) / abs(ref) if np.isfinite(lam) else math.inf
-    return {"case": case, "method": method, "degree": degree, "cells": cells, "dofs": dofs,
-            "seconds": sec, "rel_error": err, "re_lambda": complex(lam).real,
-            "im_lambda": complex(lam).imag, "pareto": False, "pareto_fe": False, "note": note}
-
-
-def mark_pareto(rows: list[dict], key: str = "pareto", fe_only: bool = False) -> None:
-    """``row[key] = True`` for the points no other point of the case beats in time and error.
-
-    ``fe_only``: among the finite-element points only (the analytic root left out). A point
-    is dominated by a faster (or equally fast) one whose error is at most ``PARETO_SLACK``
-    times its own (errors that close are the same digits).
-    """
-    for case in {r["case"] for r in rows}:
-        pts = [r for r in rows if r["case"] == case and math.isfinite(r["rel_error"])
-               and not (fe_only and r["method"] == "analytic")]
-        for r in pts:
-            e = max(r["rel_error"], 1e-16)
-            r[key] = not any(
-                o is not r and o["seconds"] <= r["seconds"]
-                and max(o["rel_error"], 1e-16) <= PARETO_SLACK * e for o in pts)
 
 
 def plot(rows: list[dict], path: str, meta: dict) -> None:
@@ -231,15 +108,6 @@ def plot(rows: list[dict], path: str, meta: dict) -> None:
     plt.close(fig)
 
 
-def job_cost(kind: str, degree: int, sub: tuple) -> float:
-    """Rough cost of one job for :func:`_cli.share_by_cost` (unknowns; PML layers are larger)."""
-    if kind == "finite":
-        return 2.0 * (degree * sub[0] + 1)
-    if kind == "half":
-        return 400.0 * degree / sub[0]
-    return 1.0
-
-
 def main(comm=None, argv: list[str] | None = None) -> int:
     """Entry point; the points are shared out over the ranks of ``comm`` (one rank each)."""
     args, comm = _cli.start(build_parser(), argv, comm)
@@ -250,44 +118,18 @@ def main(comm=None, argv: list[str] | None = None) -> int:
 
 
 def _run(comm, args: argparse.Namespace) -> int:
-    p_fin = Params()
-    p_half = Params(H=math.inf)
-    ref_fin = polish_root(p_fin, K_FINITE, TARGET_FINITE)
-    ref_half = dilatational_root(K_HALF, p_half)
-    lam_fin, lam_half = complex(ref_fin.value), ref_half.Lambda
-    target_half = complex(-1j * K_HALF * z_linear(K_HALF, p_half))  # Eq. kappa_d1
+    cases = wp.reference_cases()
     cells = TINY_FINITE if args.tiny else FINITE_CELLS
     scales = TINY_HALF if args.tiny else HALF_SCALES
-    dense_max = 300 if args.tiny else DENSE_MAX
-    jobs = [("finite", d, (n,)) for d, ns in cells.items() for n in ns]
-    jobs += [("half", d, (c,)) for d, cs in scales.items() for c in cs]
-    jobs += [("analytic", 0, ())]
+    dense_max = TINY_DENSE_MAX if args.tiny else DENSE_MAX
+    jobs = wp.make_jobs(cells, scales)
     mine: list[dict] = []
-    for i in _cli.my_share(comm, [job_cost(*job) for job in jobs]):
-        kind, d, sub = jobs[i]
-        if kind == "finite":
-            mine += finite_points(MPI.COMM_SELF, p_fin, {d: sub}, args.repeats,
-                                  not args.no_dense, lam_fin, dense_max)
-        elif kind == "half":
-            mine += half_points(MPI.COMM_SELF, p_half, {d: sub}, args.repeats,
-                                not args.no_dense, lam_half, target_half, dense_max)
-        else:
-            sec, r = _best(lambda: polish_root(p_fin, K_FINITE, TARGET_FINITE), args.repeats)
-            mine.append(_row("finite_H", "analytic", 0, 0, 0, sec, complex(r.value),
-                             0.2716852879456 - 6.5866951866228j,
-                             "Newton on det M; error vs the check value of docs/design.md"
-                             " section 4 (13 digits)"))
-            sec, r = _best(lambda: dilatational_root(K_HALF, p_half), args.repeats)
-            ref2 = dilatational_root(K_HALF, p_half, guess=complex(
-                np.sqrt(1 - (p_half.beta * target_half / (-1j * K_HALF)) ** 2)))
-            mine.append(_row("halfspace", "analytic", 0, 0, 0, sec, r.Lambda, ref2.Lambda,
-                             "Newton in kappa_d; error vs a second start"))
+    for i in _cli.my_share(comm, [wp.job_cost(*job) for job in jobs]):
+        mine += wp.job_points(MPI.COMM_SELF, jobs[i], cases, args.repeats, not args.no_dense,
+                              dense_max, PETSC_PREFIXES)
     parts = comm.gather(mine, root=0)
     if comm.rank == 0:
-        rows = [r for part in parts for r in part]
-        rows.sort(key=lambda r: (r["case"], r["method"], r["degree"], r["dofs"]))
-        mark_pareto(rows)
-        mark_pareto(rows, "pareto_fe", fe_only=True)
+        rows = wp.merge_rows(parts)
         with open(os.path.join(args.out, OUTPUT_FILES[0]), "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=COLUMNS)
             w.writeheader()
@@ -296,19 +138,13 @@ def _run(comm, args: argparse.Namespace) -> int:
         meta = {"command": _cli.command(), **_cli.versions(), "ranks": comm.size,
                 "repeats": args.repeats,
                 "finite_H": {"params": "paper defaults, H=0.5, bc=velocity", "k": K_FINITE,
-                             "target": str(TARGET_FINITE), "reference": str(lam_fin)},
+                             "target": str(wp.TARGET_FINITE), "reference": str(cases.lam_finite)},
                 "halfspace": {"params": "paper defaults, H=inf", "k": K_HALF,
-                              "target": str(target_half), "reference": str(lam_half)}}
-        fastest = {}
-        for case in ("finite_H", "halfspace"):
-            for thr in (1e-6, 1e-10):
-                for m in {r["method"] for r in rows if r["case"] == case}:
-                    ok = [r["seconds"] for r in rows if r["case"] == case and r["method"] == m
-                          and r["rel_error"] <= thr]
-                    if ok:
-                        fastest[f"{case} {m} err<={thr:g}"] = min(ok)
+                              "target": str(cases.target_half),
+                              "reference": str(cases.lam_half)}}
         with open(os.path.join(args.out, OUTPUT_FILES[1]), "w") as fh:
-            json.dump({**meta, "fastest_seconds": fastest, "points": len(rows)}, fh, indent=1)
+            json.dump({**meta, "fastest_seconds": wp.fastest_seconds(rows), "points": len(rows)},
+                      fh, indent=1)
         plot(rows, os.path.join(args.out, OUTPUT_FILES[2]), meta)
         print(f"{len(rows)} points -> {args.out}", flush=True)
     comm.Barrier()

@@ -83,9 +83,11 @@ class BlockMode:
 
     def row(self, ref: StripReference) -> list[float | int]:
         """The values of :data:`ROW_COLUMNS` (``nan`` for a length without a mode)."""
-        lam = self.eigenvalue if self.eigenvalue is not None else complex("nan")
-        residual = self.residual if self.eigenvalue is not None else float("nan")
-        return [self.length, lam.real, lam.imag, residual, self.candidates, ref.lam_inf.real,
+        nan = float("nan")
+        lam = (nan, nan) if self.eigenvalue is None else (self.eigenvalue.real,
+                                                           self.eigenvalue.imag)
+        residual = nan if self.eigenvalue is None else self.residual
+        return [self.length, *lam, residual, self.candidates, ref.lam_inf.real,
                 ref.lam_inf.imag, ref.k_inf]
 
 

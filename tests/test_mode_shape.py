@@ -2,15 +2,26 @@
 
 The workflow runs in a subprocess (it must import pyvista before dolfinx, see its header), once
 serially and once under ``mpirun -n 2``; these tests are marked serial so each launches once.
+Its computation (:mod:`forms.strip_mode`) is also tested directly, serially and under MPI.
 """
 
 import json
+import math
 import os
 import subprocess
 import sys
 
 import numpy as np
 import pytest
+
+# As in the workflow: VTK's library before dolfinx's (the reader tests below use pyvista).
+import pyvista  # noqa: F401, I001
+
+from mpi4py import MPI
+
+from analytic.params import Params
+from forms import strip_mode
+from forms.cross_section_continuation import follow_branch
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCRIPT = os.path.join(ROOT, "workflows", "mode_shape.py")
@@ -99,3 +110,108 @@ def test_mode_shape_from_cross_section(tmp_path):
     assert abs(lam - CHECK_VALUE) / abs(CHECK_VALUE) < 1e-10
     with Image.open(out / "mode_shape.png") as im:
         assert im.info["Title"].startswith("cross-section model")
+
+
+# ------------------------------------------------------------ forms.strip_mode, called directly
+@pytest.fixture(scope="module")
+def bloch_k1():
+    """The tiny strip of the workflow test (k = 1, 12 x 3 cells, P2) and its solved mode."""
+    params = Params()
+    k, lam_branch = strip_mode.branch_eigenvalue(MPI.COMM_WORLD, params, (0, -1), 1.0)
+    xs = strip_mode.cross_section_near(params, k, lam_branch)
+    strip = strip_mode.bloch_strip(MPI.COMM_WORLD, params, k, 1, 12, 3)
+    solved = strip_mode.solve_bloch_mode(strip, params, k, 2, xs.eigenvalue, 6)
+    return params, k, lam_branch, xs, strip, solved
+
+
+def test_branch_and_bloch_mode(bloch_k1):
+    params, k, lam_branch, xs, strip, solved = bloch_k1
+    # the branch followed up to k = 1 (P3 default mesh): measured 7.6e-11 from the exact root
+    assert abs(lam_branch - CHECK_VALUE) / abs(CHECK_VALUE) < 1e-10
+    assert xs.eigenvalue == pytest.approx(lam_branch, rel=1e-12)  # same solve, shifted off
+    assert strip.length == pytest.approx(2 * math.pi) and (strip.nx, strip.ny) == (12, 3)
+    mode = solved.mode
+    assert mode is not None and 0 in solved.harmonics
+    # the kept eigenvalue is the first converged one (nearest the target) with m = 0
+    assert mode.eigenvalue == solved.eigenvalues[solved.harmonics.index(0)]
+    assert abs(mode.eigenvalue - CHECK_VALUE) / abs(CHECK_VALUE) < 3.3e-4  # measured 3.20e-4
+    assert mode.meta["harmonic_content_m0"] > 0.999
+    assert len(mode.meta["other_eigenvalues"]) == len(solved.eigenvalues)
+    # normalised: largest nodal |u| is 1 (up to rounding)
+    vals = mode.u.x.array.reshape(-1, 2)
+    amp = MPI.COMM_WORLD.allreduce(float(np.max(np.linalg.norm(vals, axis=1))), op=MPI.MAX)
+    assert amp == pytest.approx(1.0, rel=1e-12)
+
+
+def test_most_unstable_branch_point():
+    """With a k grid, the point of largest growth of the followed branch, on every rank."""
+    params = Params()
+    ks = np.array([0.5, 1.0, 1.5, 2.0, 2.5])
+    k, lam = strip_mode.branch_eigenvalue(MPI.COMM_WORLD, params, (0, -1), 1.0, k_scan=ks)
+    ref = follow_branch(params, lambda q: lam, ks)  # every value near the branch
+    assert k in ks and lam.real == pytest.approx(np.max(ref.real), rel=1e-9)
+    assert MPI.COMM_WORLD.allgather((k, lam)) == [(k, lam)] * MPI.COMM_WORLD.size
+
+
+def test_gathered_grid_and_snapshots(bloch_k1):
+    params, k, _, xs, strip, solved = bloch_k1
+    u, lam = solved.mode.u, solved.mode.eigenvalue
+    comm = strip.comm
+    gathered = strip_mode.gather_mode(u, params.lame_lambda)
+    n_local = len(u.x.array) // 2
+    n_total = comm.allreduce(n_local)
+    if comm.rank == 0:
+        data = gathered["point_data"]
+        assert gathered["points"].shape == (n_total, 3)
+        assert all(data[name].shape[0] == n_total for name in data)
+        # VTK connectivity: every cell [count, ids...] points into the gathered points
+        cells = gathered["cells"].reshape(len(gathered["cell_types"]), -1)
+        assert np.all(cells[:, 0] == cells.shape[1] - 1)
+        assert cells[:, 1:].min() >= 0 and cells[:, 1:].max() < n_total
+        umax = np.max(np.linalg.norm(data["u_re"] + 1j * data["u_im"], axis=1))
+        assert umax == pytest.approx(1.0, rel=1e-12)  # the normalised mode, all ranks' nodes
+    else:
+        assert gathered is None
+    steps = list(strip_mode.phase_snapshots(u, lam, 4))
+    period = 2 * math.pi / abs(lam.imag)
+    assert [t for t, _ in steps] == pytest.approx([0, period / 4, period / 2, 3 * period / 4])
+    t, last = steps[-1]
+    assert np.allclose(last.x.array, (u.x.array * np.exp(1j * lam.imag * t)).real, atol=1e-14)
+
+    # the cross-section mode on the same mesh: normalised too, its own eigenvalue
+    other = strip_mode.cross_section_on_strip(strip, xs, 2)
+    assert other.eigenvalue == xs.eigenvalue and other.meta["timings"] == {}
+    vals = other.u.x.array.reshape(-1, 2)
+    amp = comm.allreduce(float(np.max(np.linalg.norm(vals, axis=1))), op=MPI.MAX)
+    assert amp == pytest.approx(1.0, rel=1e-12)
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("omega", [6.5, -6.5])
+@pytest.mark.parametrize("n", [1, 7])
+def test_phase_frames(omega, n):
+    rng = np.random.default_rng(n)
+    data = {"u_re": rng.normal(size=(n, 3)), "u_im": rng.normal(size=(n, 3)),
+            "syy_re": rng.normal(size=n), "syy_im": rng.normal(size=n)}
+    frames = strip_mode.phase_frames(data, omega, (0.0, 0.25, 1.0))
+    (u0, s0), (u1, s1), (u4, s4) = frames
+    assert np.array_equal(u0, data["u_re"]) and np.array_equal(s0, data["syy_re"])
+    # a quarter period on: Re(z exp(+-i pi/2)) = -+Im z (cos(pi/2) rounding: 1e-16)
+    sgn = math.copysign(1.0, omega)
+    assert np.allclose(u1, -sgn * data["u_im"], atol=1e-15)
+    assert np.allclose(s1, -sgn * data["syy_im"], atol=1e-15)
+    assert np.allclose(u4, u0, atol=1e-14) and np.allclose(s4, s0, atol=1e-14)  # one period
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("n_slip", [2, 9])
+def test_interface_table(n_slip):
+    x = np.linspace(0.0, 3.0, 13)
+    x_slip = np.linspace(0.0, 3.0, n_slip)
+    data = {"x": x, "sxy": np.exp(-1j * x), "syy": 2j * x, "x_slip": x_slip,
+            "ux": (1 + 2j) * x_slip - 1j}  # linear: interpolation exact
+    table = strip_mode.interface_table(data)
+    assert table.shape == (13, len(strip_mode.INTERFACE_COLUMNS))
+    ux = (1 + 2j) * x - 1j
+    expect = np.column_stack([x, np.cos(x), -np.sin(x), 0 * x, 2 * x, ux.real, ux.imag])
+    assert np.allclose(table, expect, rtol=0, atol=1e-14)

@@ -1,4 +1,4 @@
-"""Finite block (free lateral ends): real operators, and the finite_block workflow serial/MPI."""
+"""Finite block (free lateral ends): real operators, forms.block, the finite_block workflow."""
 
 import csv
 import json
@@ -16,6 +16,8 @@ slepc4py.init(sys.argv[:1])
 from mpi4py import MPI  # noqa: E402
 
 from analytic.params import Params  # noqa: E402
+from forms import block  # noqa: E402
+from forms.cross_section_continuation import follow_branch  # noqa: E402
 from forms.mode_postprocessing import interface_stresses  # noqa: E402
 from forms.spatial_stability import kulikovskii_limit  # noqa: E402
 from forms.strip import build_strip_problem, solve_modes  # noqa: E402
@@ -144,3 +146,106 @@ def test_finite_block_workflow(tmp_path, ranks):
         again = list(csv.DictReader(f))
     assert [float(r["L"]) for r in again] == [2.0, 4.0, 6.0]
     assert again[:2] == rows
+
+
+# ---------------------------------------------------------------- forms.block, called directly
+@pytest.mark.serial
+@pytest.mark.parametrize("p", [1.0, 2.3])
+@pytest.mark.parametrize("ratio", [2.0, 3.0])
+def test_extrapolate_geometric(p, ratio):
+    """Richardson on v = a + b L^-p over geometric lengths recovers a and p."""
+    L = 4.0 * ratio ** np.arange(4)
+    v = 0.21 - 0.07 * L ** -p
+    limit, order = block.extrapolate(L[::-1], v[::-1])  # any order of the rows
+    # rounding only: the differences are >= 1e-5, the values 0.2 (measured ~1e-13)
+    assert abs(limit - 0.21) < 1e-10 and abs(order - p) < 1e-8
+
+
+@pytest.mark.serial
+def test_extrapolate_fallback_and_short():
+    L = np.array([2.0, 5.0, 6.0, 11.0])  # not geometric: least squares a + b/L, three largest
+    v = 0.3 + 0.5 / L
+    limit, order = block.extrapolate(L, v)
+    assert abs(limit - 0.3) < 1e-12 and order == 1.0  # exact fit, rounding only
+    assert all(np.isnan(block.extrapolate(L[:2], v[:2])))
+
+
+@pytest.mark.serial
+def test_rows_and_long_block_limit(monkeypatch):
+    ref = block.StripReference([("0-", 1.75, 0.33 - 7.1j)], "0-", 1.75, 0.33 - 7.1j, [])
+    failed = block.BlockMode(8.0, None, float("nan"), 0).row(ref)
+    assert failed[0] == 8.0 and np.isnan(failed[1:4]).all() and failed[4:] == [0, 0.33, -7.1,
+                                                                                1.75]
+    good = block.BlockMode(4.0, 0.2 - 6.8j, 1e-15, 3).row(ref)
+    assert good[:5] == [4.0, 0.2, -6.8, 1e-15, 3]
+    rows = [dict(zip(block.ROW_COLUMNS, (str(v) for v in r), strict=True))
+            for r in (good, failed, block.BlockMode(2.0, 0.1 - 6.5j, 1e-15, 2).row(ref))]
+    rows.append({**rows[0], "L": "16", "re_lambda": ""})
+    L, lam = block.converged_rows(rows)
+    assert list(L) == [2.0, 4.0] and list(lam) == [0.1 - 6.5j, 0.2 - 6.8j]
+
+    seen = []
+
+    def fake_limit(params, lam_block):
+        seen.append(lam_block)
+        return {"type": "kulikovskii"} if lam_block.real > 0.15 else None
+
+    monkeypatch.setattr(block, "kulikovskii_limit", fake_limit)
+    kul = block.long_block_limit(Params(), np.array([4.0, 2.0]), np.array([0.2 - 6.8j, 0.1]))
+    assert seen == [0.2 - 6.8j] and kul == {"type": "kulikovskii", "from_block_length": 4.0}
+    assert block.long_block_limit(Params(), np.array([2.0]), np.array([0.1 + 0j])) is None
+
+
+def test_infinite_strip_reference():
+    """The most unstable branch on a coarse k grid, refined; targets below the real axis."""
+    params = Params()
+    ks = np.linspace(0.5, 3.0, 6)
+    ref = block.infinite_strip_reference(MPI.COMM_WORLD, params, [(0, -1), (0, 1)], ks, 2)
+    assert [t[0] for t in ref.per_branch] == ["0-", "0+"]
+    assert ref.lam_inf.real == max(t[2].real for t in ref.per_branch) and ref.label == "0-"
+    assert abs(ref.k_inf - 2.0) <= 0.5 + 1e-12  # within one grid step of the coarse maximum
+    # a local maximum on the refined grid (step 0.05): its neighbours grow less
+    near = follow_branch(params, lambda k: ref.lam_inf, [ref.k_inf - 0.05, ref.k_inf,
+                                                         ref.k_inf + 0.05])
+    assert near[1] == pytest.approx(ref.lam_inf, rel=1e-10)
+    assert near[0].real <= ref.lam_inf.real and near[2].real <= ref.lam_inf.real
+    # 0+ is stable here: only 0- seeds targets, two paths of two points sharing k_inf
+    assert 1 <= len(ref.targets) <= 3
+    assert all(z.imag <= 0 for z in ref.targets)
+    assert all(abs(a - b) > 1e-6 * abs(a) for i, a in enumerate(ref.targets)
+               for b in ref.targets[i + 1:])
+    record = ref.record()
+    assert record["reference_branch"] == "0-" and len(record["targets"]) == len(ref.targets)
+    assert MPI.COMM_WORLD.allgather(ref.targets) == [ref.targets] * MPI.COMM_WORLD.size
+
+
+@pytest.mark.parametrize("keep", [False, True])
+def test_most_unstable_block_mode(keep):
+    """The block solved near each target: the largest growth among the distinct modes."""
+    params = Params()
+    targets = [0.2 - 7.0j, 0.2 - 6.0j]
+    mode = block.most_unstable_block_mode(MPI.COMM_WORLD, params, 2.0, cells_per_unit=4, ny=3,
+                                          degree=2, lateral="free", targets=targets, nev=4,
+                                          keep_mode=keep)
+    # the same solves by hand
+    strip = strip_mesh(MPI.COMM_WORLD, 2.0, params.H, 8, 3)
+    problem = build_strip_problem(strip, params, k=None, degree=2)
+    found = []
+    for tgt in targets:
+        for m in solve_modes(problem, tgt, nev=4, prefix="block_"):
+            found.append(m.eigenvalue)
+            m.vector.destroy()
+    problem.destroy()
+    best = max(found, key=lambda z: z.real)
+    # same solves: equal up to SLEPc's tolerance (measured: identical)
+    assert abs(mode.eigenvalue - best) < 1e-9 * abs(best)
+    distinct = [z for i, z in enumerate(found)
+                if all(abs(z - w) > 1e-8 * abs(z) for w in found[:i])]
+    assert mode.candidates == len(distinct) and mode.residual < 1e-10  # measured ~1e-16
+    assert 0 < mode.eigenvalue.real < 0.33  # measured 0.11 (L = 2), infinite strip 0.33
+    if keep:
+        vals = mode.u.x.array.reshape(-1, 2)
+        amp = MPI.COMM_WORLD.allreduce(float(np.max(np.linalg.norm(vals, axis=1))), op=MPI.MAX)
+        assert amp == pytest.approx(1.0, rel=1e-12)
+    else:
+        assert mode.u is None

@@ -38,22 +38,18 @@ import time
 import _cli
 import _plots  # matplotlib only: no pyvista/VTK here, so no import order to keep
 import numpy as np
+from tqdm import tqdm
 
 from analytic.branches import parse_branch_label
 from analytic.params import require_rigid  # noqa: E402
-from analytic.tracking import Branch, waveguide_lambda
-from forms.cross_section_continuation import follow_branch, most_unstable_k
-from forms.mode_postprocessing import interface_stresses, normalise
-from forms.spatial_stability import kulikovskii_limit
-from forms.strip import build_strip_problem, solve_modes
-from meshes.strip import strip_mesh
+from forms import block
+from forms.mode_postprocessing import interface_stresses
 
 #: Options prefixes of the SLEPc objects: block solves, cross-section model, spatial roots.
 PETSC_PREFIXES = ("block_", "xs_", "kroots_")
 #: Files this workflow writes.
 OUTPUTS = ("finite_block.csv", "finite_block.png", "block_mode.png", "finite_block.json")
-COLUMNS = ["L", "re_lambda", "im_lambda", "residual", "candidates", "re_lambda_inf",
-           "im_lambda_inf", "k_inf"]
+COLUMNS = list(block.ROW_COLUMNS)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -110,40 +106,29 @@ def _read_done(path: str) -> dict[float, dict]:
         return {float(r["L"]): r for r in csv.DictReader(f)}
 
 
-def extrapolate(L: np.ndarray, values: np.ndarray) -> tuple[float, float]:
-    """Limit ``L -> infinity`` from the three largest lengths (Richardson, observed order).
+def _earlier_timings(json_path: str) -> dict[str, float]:
+    """Per-length times recorded by an earlier run in ``finite_block.json`` (rank 0)."""
+    if not os.path.exists(json_path):
+        return {}
+    with open(json_path) as f:
+        old = json.load(f).get("timings", {})
+    return {key: v for key, v in old.items() if key != "total"}
 
-    With ``L`` in a geometric ratio ``r`` and monotone differences, the order ``p`` comes from
-    ``(v2 - v1)/(v3 - v2) = r^p`` and the limit is ``v3 + (v3 - v2)/(r^p - 1)``; otherwise a
-    least-squares ``a + b/L``. Returns ``(limit, p)``.
+
+def plot_convergence(L: np.ndarray, lam: np.ndarray, g_inf: float, order_p: float,
+                     lam_inf: complex, k_inf: float, out_png: str, title: str, meta: dict,
+                     kul: dict | None = None) -> None:
+    """Growth rate of the most unstable block mode against L (rank 0).
+
+    ``L``, ``lam``: the converged lengths, sorted, and their eigenvalues
+    (:func:`forms.block.converged_rows`); ``g_inf``, ``order_p``: the extrapolated limit and its
+    order (:func:`forms.block.extrapolate`).
     """
-    order = np.argsort(L)
-    L, v = np.asarray(L)[order], np.asarray(values)[order]
-    if len(L) < 3:
-        return float("nan"), float("nan")
-    (l1, l2, l3), (v1, v2, v3) = L[-3:], v[-3:]
-    r = l2 / l1
-    d1, d2 = v2 - v1, v3 - v2
-    if abs(l3 / l2 - r) < 1e-9 * r and d1 * d2 > 0 and abs(d1) > abs(d2):
-        p = float(np.log(d1 / d2) / np.log(r))
-        return float(v3 + d2 / (r**p - 1.0)), p
-    b, a = np.polyfit(1.0 / L[-3:], v[-3:], 1)
-    return float(a), 1.0
-
-
-def plot_convergence(rows: list[dict], lam_inf: complex, k_inf: float, out_png: str,
-                     title: str, meta: dict, kul: dict | None = None) -> None:
-    """Growth rate of the most unstable block mode against L (rank 0)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    L = np.array([float(r["L"]) for r in rows])
-    lam = np.array([complex(float(r["re_lambda"]), float(r["im_lambda"])) for r in rows])
-    order = np.argsort(L)
-    L, lam = L[order], lam[order]
-    g_inf, order_p = extrapolate(L, lam.real)
     fig, axes = plt.subplots(1, 2, figsize=(11.5, 4.3))
     ax = axes[0]
     ax.plot(L, lam.real, "o-", label="finite block: most unstable Re $\\Lambda$")
@@ -202,147 +187,71 @@ def main(comm=None, argv: list[str] | None = None) -> int:
 def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, branches,
          k_scan) -> int:
     t_start = time.perf_counter()
-    # Infinite strip, per branch: most unstable k on the grid, refined on a finer grid; the
-    # reference is the most unstable branch. The block's operators are real, so its spectrum is
-    # symmetric under conjugation: every target is taken in Im Lambda < 0.
-    dk = (k_scan[-1] - k_scan[0]) / max(len(k_scan) - 1, 1)
-    per_branch = []
-    targets = []
-    for nb in branches:
-        b = Branch(*nb)
-
-        def wg(k: float, b: Branch = b) -> complex:
-            return waveguide_lambda(params, b, k)
-
-        k0, lam0 = most_unstable_k(params, wg, k_scan)
-        fine = np.linspace(k0, k0 + dk, 11)
-        kb, lb = most_unstable_k(params, lambda k, z=lam0: z, fine)
-        fine = np.linspace(k0, max(k0 - dk, 1e-3), 11)
-        kb2, lb2 = most_unstable_k(params, lambda k, z=lam0: z, fine)
-        if lb2.real > lb.real:
-            kb, lb = kb2, lb2
-        per_branch.append((b.label, kb, lb))
-        if lb.real <= 0 and len(branches) > 1:
-            continue  # a stable branch seeds no targets
-        # shift targets: the branch itself on both sides of its most unstable k
-        for ks in (np.linspace(kb, 1.5 * kb, args.targets), np.linspace(kb, 0.5 * kb,
-                                                                       args.targets)):
-            for z in follow_branch(params, lambda k, z=lb: z, ks):
-                if np.isfinite(z):
-                    targets.append(z if z.imag <= 0 else z.conjugate())
-    # distinct targets only
-    uniq: list[complex] = []
-    for z in targets:
-        if all(abs(z - w) > 1e-6 * abs(z) for w in uniq):
-            uniq.append(z)
-    targets = uniq
-    label, k_inf, lam_inf = max(per_branch, key=lambda t: t[2].real)
-    label, k_inf, lam_inf, targets = comm.bcast((label, k_inf, lam_inf, targets), root=0)
-
+    ref = block.infinite_strip_reference(comm, params, branches, k_scan, args.targets)
     csv_path = os.path.join(args.out, "finite_block.csv")
-    done = _read_done(csv_path) if (run.resumed and comm.rank == 0) else {}
-    done = comm.bcast(done, root=0)
-    if comm.rank == 0:
-        if not done:
-            with open(csv_path, "w", newline="") as f:
-                csv.writer(f).writerow(COLUMNS)
-        for lb_, kb_, zb_ in per_branch:
-            print(f"infinite strip, branch {lb_}: max Re Lambda = {zb_:.8g} at k = {kb_:.6g}",
-                  flush=True)
-    todo = [L for L in lengths if float(L) not in done]
-    bar = None
-    if comm.rank == 0:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(todo), desc="block lengths", file=sys.stderr)
-    failed = 0
-    timings: dict[str, float] = {}
     json_path = os.path.join(args.out, "finite_block.json")
-    if done and comm.rank == 0 and os.path.exists(json_path):
-        with open(json_path) as f:  # per-L times of the lengths kept from the earlier run
-            old = json.load(f).get("timings", {})
-        timings.update({key: v for key, v in old.items() if key != "total"})
-    last = None
+    done = comm.bcast(_read_done(csv_path) if (run.resumed and comm.rank == 0) else {}, root=0)
+    if comm.rank == 0 and not done:
+        with open(csv_path, "w", newline="") as f:
+            csv.writer(f).writerow(COLUMNS)
+    for lb_, kb_, zb_ in ref.per_branch:
+        _cli.say(f"infinite strip, branch {lb_}: max Re Lambda = {zb_:.8g} at k = {kb_:.6g}")
+    todo = [L for L in lengths if float(L) not in done]
+    bar = tqdm(total=len(todo), desc="block lengths", file=sys.stderr) if comm.rank == 0 else None
+    # per-L times of the lengths kept from the earlier run
+    timings = _earlier_timings(json_path) if done and comm.rank == 0 else {}
+    failed, last = 0, None
     for L in todo:
         t0 = time.perf_counter()
-        nx = max(2, int(round(args.cells_per_unit * L)))
-        strip = strip_mesh(comm, float(L), params.H, nx, args.ny)
-        problem = build_strip_problem(strip, params, k=None, degree=args.degree,
-                                      lateral=args.lateral)
-        found = []
-        for tgt in targets:
-            for m in solve_modes(problem, tgt, nev=args.nev, prefix="block_"):
-                if all(abs(m.eigenvalue - f.eigenvalue) > 1e-8 * abs(m.eigenvalue)
-                       for f in found):
-                    found.append(m)
-                else:
-                    m.vector.destroy()
-        if found:
-            best = max(found, key=lambda m: m.eigenvalue.real)
-            row = [float(L), best.eigenvalue.real, best.eigenvalue.imag, best.residual,
-                   len(found), lam_inf.real, lam_inf.imag, k_inf]
-            if L == lengths[-1]:
-                u = problem.to_function(best.vector)
-                normalise(u)
-                last = (u, best.eigenvalue, float(L))
-        else:
-            failed += 1
-            row = [float(L), float("nan"), float("nan"), float("nan"), 0, lam_inf.real,
-                   lam_inf.imag, k_inf]
-        for m in found:
-            m.vector.destroy()
+        mode = block.most_unstable_block_mode(
+            comm, params, float(L), cells_per_unit=args.cells_per_unit, ny=args.ny,
+            degree=args.degree, lateral=args.lateral, targets=ref.targets, nev=args.nev,
+            keep_mode=bool(L == lengths[-1]))
+        failed += mode.eigenvalue is None
+        last = mode if mode.u is not None else last
         if comm.rank == 0:
             with open(csv_path, "a", newline="") as f:
                 csv.writer(f).writerow([f"{v:.12g}" if isinstance(v, float) else v
-                                        for v in row])
+                                        for v in mode.row(ref)])
             bar.update(1)
         timings[f"{float(L):g}"] = time.perf_counter() - t0
-        problem.destroy()
     if bar is not None:
         bar.close()
 
     meta = {"workflow": "finite_block", "params": params.as_dict(), "lateral": args.lateral,
-            "branches": [t[0] for t in per_branch], "reference_branch": label,
-            "per_branch": [[t[0], t[1], t[2].real, t[2].imag] for t in per_branch],
-            "k_inf": k_inf, "lambda_inf": [lam_inf.real, lam_inf.imag],
-            "targets": [[t.real, t.imag] for t in targets], "cells_per_unit": args.cells_per_unit,
-            "ny": args.ny, "degree": args.degree, "ranks": comm.size, "timings": timings,
-            "versions": _cli.versions(), "command": _cli.command()}
+            **ref.record(), "cells_per_unit": args.cells_per_unit, "ny": args.ny,
+            "degree": args.degree,
+            "ranks": comm.size, "timings": timings, "versions": _cli.versions(),
+            "command": _cli.command()}
     title = (f"finite block ({args.lateral} ends, bc = {params.bc}, H = {params.H:g}),"
              f" P{args.degree} strip FE")
     interface = None
     if last is not None:
-        interface = interface_stresses(last[0], params.lame_lambda, params.H)
+        interface = interface_stresses(last.u, params.lame_lambda, params.H)
     if comm.rank == 0:
-        rows = list(_read_done(csv_path).values())
-        rows = [r for r in rows if r["re_lambda"] not in ("nan", "")]
+        L_all, lam_all = block.converged_rows(list(_read_done(csv_path).values()))
         kul = None
-        if rows and not args.no_kulikovskii:
-            big = max(rows, key=lambda r: float(r["L"]))
+        if len(L_all) and not args.no_kulikovskii:
             try:
-                kul = kulikovskii_limit(params, complex(float(big["re_lambda"]),
-                                                        float(big["im_lambda"])))
+                kul = block.long_block_limit(params, L_all, lam_all)
             except RuntimeError as err:  # reported, the run goes on
                 print(f"Kulikovskii limit not computed: {err}", file=sys.stderr, flush=True)
             if kul is not None:
-                kul["from_block_length"] = float(big["L"])
                 meta["kulikovskii"] = kul
                 print(f"long-block limit ({kul['type']}, cross-section): Lambda ="
                       f" {kul['lambda'][0]:.6f} {kul['lambda'][1]:+.6f}i (k1 ="
                       f" {complex(*kul['k1_at_block']):.4f}, k2 ="
                       f" {complex(*kul['k2_at_block']):.4f})", flush=True)
-        if rows:
-            L_all = np.array([float(r["L"]) for r in rows])
-            g_all = np.array([float(r["re_lambda"]) for r in rows])
-            meta["extrapolated_growth"], meta["extrapolation_order"] = extrapolate(L_all, g_all)
-            plot_convergence(rows, lam_inf, k_inf, os.path.join(args.out, "finite_block.png"),
-                             title, meta, kul)
+        if len(L_all):
+            g_inf, order_p = block.extrapolate(L_all, lam_all.real)
+            meta["extrapolated_growth"], meta["extrapolation_order"] = g_inf, order_p
+            plot_convergence(L_all, lam_all, g_inf, order_p, ref.lam_inf, ref.k_inf,
+                             os.path.join(args.out, "finite_block.png"), title, meta, kul)
         if interface is not None:
-            _, lam_b, L_b = last
             _plots.plot_interface(
                 interface, os.path.join(args.out, "block_mode.png"),
-                f"most unstable mode of a block, L = {L_b:g}, {args.lateral} ends:"
-                f" Lambda = {lam_b.real:.5f} {lam_b.imag:+.5f}i", meta)
+                f"most unstable mode of a block, L = {last.length:g}, {args.lateral} ends:"
+                f" Lambda = {last.eigenvalue.real:.5f} {last.eigenvalue.imag:+.5f}i", meta)
         meta["timings"]["total (this run)"] = time.perf_counter() - t_start
         with open(json_path, "w") as f:
             json.dump(meta, f, indent=2)

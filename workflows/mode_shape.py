@@ -29,7 +29,6 @@ import argparse
 import json
 import math
 import os
-import sys
 import time
 
 import numpy as np
@@ -44,24 +43,13 @@ import pyvista  # noqa: E402, F401, I001
 import _cli  # noqa: E402
 import _plots  # noqa: E402
 
-import dolfinx.fem  # noqa: E402
 import dolfinx.io  # noqa: E402
-import dolfinx.plot  # noqa: E402
-import ufl  # noqa: E402
 
 from analytic.branches import parse_branch_label  # noqa: E402
 from analytic.params import require_rigid  # noqa: E402
-from forms.cross_section_continuation import (  # noqa: E402
-    cross_section_mode,
-    follow_branch,
-    most_unstable_k,
-)
-from forms.elasticity import sigma  # noqa: E402
-from forms.mode_postprocessing import interface_stresses, normalise  # noqa: E402
-from forms.strip import build_strip_problem, solve_modes  # noqa: E402
-from analytic.tracking import Branch, waveguide_lambda  # noqa: E402
-from meshes.interval import grading_ratio  # noqa: E402
-from meshes.strip import strip_mesh, wavelength  # noqa: E402
+from analytic.tracking import Branch  # noqa: E402
+from forms import strip_mode  # noqa: E402
+from forms.mode_postprocessing import interface_stresses  # noqa: E402
 
 DEFAULT_K = 1.0
 #: Options prefixes of the SLEPc objects: the strip solve and the cross-section model.
@@ -128,45 +116,20 @@ def validate(args: argparse.Namespace):
     return params, branch, k_scan
 
 
-def _gather_grid(V, point_arrays: dict[str, np.ndarray], comm):
-    """Gather the Lagrange VTK grid of ``V`` and nodal arrays on rank 0 (``None`` elsewhere)."""
-    topology, cell_types, x = dolfinx.plot.create_vtk_mesh(V)
-    npc = topology[0] + 1
-    cells = topology.reshape(-1, npc)
-    parts = comm.gather((cells, cell_types, x, point_arrays), root=0)
-    if comm.rank != 0:
-        return None
-    import pyvista as pv
-
-    all_cells, all_types, all_x, offset = [], [], [], 0
-    arrays: dict[str, list] = {name: [] for name in point_arrays}
-    for c, t, xx, arr in parts:
-        c = c.copy()
-        c[:, 1:] += offset
-        all_cells.append(c)
-        all_types.append(t)
-        all_x.append(xx)
-        for name in arrays:
-            arrays[name].append(arr[name])
-        offset += xx.shape[0]
-    grid = pv.UnstructuredGrid(np.vstack(all_cells).ravel(), np.concatenate(all_types),
-                               np.vstack(all_x))
-    for name, vals in arrays.items():
-        grid.point_data[name] = np.concatenate(vals)
-    return grid
-
-
-def render_mode(grid, out_png: str, title: str, color: str, lam: complex, k: float,
-                height: float, length: float, fractions: tuple[float, ...] = (0.0,)) -> None:
+def plot_mode(gathered: dict, frames: list[tuple[np.ndarray, np.ndarray]], out_png: str,
+              title: str, color: str, lam: complex, k: float, height: float, length: float,
+              fractions: tuple[float, ...] = (0.0,)) -> None:
     """Deformed strip coloured by ``|u|`` or ``sigma_yy``, with direction arrows (rank 0).
 
-    Each row shows ``Re(u exp(i Im(Lambda) t))`` at ``t = fraction * period`` (growth factored
-    out), so successive rows step forward in time and the pattern moves with the phase velocity
-    ``Im(Lambda) / k``.
+    ``gathered`` is :func:`forms.strip_mode.gather_mode`'s grid and ``frames`` its fields at
+    ``t = fraction * period`` (:func:`forms.strip_mode.phase_frames`, growth factored out): each
+    row of the picture is one frame, so successive rows step forward in time and the pattern
+    moves with the phase velocity ``Im(Lambda) / k``.
     """
     import pyvista as pv
 
     pv.OFF_SCREEN = True
+    grid = pv.UnstructuredGrid(gathered["cells"], gathered["cell_types"], gathered["points"])
     rows = len(fractions)
     # World-space layout: strip (deformation drawn up to `amp`), substrate below it, a band of
     # direction arrows under the substrate, room on top for the title and the colour bar.
@@ -178,24 +141,20 @@ def render_mode(grid, out_png: str, title: str, color: str, lam: complex, k: flo
     row_px = int(np.clip(1600 * (y_hi - y_lo) / (length + 2 * amp), 220, 760))
     plotter = pv.Plotter(off_screen=True, shape=(rows, 1), window_size=(1600, row_px * rows),
                          border=False)
-    umax = float(np.max(np.linalg.norm(grid.point_data["u_re"] + 1j * grid.point_data["u_im"],
-                                       axis=1)))
+    data = gathered["point_data"]
+    umax = float(np.max(np.linalg.norm(data["u_re"] + 1j * data["u_im"], axis=1)))
     scale = amp / max(umax, 1e-300)
-    omega = lam.imag
-    c_phase = omega / k
-    syy = grid.point_data["syy_re"] + 1j * grid.point_data["syy_im"]
-    smax = float(np.max(np.abs(syy)))
-    for r, frac in enumerate(fractions):
+    c_phase = lam.imag / k
+    smax = float(np.max(np.abs(data["syy_re"] + 1j * data["syy_im"])))
+    for r, (frac, (u, syy)) in enumerate(zip(fractions, frames, strict=True)):
         plotter.subplot(r, 0)
-        angle = math.copysign(2 * math.pi * frac, omega)  # exp(i omega t), t = frac * period
         g = grid.copy()
-        u = np.cos(angle) * g.point_data["u_re"] - np.sin(angle) * g.point_data["u_im"]
         g.point_data["u"] = u
         if color == "displacement":
             g.point_data["|u|"] = np.linalg.norm(u, axis=1)
             scalars, label, cmap, clim = "|u|", "displacement magnitude", "viridis", (0.0, umax)
         else:
-            g.point_data["sigma_yy"] = (np.exp(1j * angle) * syy).real
+            g.point_data["sigma_yy"] = syy
             scalars, label, cmap = "sigma_yy", "normal stress sigma_yy", "RdBu_r"
             clim = (-smax, smax)
         warped = g.warp_by_vector("u", factor=scale).extract_surface(
@@ -241,51 +200,33 @@ def render_mode(grid, out_png: str, title: str, color: str, lam: complex, k: flo
     plotter.close()
 
 
-def _write_outputs(args, meta: dict, title: str, u, params, length: float, k: float,
-                   lam: complex) -> None:
+def _write_outputs(args: argparse.Namespace, meta: dict, title: str, mode: strip_mode.ModeOnStrip,
+                   params, strip) -> None:
     """XDMF/PVD files (collective), then CSV, PNGs and JSON on rank 0."""
-    V = u.function_space
-    msh = V.mesh
-    comm = msh.comm
+    u, lam, comm = mode.u, mode.eigenvalue, strip.comm
     # ParaView: a period of phases (vertex values) and the full-degree complex mode.
-    u_phase = dolfinx.fem.Function(V, name="u")
-    period = 2 * math.pi / abs(lam.imag) if lam.imag != 0 else 1.0
     with dolfinx.io.XDMFFile(comm, os.path.join(args.out, "mode.xdmf"), "w") as f:
-        f.write_mesh(msh)
-        for j in range(args.phases):
-            t = period * j / args.phases
-            u_phase.x.array[:] = (u.x.array * np.exp(1j * lam.imag * t)).real
+        f.write_mesh(strip.mesh)
+        for t, u_phase in strip_mode.phase_snapshots(u, lam, args.phases):
             f.write_function(u_phase, t=t)
     with dolfinx.io.VTKFile(comm, os.path.join(args.out, "mode_p2.pvd"), "w") as f:
         f.write_function(u, 0.0)
-
     data = interface_stresses(u, params.lame_lambda, params.H)
-    S = dolfinx.fem.FunctionSpace(msh, ("Lagrange", V.ufl_element().degree()))
-    syy = dolfinx.fem.Function(S)
-    syy.interpolate(dolfinx.fem.Expression(sigma(u, params.lame_lambda, 1.0)[1, 1],
-                                           S.element.interpolation_points()))
-    nodal = u.x.array.reshape(-1, 2)
-    zeros = np.zeros((nodal.shape[0], 1))
-    arrays = {"u_re": np.hstack([nodal.real, zeros]), "u_im": np.hstack([nodal.imag, zeros]),
-              "syy_re": syy.x.array.real.copy(), "syy_im": syy.x.array.imag.copy()}
-    grid = None if args.no_render else _gather_grid(V, arrays, comm)
+    gathered = None if args.no_render else strip_mode.gather_mode(u, params.lame_lambda)
     if comm.rank != 0:
         return
-    with open(os.path.join(args.out, "interface.csv"), "w") as f:
-        f.write("x,re_sxy,im_sxy,re_syy,im_syy,re_ux,im_ux\n")
-        ux = np.interp(data["x"], data["x_slip"], data["ux"].real) + 1j * np.interp(
-            data["x"], data["x_slip"], data["ux"].imag)
-        for row in zip(data["x"], data["sxy"], data["syy"], ux, strict=True):
-            f.write(f"{row[0]:.12g},{row[1].real:.12g},{row[1].imag:.12g},"
-                    f"{row[2].real:.12g},{row[2].imag:.12g},{row[3].real:.12g},"
-                    f"{row[3].imag:.12g}\n")
+    np.savetxt(os.path.join(args.out, "interface.csv"), strip_mode.interface_table(data),
+               fmt="%.12g", delimiter=",", header=",".join(strip_mode.INTERFACE_COLUMNS),
+               comments="")
     _plots.plot_interface(data, os.path.join(args.out, "interface_tractions.png"), title,
                           meta)
-    if grid is not None:
+    if gathered is not None:
         for name, fractions in (("mode_shape.png", (0.0,)),
                                 ("mode_phases.png", (0.0, 0.25, 0.5, 0.75))):
             path = os.path.join(args.out, name)
-            render_mode(grid, path, title, args.color, lam, k, params.H, length, fractions)
+            frames = strip_mode.phase_frames(gathered["point_data"], lam.imag, fractions)
+            plot_mode(gathered, frames, path, title, args.color, lam, meta["k"], params.H,
+                      strip.length, fractions)
             _cli.add_png_metadata(path, meta, title)
 
 
@@ -311,103 +252,39 @@ def main(comm=None, argv: list[str] | None = None) -> int:
 
 def _run(comm, args: argparse.Namespace, params, branch: tuple[int, int], k_scan) -> int:
     t_start = time.perf_counter()
-    b = Branch(*branch)
-
-    def wg(k: float) -> complex:
-        return waveguide_lambda(params, b, k)
-
-    # The branch is followed from small k (continuation,
-    # forms.cross_section_continuation.follow_branch): a k-wise waveguide target can land on
-    # another branch. Every rank alike (COMM_SELF solves).
-    k = float(args.k)
+    label = Branch(*branch).label
+    k, lam_branch = strip_mode.branch_eigenvalue(comm, params, branch, float(args.k), k_scan)
     if args.most_unstable:
-        k, lam_branch = most_unstable_k(params, wg, k_scan)
-        k, lam_branch = comm.bcast((k, lam_branch), root=0)
-        if comm.rank == 0:
-            print(f"most unstable on the k grid (branch {b.label}): k = {k:.6g},"
-                  f" Lambda = {lam_branch:.6g}", flush=True)
-    else:
-        ks = np.linspace(min(0.05, k), k, int(np.clip(k / 0.05, 2, 400)) + 1)
-        lam_branch = comm.bcast(complex(follow_branch(params, wg, ks)[-1]), root=0)
-    xs = None
-    if np.isfinite(lam_branch) or args.target is not None:
-        xs = cross_section_mode(params, k, args.target if args.target is not None
-                                else lam_branch)
+        _cli.say(f"most unstable on the k grid (branch {label}): k = {k:.6g},"
+                 f" Lambda = {lam_branch:.6g}")
+    xs = strip_mode.cross_section_near(params, k, lam_branch, args.target)
     if xs is None and (args.source == "cross-section" or args.target is None):
-        if comm.rank == 0:
-            print(f"error: branch {b.label} not followed to k = {k:.6g} by the cross-section"
-                  " model; give --target", file=sys.stderr, flush=True)
+        _cli.say(f"error: branch {label} not followed to k = {k:.6g} by the cross-section"
+                 " model; give --target", err=True)
         return 1
-    length = args.wavelengths * wavelength(k)
-    nx = args.wavelengths * args.cells_per_wavelength
-    grading = args.grading if args.grading is not None else grading_ratio(k, params.H)
-    strip = strip_mesh(comm, length, params.H, nx, args.ny, grading=grading)
-    meta = {
-        "workflow": "mode_shape", "params": params.as_dict(), "k": k, "branch": b.label,
-        "most_unstable": bool(args.most_unstable), "length": length,
-        "wavelengths": args.wavelengths, "cells": [nx, args.ny], "grading": grading,
-        "degree": args.degree, "ranks": comm.size, "versions": _cli.versions(),
-        "command": _cli.command(),
-    }
-    if xs is not None:
-        meta["cross_section"] = {"eigenvalue": [xs.eigenvalue.real, xs.eigenvalue.imag],
-                                 "residual": xs.residual, "degree": 3}
-
+    strip = strip_mode.bloch_strip(comm, params, k, args.wavelengths, args.cells_per_wavelength,
+                                   args.ny, args.grading)
+    meta = strip_mode.mode_metadata(strip, params, k, label, most_unstable=args.most_unstable,
+                                    wavelengths=args.wavelengths, degree=args.degree, xs=xs,
+                                    versions=_cli.versions(), command=_cli.command())
     if args.source == "strip":
         target = args.target if args.target is not None else xs.eigenvalue
-        problem = build_strip_problem(strip, params, k=k, degree=args.degree)
-        t0 = time.perf_counter()
-        modes = solve_modes(problem, target, nev=args.nev)
-        t_solve = time.perf_counter() - t0
-        wanted = [m for m in modes if m.harmonic == 0]
-        if comm.rank == 0:
-            print(f"k = {k:.6g}, target = {target:.6g}: {len(modes)} converged"
-                  f" ({problem.last_solve.get('reason')}); harmonics m ="
-                  f" {[m.harmonic for m in modes]}", flush=True)
-        if not wanted:
-            if comm.rank == 0:
-                print("error: no converged eigenvalue carries exp(-i k x) near the target; try"
-                      " --target or a larger --nev", file=sys.stderr, flush=True)
-            for m in modes:
-                m.vector.destroy()
-            problem.destroy()
+        solved = strip_mode.solve_bloch_mode(strip, params, k, args.degree, target, args.nev)
+        _cli.say(f"k = {k:.6g}, target = {target:.6g}: {len(solved.eigenvalues)} converged"
+                 f" ({solved.reason}); harmonics m = {solved.harmonics}")
+        if solved.mode is None:
+            _cli.say("error: no converged eigenvalue carries exp(-i k x) near the target; try"
+                     " --target or a larger --nev", err=True)
             return 1
-        mode = wanted[0]
-        lam = mode.eigenvalue
-        u = problem.to_function(mode.vector, name="u")
-        meta.update({
-            "source": "Bloch-periodic 2D strip (forms.strip), route (a): P^H A P",
-            "target": [target.real, target.imag], "eigenvalue": [lam.real, lam.imag],
-            "residual": mode.residual, "harmonic_content_m0": mode.harmonics.get(0, 0.0),
-            "solver": problem.last_solve,
-            "other_eigenvalues": [{"re": m.eigenvalue.real, "im": m.eigenvalue.imag,
-                                   "harmonic": m.harmonic, "wavenumber": k + 2 * math.pi *
-                                   (m.harmonic or 0) / length} for m in modes],
-            "phase_velocity": lam.imag / k,
-            "timings": {**problem.timings, "solve": t_solve},
-        })
-        title = (f"Bloch strip (2D FE, P{args.degree}), k = {k:.4g}, branch {b.label}:"
-                 f" Lambda = {lam.real:.6f} {lam.imag:+.6f}i")
-        for m in modes:
-            m.vector.destroy()
-        problem.destroy()
+        mode = solved.mode
+        what = f"Bloch strip (2D FE, P{args.degree})"
     else:
-        lam = xs.eigenvalue
-        V = dolfinx.fem.FunctionSpace(strip.mesh, ufl.VectorElement(
-            "Lagrange", strip.mesh.ufl_cell(), args.degree))
-        u = dolfinx.fem.Function(V, name="u")
-        u.interpolate(xs.field)
-        meta.update({
-            "source": "cross-section model (1D FE, P3) shown as Re(u_hat(y) exp(-i k x)),"
-                      " interpolated on the strip mesh; no strip solve",
-            "eigenvalue": [lam.real, lam.imag], "residual": xs.residual,
-            "phase_velocity": lam.imag / k, "timings": {},
-        })
-        title = (f"cross-section model (1D FE, P3) as Re(u_hat(y) exp(-ikx)), k = {k:.4g},"
-                 f" branch {b.label}: Lambda = {lam.real:.6f} {lam.imag:+.6f}i")
-
-    normalise(u)
-    _write_outputs(args, meta, title, u, params, length, k, lam)
+        mode = strip_mode.cross_section_on_strip(strip, xs, args.degree)
+        what = "cross-section model (1D FE, P3) as Re(u_hat(y) exp(-ikx))"
+    lam = mode.eigenvalue
+    meta.update(mode.meta)
+    title = f"{what}, k = {k:.4g}, branch {label}: Lambda = {lam.real:.6f} {lam.imag:+.6f}i"
+    _write_outputs(args, meta, title, mode, params, strip)
     if comm.rank == 0:
         meta["timings"]["total"] = time.perf_counter() - t_start
         with open(os.path.join(args.out, "mode.json"), "w") as f:

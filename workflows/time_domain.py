@@ -205,8 +205,9 @@ def _run(args: argparse.Namespace, comm: object, params: object, law: object) ->
     return 0
 
 
-def _summarise(args, params, td, mode, label, exact, period, t_end, outcome,  # noqa: ANN001
-               setup_time) -> None:
+def _summarise(args: argparse.Namespace, params: object, td: object, mode: object, label: str,
+               exact: complex, period: float, t_end: float, outcome: object,
+               setup_time: float) -> None:
     """summary.json, the printed numbers and the pictures (rank 0)."""
     from analytic.growth_fit import figure_data, summarise_run
     from forms.timedomain_run import read_outputs, run_record
@@ -311,7 +312,8 @@ def plot_all(out: str, fig_data: dict, frames: dict, summary: dict, exact: compl
                        os.path.join(out, "spacetime_nonlinear.png"), log_v=True)
 
 
-def plot_spacetime(plt, frames, sel, summary, suptitle, path, log_v) -> None:  # noqa: ANN001
+def plot_spacetime(plt: object, frames: dict, sel: np.ndarray, summary: dict, suptitle: str,
+                   path: str, log_v: bool) -> None:
     """Three space-time panels of the frames ``sel``: slip rate, shear and normal tractions."""
     from matplotlib.colors import LogNorm
 

@@ -88,7 +88,7 @@ ranks agree to round-off.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -98,6 +98,8 @@ import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
+# The measurement of a run (pure numpy) lives in analytic.growth_fit; re-exported here.
+from analytic.growth_fit import Fit, fit_growth, linear_window, nonlinear_outcome  # noqa: F401
 from analytic.params import ParameterError, Params
 from forms.elasticity import stiffness_density
 from forms.friction import FrictionLaw, apply_dirichlet, friction_operator
@@ -852,142 +854,3 @@ def build_time_domain(strip: StripMesh, law: NonlinearLaw, k: float, cfl: float 
     n = len(mass)
     td.set_initial_fields(np.zeros(n), np.zeros(n))
     return td
-
-
-# ------------------------------------------------------------------ measurement
-@dataclass
-class Fit:
-    """Least-squares fit ``c(t) ~ A exp(Lambda t)`` of a Fourier coefficient over a window.
-
-    ``Re Lambda`` from a straight line through ``ln |c|``, ``Im Lambda`` through the unwrapped
-    phase (``c ~ exp(Lambda t)``); uncertainties are the standard errors of the slopes
-    (residual variance / ``sum (t - mean t)^2``), which include any contamination by other modes.
-    """
-
-    re_lambda: float
-    im_lambda: float
-    re_uncertainty: float
-    im_uncertainty: float
-    t_start: float
-    t_end: float
-    points: int
-
-    def as_dict(self) -> dict[str, float | int]:
-        """Plain dict for JSON."""
-        return asdict(self)
-
-
-def fit_growth(t: np.ndarray, c: np.ndarray, t_start: float, t_end: float) -> Fit:
-    """Fit growth rate and angular frequency of ``c(t)`` on ``t_start <= t <= t_end``.
-
-    Raises:
-        ValueError: With fewer than 3 samples in the window.
-    """
-    t = np.asarray(t, float)
-    c = np.asarray(c, complex)
-    sel = (t >= t_start) & (t <= t_end) & (np.abs(c) > 0)
-    if sel.sum() < 3:
-        raise ValueError(f"fit window [{t_start}, {t_end}] holds {int(sel.sum())} samples (< 3)")
-    ts, cs = t[sel], c[sel]
-    out = []
-    for y in (np.log(np.abs(cs)), np.unwrap(np.angle(cs))):
-        A = np.column_stack([np.ones_like(ts), ts])
-        coef, *_ = np.linalg.lstsq(A, y, rcond=None)
-        resid = y - A @ coef
-        dof = max(len(ts) - 2, 1)
-        s2 = float(resid @ resid) / dof
-        se = math.sqrt(s2 / float(np.sum((ts - ts.mean()) ** 2)))
-        out.append((float(coef[1]), se))
-    return Fit(out[0][0], out[1][0], out[0][1], out[1][1], float(ts[0]), float(ts[-1]),
-               int(sel.sum()))
-
-
-def linear_window(t: np.ndarray, c: np.ndarray, max_dv: np.ndarray, re_predicted: float,
-                  start: float, limit: float, end: float | None = None) -> tuple[float, float]:
-    """The linear fit window ``[start, end]``.
-
-    Without an explicit ``end``: the last sample before ``max |v/v0 - 1|`` first exceeds
-    ``limit`` (nonlinearity ``~ limit`` relative), and for a decaying prediction
-    (``re_predicted <= 0``) also before ``|c|`` has dropped by ``e^2`` from its value at
-    ``start`` (later, faster-growing modes excited at round-off level take over).
-    """
-    t = np.asarray(t, float)
-    if end is not None:
-        return float(start), float(end)
-    stop = float(t[-1]) if len(t) else float(start)
-    over = np.flatnonzero(np.asarray(max_dv) > limit)
-    if len(over):
-        stop = min(stop, float(t[max(over[0] - 1, 0)]))
-    if re_predicted <= 0 and len(t):
-        i0 = min(int(np.searchsorted(t, start)), len(t) - 1)
-        low = np.flatnonzero((np.abs(c) < np.exp(-2.0) * abs(c[i0])) & (t > t[i0]))
-        if len(low):
-            stop = min(stop, float(t[low[0]]))
-    return float(start), stop
-
-
-def nonlinear_outcome(frames: dict[str, np.ndarray], series: np.ndarray, k: float,
-                      tail: float = 0.25, f0: float | None = None) -> dict[str, object]:
-    """What the instability became: numbers from the interface frames and the time series.
-
-    Args:
-        frames: ``t`` (nf,), ``x`` (nx,), ``v``, ``tau``, ``sigma``, ``theta`` (nf, nx) as
-            written by the scene (``v/v0``, ``(tau - tau0)/sigma0``, ``(sigma - sigma0)/sigma0``).
-        series: Time series with fields ``t``, ``energy``, ``max_dv``.
-        k: Wavenumber of the excited mode.
-        tail: Fraction of the run (at its end) over which saturation is judged.
-        f0: Steady friction coefficient (for the macroscopic friction ``<tau>/<sigma>``).
-
-    Returns:
-        A dict: last-frame extremes, arrested fraction (``v/v0 < 0.01``), slipping regions
-        (``v/v0 > 1``), harmonic content of ``v`` (``m k``, ``m = 1..4``, relative to ``m = 1``),
-        energy over the tail (mean, relative spread), and the speed of the slip-rate maximum.
-    """
-    t, x = frames["t"], frames["x"]
-    v = frames["v"]
-    last = v[-1]
-    length = float(x[-1] - x[0] + (x[1] - x[0])) if len(x) > 1 else 1.0
-    coef = {m: abs(np.mean((last - last.mean()) * np.exp(1j * m * k * x))) * 2
-            for m in range(1, 5)}
-    slipping = last > 1.0
-    regions = int(np.sum(slipping & ~np.roll(slipping, 1))) if slipping.any() else 0
-    ts = series["t"]
-    in_tail = ts >= ts[-1] - tail * (ts[-1] - ts[0])
-    energy = series["energy"][in_tail]
-    out: dict[str, object] = {
-        "t_last_frame": float(t[-1]),
-        "v_max": float(last.max()), "v_min": float(last.min()), "v_mean": float(last.mean()),
-        "arrested_fraction": float(np.mean(last < 0.01)),
-        "slipping_regions": regions,
-        "sigma_min": float(frames["sigma"][-1].min()),
-        "sigma_max": float(frames["sigma"][-1].max()),
-        "tau_min": float(frames["tau"][-1].min()), "tau_max": float(frames["tau"][-1].max()),
-        "harmonics_v": {str(m): float(coef[m] / coef[1]) if coef[1] > 0 else None
-                        for m in range(1, 5)},
-        "amplitude_k": float(coef[1]),
-        "energy_tail_mean": float(energy.mean()),
-        "energy_tail_relative_spread": float(energy.std() / energy.mean())
-        if energy.mean() > 0 else None,
-        "max_dv_tail_mean": float(np.mean(series["max_dv"][in_tail])),
-    }
-    tail_frames = t >= t[-1] - tail * (t[-1] - t[0])
-    # Space-time means over the tail: the macroscopic friction of the sliding strip,
-    # mean(tau)/mean(sigma) = (f0 + <dtau>/sigma0) / (1 + <dsigma>/sigma0) in units of f0.
-    mean_dtau = float(frames["tau"][tail_frames].mean())
-    mean_dsig = float(frames["sigma"][tail_frames].mean())
-    out["tail_mean_v"] = float(v[tail_frames].mean())
-    out["tail_mean_dtau_over_sigma0"] = mean_dtau
-    out["tail_mean_dsigma_over_sigma0"] = mean_dsig
-    out["tail_arrested_fraction"] = float(np.mean(v[tail_frames] < 0.01))
-    out["tail_max_v"] = float(v[tail_frames].max())
-    if "top_force" in (series.dtype.names or ()):
-        out["tail_mean_top_force_over_sigma0_L"] = float(np.mean(series["top_force"][in_tail]))
-    out["tail_min_sigma"] = float(frames["sigma"][tail_frames].min())
-    if f0 is not None:
-        out["macroscopic_friction"] = (f0 + mean_dtau) / (1.0 + mean_dsig)
-    if tail_frames.sum() >= 4:
-        pos = x[np.argmax(v[tail_frames], axis=1)]
-        unwrapped = np.unwrap(pos * 2 * np.pi / length) * length / (2 * np.pi)
-        speed = np.polyfit(t[tail_frames], unwrapped, 1)[0]
-        out["peak_speed"] = float(speed)
-    return out

@@ -21,6 +21,9 @@ relative difference, window, mesh, time step, parameters, nonlinear outcome, ver
 ``energy.png``; with ``--xdmf-every N`` also ``fields.xdmf`` (displacement perturbation, for
 ParaView).
 
+The run itself is :mod:`forms.timedomain_run` (set-up, stepping loop, files), its measurement
+:mod:`analytic.growth_fit` (fit, summary against the prediction, the figures' curves).
+
 Example (the README pictures)::
 
     ./run mpirun -n 2 python workflows/time_domain.py --out workflows/results/time_domain
@@ -29,8 +32,6 @@ Example (the README pictures)::
 from __future__ import annotations
 
 import argparse
-import csv
-import glob
 import json
 import math
 import os
@@ -47,8 +48,6 @@ PETSC_PREFIXES = ("td_",)
 OUTPUTS = ("timeseries.csv", "interface_*.npz", "checkpoint*", "summary.json", "*.png",
            "fields.xdmf", "fields.h5", "benchmark.csv", "convergence.csv", "run.json",
            "run.lock")
-CSV_COLUMNS = ["step", "t", "re_c", "im_c", "energy", "energy_change", "work_friction",
-               "min_sigma", "min_v", "max_dv", "newton", "top_force"]
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -146,23 +145,6 @@ def validate(args: argparse.Namespace):  # noqa: ANN201 - (Params, NonlinearLaw)
     return params, law
 
 
-def choose_branch(params, k: float, args: argparse.Namespace) -> tuple[str, complex]:  # noqa: ANN001
-    """``(label, exact Lambda)`` of ``--branch`` or of the most unstable branch (n = 0..2)."""
-    from analytic import follow_branch, parse_branch_label
-
-    labels = ([f"{n}{s}" for n in range(3) for s in "-+"] if args.most_unstable
-              else [args.branch])
-    found = []
-    for label in labels:
-        n, sign = parse_branch_label(label)
-        res = follow_branch(params, n, sign, [k])
-        if res.ok[0]:
-            found.append((label, complex(res.Lambda[0])))
-    if not found:
-        raise _cli.ParameterError(f"branch = {args.branch!r}: no exact root found at k = {k}")
-    return max(found, key=lambda t: t[1].real)
-
-
 def _config(args: argparse.Namespace, nranks: int) -> dict:
     """Options that must match for ``--resume``."""
     keys = ["f", "gamma", "beta", "Delta", "H", "bc", "alpha_pc", "alpha_ld", "a", "v0",
@@ -185,319 +167,154 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
 
 def _run(args: argparse.Namespace, comm: object, params: object, law: object) -> int:
     """The simulation, in a checked and locked output folder."""
-    from forms.timedomain import build_time_domain
-    from meshes.strip import strip_mesh
+    from analytic.growth_fit import excited_branch, mode_period
+    from forms.timedomain_run import RunWriter, read_checkpoint, run_time_domain, setup_strip
 
-    rank0 = comm.rank == 0
     config = _config(args, comm.size)
-    ckpt_json = os.path.join(args.out, "checkpoint.json")
-    resume = None
-    if args.resume and os.path.exists(ckpt_json):
-        with open(ckpt_json) as fh:
-            resume = json.load(fh)
-        if resume["config"] != config:
-            raise _cli.ParameterError("resume: the options or the number of ranks differ from"
-                                      f" the checkpoint in {args.out} (run without --resume)")
-    label, exact = choose_branch(params, args.k, args)
-    period = 2.0 * math.pi / abs(exact.imag) if exact.imag != 0 else 1.0
+    resume = read_checkpoint(args.out) if args.resume else None
+    if resume is not None and resume["config"] != config:
+        raise _cli.ParameterError("resume: the options or the number of ranks differ from"
+                                  f" the checkpoint in {args.out} (run without --resume)")
+    label, exact = excited_branch(params, args.k, args.branch, args.most_unstable)
+    period = mode_period(exact)
     t_end = args.t_end if args.t_end is not None else args.periods * period
-
     t_setup = time.perf_counter()
-    length = args.wavelengths * 2.0 * math.pi / args.k
-    strip = strip_mesh(comm, length, params.H, args.wavelengths * args.cells_per_wavelength,
-                       args.ny, cell=args.cell)
-    td = build_time_domain(strip, law, args.k, cfl=args.cfl, dt=args.dt)
-    mode = td.linear_mode(exact)  # the semi-discrete eigenvalue is reported in any case
-    if args.initial == "cross-section":
-        td.set_initial_mode(td.cross_section_mode(exact), args.amplitude)
-    else:
-        td.set_initial_mode(mode, args.amplitude)
+    td, mode = setup_strip(comm, law, args.k, exact, wavelengths=args.wavelengths,
+                           cells_per_wavelength=args.cells_per_wavelength, ny=args.ny,
+                           cell=args.cell, cfl=args.cfl, dt=args.dt, initial=args.initial,
+                           amplitude=args.amplitude)
     setup_time = time.perf_counter() - t_setup
     n_steps = int(math.ceil(t_end / td.dt))
-    frame_every = args.frame_every or max(1, int(round(period / 32 / td.dt)))
-
-    os.makedirs(args.out, exist_ok=True) if rank0 else None
-    comm.barrier()
-    ts_path = os.path.join(args.out, "timeseries.csv")
-    chunk_index = 0
-    theta_switch = None  # time at which the friction theta switched to --friction-theta
-    if resume is not None:
-        with np.load(os.path.join(args.out, f"checkpoint_rank{comm.rank}.npz")) as z:
-            td.load_state(dict(z))
-        chunk_index = int(resume["chunk"])
-        td.friction_theta = float(resume.get("friction_theta", 0.5))
-        theta_switch = resume.get("theta_switch")
-        if rank0:  # drop rows written after the checkpoint
-            with open(ts_path) as fh:
-                rows = list(csv.reader(fh))
-            keep = [rows[0]] + [r for r in rows[1:] if int(r[0]) < td.step]
-            with open(ts_path, "w", newline="") as fh:
-                csv.writer(fh).writerows(keep)
-            for path in glob.glob(os.path.join(args.out, "interface_*.npz")):
-                if int(os.path.basename(path)[10:14]) >= chunk_index:
-                    os.remove(path)
-    elif rank0:
-        for path in glob.glob(os.path.join(args.out, "interface_*.npz")):
-            os.remove(path)
-        with open(ts_path, "w", newline="") as fh:
-            csv.writer(fh).writerow(CSV_COLUMNS)
-
-    rows: list[list] = []
-    frames: dict[str, list] = {"t": [], "v": [], "tau": [], "sigma": [], "theta": []}
-    x_interface = None
-    stop = {"reason": "t_end", "t": None, "x": None}
-    pending = 0  # frames gathered since the last flush (every rank counts; rank 0 holds them)
-
-    def flush() -> None:
-        nonlocal chunk_index, pending
-        if rank0:
-            with open(ts_path, "a", newline="") as fh:
-                csv.writer(fh).writerows(rows)
-            if frames["t"]:
-                np.savez_compressed(os.path.join(args.out, f"interface_{chunk_index:04d}.npz"),
-                                    x=x_interface, **{kk: np.array(vv) for kk, vv in
-                                                      frames.items()})
-        if pending:
-            chunk_index += 1
-        pending = 0
-        rows.clear()
-        for vv in frames.values():
-            vv.clear()
-        np.savez(os.path.join(args.out, f"checkpoint_rank{comm.rank}.npz"), **td.state_arrays())
-        comm.barrier()
-        if rank0:
-            with open(ckpt_json, "w") as fh:
-                json.dump({"config": config, "step": td.step, "chunk": chunk_index,
-                           "friction_theta": td.friction_theta, "theta_switch": theta_switch},
-                          fh)
-
-    xdmf = None
-    if args.xdmf_every:
-        from dolfinx.io import XDMFFile
-
-        # appended on --resume would need XDMF surgery: a resumed run starts a new file
-        xdmf = XDMFFile(comm, os.path.join(args.out, "fields.xdmf"), "w")
-        xdmf.write_mesh(strip.mesh)
+    writer = RunWriter(comm, args.out, config, args.chunk, args.xdmf_every)
+    theta_switch = writer.start(td, resume)
     bar = None
-    if rank0 and not args.quiet:
+    if comm.rank == 0 and not args.quiet:
         from tqdm import tqdm
 
         bar = tqdm(total=n_steps, initial=td.step, unit="step", file=sys.stderr,
                    desc=f"time domain {label} k={args.k:g}")
-    t_run = time.perf_counter()
-    steps_run = 0
-    while td.step < n_steps:
-        td.advance()
-        steps_run += 1
-        s = td.sample()
-        rows.append([s.step, repr(s.t), repr(s.coefficient.real), repr(s.coefficient.imag),
-                     repr(s.energy), repr(s.energy_change), repr(s.work_friction),
-                     repr(s.min_sigma), repr(s.min_v), repr(s.max_dv), s.newton_max,
-                     repr(s.top_force)])
-        invalid = s.min_sigma <= 0.0 or s.min_v < 0.0
-        if s.max_dv > args.linear_limit and td.friction_theta != args.friction_theta:
-            td.friction_theta = args.friction_theta  # the linear window is over
-            theta_switch = s.t
-        if s.step % frame_every == 0 or invalid:
-            fields = td.interface_fields()
-            pending += 1
-            if rank0:
-                x_interface = fields["x"]
-                frames["t"].append(s.t)
-                for key in ("v", "tau", "sigma", "theta"):
-                    frames[key].append(fields[key])
-                if invalid:
-                    bad = fields["sigma"] <= -1.0 if s.min_sigma <= 0 else fields["v"] < 0
-                    stop = {"reason": "opening (normal stress reached zero)" if s.min_sigma <= 0
-                            else "slip rate reversed", "t": s.t,
-                            "x": [float(v) for v in fields["x"][bad]]}
-            if pending >= args.chunk and not invalid:
-                flush()
-        if xdmf is not None and (s.step % args.xdmf_every == 0 or invalid):
-            xdmf.write_function(td.displacement(), s.t)
-        if bar is not None and td.step % 50 == 0:
-            bar.update(50)
-        if invalid:
-            break
-    run_time = time.perf_counter() - t_run
-    if xdmf is not None:
-        xdmf.close()
-    flush()
+    outcome = run_time_domain(td, writer, n_steps,
+                              args.frame_every or max(1, int(round(period / 32 / td.dt))),
+                              args.linear_limit, args.friction_theta, theta_switch,
+                              progress=bar.update if bar is not None else None)
     if bar is not None:
         bar.close()
-    stop = comm.bcast(stop, root=0)
-
-    if rank0:
-        summary = _summarise(args, params, law, td, mode, label, exact, period, t_end, stop,
-                             setup_time, run_time, steps_run, comm.size, theta_switch)
-        print(json.dumps({"predicted": summary["predicted"], "measured": summary["measured"],
-                          "relative_difference": summary["relative_difference"],
-                          "end": summary["end"]}, indent=1))
+    if comm.rank == 0:
+        _summarise(args, params, td, mode, label, exact, period, t_end, outcome, setup_time)
     td.destroy()
     return 0
 
 
-def _read_outputs(out: str) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """The time series (structured array) and the concatenated interface frames."""
-    data = np.genfromtxt(os.path.join(out, "timeseries.csv"), delimiter=",", names=True)
-    data = np.atleast_1d(data)
-    chunks = sorted(glob.glob(os.path.join(out, "interface_*.npz")))
-    frames: dict[str, list] = {}
-    x = None
-    for path in chunks:
-        with np.load(path) as z:
-            x = z["x"]
-            for key in ("t", "v", "tau", "sigma", "theta"):
-                frames.setdefault(key, []).append(z[key])
-    merged = {key: np.concatenate(v) for key, v in frames.items()}
-    merged["x"] = x
-    return data, merged
+def _summarise(args: argparse.Namespace, params: object, td: object, mode: object, label: str,
+               exact: complex, period: float, t_end: float, outcome: object,
+               setup_time: float) -> None:
+    """summary.json, the printed numbers and the pictures (rank 0)."""
+    from analytic.growth_fit import figure_data, summarise_run
+    from forms.timedomain_run import read_outputs, run_record
 
-
-def _summarise(args, params, law, td, mode, label, exact, period, t_end, stop,  # noqa: ANN001
-               setup_time, run_time, steps_run, nranks, theta_switch=None) -> dict:
-    """Fit, nonlinear outcome, pictures and summary.json (rank 0)."""
-    from forms.timedomain import fit_growth, linear_window, nonlinear_outcome
-
-    data, frames = _read_outputs(args.out)
-    t = data["t"]
-    c = data["re_c"] + 1j * data["im_c"]
-    start = args.fit_start if args.fit_start is not None else period
-    t0, t1 = linear_window(t, c, data["max_dv"], exact.real, start, args.linear_limit,
-                           args.fit_end)
-    measured, rel = None, None
-    try:
-        fit = fit_growth(t, c, t0, t1)
-        measured = {"re_lambda": fit.re_lambda, "im_lambda": fit.im_lambda,
-                    "re_uncertainty": fit.re_uncertainty, "im_uncertainty": fit.im_uncertainty}
-        rel = {"re": (fit.re_lambda - exact.real) / abs(exact.real),
-               "im": (fit.im_lambda - exact.imag) / abs(exact.imag)}
-        window = {"t_start": fit.t_start, "t_end": fit.t_end, "points": fit.points}
-    except ValueError as err:
-        window = {"t_start": t0, "t_end": t1, "points": 0, "note": str(err)}
-    balance = data["energy_change"] - data["work_friction"]
-    scale = max(float(np.max(np.abs(data["energy_change"]))), 1e-300)
-    summary = {
-        "command": " ".join([sys.executable] + sys.argv),
-        "branch": label, "k": args.k,
-        "predicted": {"re_lambda": exact.real, "im_lambda": exact.imag, "source":
-                      "analytic.follow_branch (exact root of det M)"},
-        "measured": measured,
-        "relative_difference": rel,
-        "semi_discrete": {"re_lambda": mode.eigenvalue.real, "im_lambda": mode.eigenvalue.imag,
-                          "residual": mode.residual,
-                          "note": "eigenvalue of the linearised lumped Q1/P1 system on this"
-                                  " mesh (time continuous): measured - this is the time-step"
-                                  " error, this - predicted the spatial error"},
-        "window": window,
-        "mesh": {"cell": args.cell, "nx": args.wavelengths * args.cells_per_wavelength,
-                 "ny": args.ny, "length": td.strip.length, "height": params.H,
-                 "unknowns": td.num_dofs},
-        "dt": td.dt, "dt_stable": td.dt_stable,
-        "friction_theta": {"linear_window": 0.5, "after": args.friction_theta,
-                           "switched_at_t": theta_switch},
-        "steps": int(data["step"][-1]) + 1 if len(data) else 0,
-        "t_end_requested": t_end,
-        "parameters": {**params.as_dict(), **law.summary(), "amplitude": args.amplitude,
-                       "linear_limit": args.linear_limit},
-        "end": stop,
-        "energy_balance": {"max_abs_residual": float(np.max(np.abs(balance))),
-                           "relative": float(np.max(np.abs(balance))) / scale},
-        "nonlinear": (nonlinear_outcome(frames, data, args.k, f0=params.f)
-                      if frames.get("t") is not None else None),
-        "timing": {"setup_s": setup_time, "run_s": run_time, "steps_run": steps_run,
-                   "steps_per_s": steps_run / run_time if run_time > 0 else None,
-                   "ranks": nranks},
-        "versions": _cli.versions(),
-    }
+    data, frames = read_outputs(args.out)
+    analysis = summarise_run(data, frames, exact, args.k, params.f,
+                             args.fit_start if args.fit_start is not None else period,
+                             args.linear_limit, args.fit_end)
+    summary = run_record(td, mode, label, exact, analysis, outcome,
+                         nx=args.wavelengths * args.cells_per_wavelength, ny=args.ny,
+                         cell=args.cell, friction_theta=args.friction_theta, t_end=t_end,
+                         inputs={"amplitude": args.amplitude, "linear_limit": args.linear_limit},
+                         setup_time=setup_time, command=" ".join([sys.executable] + sys.argv),
+                         versions=_cli.versions())
     with open(os.path.join(args.out, "summary.json"), "w") as fh:
         json.dump(summary, fh, indent=1)
     if not args.no_plots:
-        _plots(args, data, frames, summary, exact)
-    return summary
+        plot_all(args.out, figure_data(data, frames, exact, summary["window"],
+                                       summary["measured"]), frames, summary, exact,
+                 f"{label}, k = {args.k:g}, bc = {args.bc}, f = {args.f:g},"
+                 f" gamma = {args.gamma:g}, Delta = {args.Delta:g}, H = {args.H:g}")
+    print(json.dumps({"predicted": summary["predicted"], "measured": summary["measured"],
+                      "relative_difference": summary["relative_difference"],
+                      "end": summary["end"]}, indent=1))
 
 
-def _save(fig, path: str, summary: dict) -> None:  # noqa: ANN001
+def _plot_save(fig, path: str, summary: dict) -> None:  # noqa: ANN001
+    """Save ``fig`` with the run's command and parameters as PNG metadata."""
     meta = {"Title": os.path.basename(path), "Description": summary["command"],
             "Comment": json.dumps(summary["parameters"], default=str)}
     fig.savefig(path, dpi=120, metadata=meta)
 
 
-def _plots(args, data, frames, summary, exact) -> None:  # noqa: ANN001
-    """growth.png, energy.png, spacetime_linear.png, spacetime.png."""
+def plot_all(out: str, fig_data: dict, frames: dict, summary: dict, exact: complex,
+             title: str) -> None:
+    """growth.png, energy.png, spacetime_linear.png, spacetime.png, spacetime_nonlinear.png.
+
+    Args:
+        out: Output folder.
+        fig_data: :func:`analytic.growth_fit.figure_data` of the run.
+        frames: Interface frames (``t``, ``x``, ``v``, ``tau``, ``sigma``).
+        summary: The run's summary record.
+        exact: The predicted eigenvalue.
+        title: Figure title (the run's parameters).
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    t = data["t"]
-    c = np.abs(data["re_c"] + 1j * data["im_c"])
-    w = summary["window"]
-    title = (f"{summary['branch']}, k = {args.k:g}, bc = {args.bc}, f = {args.f:g},"
-             f" gamma = {args.gamma:g}, Delta = {args.Delta:g}, H = {args.H:g}")
+    t, c, w = fig_data["t"], fig_data["abs_c"], summary["window"]
     fig, ax = plt.subplots(figsize=(7, 4))
     ax.semilogy(t, c, label="|c_k(t)| (simulation)")
-    if summary["measured"]:
-        m = summary["measured"]
-        i0 = int(np.searchsorted(t, w["t_start"]))
-        tt = np.linspace(w["t_start"], w["t_end"], 50)
-        ax.semilogy(tt, c[i0] * np.exp(m["re_lambda"] * (tt - t[i0])), "k--",
+    if fig_data["growth"] is not None:
+        m, g = summary["measured"], fig_data["growth"]
+        ax.semilogy(g["t"], g["fit"], "k--",
                     label=f"fit Re Lambda = {m['re_lambda']:.5f} +- {m['re_uncertainty']:.1e}")
-        ax.semilogy(tt, c[i0] * np.exp(exact.real * (tt - t[i0])), "r:",
-                    label=f"exact Re Lambda = {exact.real:.5f}")
+        ax.semilogy(g["t"], g["exact"], "r:", label=f"exact Re Lambda = {exact.real:.5f}")
         ax.axvspan(w["t_start"], w["t_end"], color="0.9")
     ax.set_xlabel("t (units D/v0)")
     ax.set_ylabel("|Fourier component of v/v0 at k|")
     ax.set_title(title, fontsize=8)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    _save(fig, os.path.join(args.out, "growth.png"), summary)
+    _plot_save(fig, os.path.join(out, "growth.png"), summary)
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(7, 4))
-    ax.plot(t, data["energy"], label="kinetic + strain (perturbation)")
-    ax.plot(t, data["work_friction"], label="work of friction on the body")
-    ax.plot(t, data["energy_change"] - data["work_friction"], label="balance residual")
+    ax.plot(t, fig_data["energy"], label="kinetic + strain (perturbation)")
+    ax.plot(t, fig_data["work_friction"], label="work of friction on the body")
+    ax.plot(t, fig_data["balance"], label="balance residual")
     ax.set_xlabel("t")
     ax.set_ylabel("energy (units mu (c_s t0)^2 per unit depth)")
-    ax.set_yscale("symlog", linthresh=max(1e-30, float(np.max(np.abs(data["energy"]))) * 1e-12))
+    ax.set_yscale("symlog", linthresh=fig_data["linthresh"])
     ax.set_title(title, fontsize=8)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    _save(fig, os.path.join(args.out, "energy.png"), summary)
+    _plot_save(fig, os.path.join(out, "energy.png"), summary)
     plt.close(fig)
 
-    if frames.get("t") is None or len(frames["t"]) < 2:
-        return
-    ft, x = frames["t"], frames["x"]
-    sel = (ft >= 0) & (ft <= w["t_end"])
-    if sel.sum() >= 2:
+    if fig_data["linear"] is not None:
+        lin = fig_data["linear"]
         fig, ax = plt.subplots(figsize=(6, 5))
-        scaled = (frames["v"][sel] - 1.0) * np.exp(-exact.real * ft[sel])[:, None]
-        scaled /= max(float(np.max(np.abs(scaled))), 1e-300)
-        im = ax.pcolormesh(x, ft[sel], scaled, cmap="RdBu_r", shading="nearest", vmin=-1,
-                           vmax=1)
+        im = ax.pcolormesh(lin["x"], lin["t"], lin["scaled"], cmap="RdBu_r", shading="nearest",
+                           vmin=-1, vmax=1)
         fig.colorbar(im, ax=ax, label="(v/v0 - 1) exp(-Re Lambda t), normalised")
         ax.set_xlabel("x")
         ax.set_ylabel("t")
         ax.set_title("linear window: slip-rate perturbation, exact growth divided out\n"
                      + title, fontsize=8)
         fig.tight_layout()
-        _save(fig, os.path.join(args.out, "spacetime_linear.png"), summary)
+        _plot_save(fig, os.path.join(out, "spacetime_linear.png"), summary)
         plt.close(fig)
-    _spacetime(plt, frames, np.ones_like(ft, dtype=bool), summary,
-               "interface, whole run: " + title + f"; end: {summary['end']['reason']}",
-               os.path.join(args.out, "spacetime.png"), log_v=False)
-    period = 2 * np.pi / abs(exact.imag) if exact.imag else 1.0
-    late = ft >= max(w["t_end"], ft[-1] - 6 * period)
-    if late.sum() >= 2:
-        _spacetime(plt, frames, late, summary, "nonlinear regime, last periods: " + title
-                   + f"; end: {summary['end']['reason']}",
-                   os.path.join(args.out, "spacetime_nonlinear.png"), log_v=True)
+    end = f"; end: {summary['end']['reason']}"
+    if fig_data["whole"] is not None:
+        plot_spacetime(plt, frames, fig_data["whole"], summary,
+                       "interface, whole run: " + title + end,
+                       os.path.join(out, "spacetime.png"), log_v=False)
+    if fig_data["late"] is not None:
+        plot_spacetime(plt, frames, fig_data["late"], summary,
+                       "nonlinear regime, last periods: " + title + end,
+                       os.path.join(out, "spacetime_nonlinear.png"), log_v=True)
 
 
-def _spacetime(plt, frames, sel, summary, suptitle, path, log_v) -> None:  # noqa: ANN001
-    """Three space-time panels: slip rate, shear and normal traction perturbations."""
+def plot_spacetime(plt: object, frames: dict, sel: np.ndarray, summary: dict, suptitle: str,
+                   path: str, log_v: bool) -> None:
+    """Three space-time panels of the frames ``sel``: slip rate, shear and normal tractions."""
     from matplotlib.colors import LogNorm
 
     ft, x = frames["t"][sel], frames["x"]
@@ -521,7 +338,7 @@ def _spacetime(plt, frames, sel, summary, suptitle, path, log_v) -> None:  # noq
     axes[0].set_ylabel("t")
     fig.suptitle(suptitle, fontsize=9)
     fig.tight_layout()
-    _save(fig, path, summary)
+    _plot_save(fig, path, summary)
     plt.close(fig)
 
 

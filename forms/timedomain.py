@@ -15,7 +15,7 @@ dsigma``, ``tau = tau0 + dtau``. The body's nodal equation carries the force ``-
 the lumped interface length of the node). Working with ``w`` keeps the perturbation at full
 floating-point precision (``v0/c_s ~ 1e-6`` in the PMMA example).
 
-**Units and the parameter map.** Project units (DESIGN.md section 2): ``c_s = mu = rho = 1``,
+**Units and the parameter map.** Project units (docs/design.md section 2): ``c_s = mu = rho = 1``,
 time ``t0 = D/v0`` (``|g'(1)| = 1`` for the aging law), length ``c_s t0``. The law (physical)::
 
     f(v, phi) = f0 + a ln(v/v0) + b ln(v0 phi/D)   (regularised: a asinh(v/(2 v0) e^{Psi/a}),
@@ -37,7 +37,7 @@ dsigma``; the shear law gives ``(1 + alpha_PC Lambda) dtau = sigma0 df + f0 dsig
 
     (1 + alpha_PC L) sxy + (f0 - alpha_LD L/(L+1)) syy - (sigma0 a/v0) L (L + 1 - b/a)/(L+1) ux = 0,
 
-which is DESIGN.md section 3 (the law of :mod:`forms.friction`) exactly when::
+which is docs/design.md section 3 (the law of :mod:`forms.friction`) exactly when::
 
     f = f0,   Delta = 1 - b/a = (a - b)/a,   1/gamma = sigma0 a / v0   (units mu/c_s),
 
@@ -98,8 +98,6 @@ import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
-# The measurement of a run (pure numpy) lives in analytic.growth_fit; re-exported here.
-from analytic.growth_fit import Fit, fit_growth, linear_window, nonlinear_outcome  # noqa: F401
 from analytic.params import ParameterError, Params
 from forms.elasticity import stiffness_density
 from forms.friction import FrictionLaw, apply_dirichlet, friction_operator

@@ -48,7 +48,7 @@ import numpy as np
 from mpi4py import MPI
 
 from analytic import gallery
-from analytic.gallery import FigureData, Series
+from analytic.gallery import FETask, FigureData, Series
 from analytic.params import ParameterError
 from forms import gallery as fe_gallery
 from forms.gallery import CS_DEGREE, PML_DEGREE, Marker
@@ -68,7 +68,8 @@ def plot_series(axes, series: list[Series]) -> None:  # noqa: ANN001
                            alpha=s.alpha)
 
 
-def plot_overlay(ax, overlay: dict[int, dict[str, np.ndarray]], panel: int = 0) -> None:  # noqa: ANN001
+def plot_overlay(ax, overlay: dict[int, dict[str, np.ndarray]],  # noqa: ANN001
+                 panel: int = 0) -> None:
     """Draw the overlay points of ``panel`` (:func:`analytic.gallery.read_overlay`) as markers."""
     for label, (x, y) in overlay.get(panel, {}).items():
         ax.plot(x, y, "s", ms=4, mfc="none", label=label)
@@ -269,6 +270,7 @@ def main(comm: MPI.Comm | None = None, argv: list[str] | None = None) -> int:
 
 
 def _run(comm: MPI.Comm, opts: argparse.Namespace, names: list[str]) -> int:
+    """Figures' data split over ranks, FE checks split over ranks, each rank writes its PNGs."""
     t_start = time.perf_counter()
     settings = gallery.Settings(n_q=opts.n_q, n_gamma=opts.n_gamma, fe_points=opts.fe_points)
     mine = _cli.my_share(comm, [gallery.FIGURE_COST[n] for n in names])
@@ -302,7 +304,8 @@ def _run(comm: MPI.Comm, opts: argparse.Namespace, names: list[str]) -> int:
     return 0
 
 
-def _write_figure(opts: argparse.Namespace, data: FigureData, tasks: list, results: list) -> dict:
+def _write_figure(opts: argparse.Namespace, data: FigureData, tasks: list[FETask],
+                  results: list[dict]) -> dict:
     """Draw one figure with its trusted FE points, save the PNG; its ``figures.json`` entry."""
     import matplotlib.pyplot as plt
 

@@ -1,5 +1,5 @@
 """Smoke tests of workflows/envelope.py and workflows/contrast.py (serial and mpirun -n 2),
-checked against the exact roots they are built on."""
+checked against the exact roots they are built on; direct tests of analytic.growth."""
 
 import csv
 import json
@@ -9,9 +9,10 @@ import pytest
 from _workflows import run_workflow
 
 from analytic import Params, roots_in_box
-from analytic.spectrum import Region
+from analytic.growth import best_over_k, curve_shape, envelope_maximum
+from analytic.spectrum import Region, fastest_root
 
-pytestmark = pytest.mark.serial  # the scenes are subprocesses (their own mpirun)
+pytestmark = pytest.mark.serial  # subprocesses (their own mpirun) and pure numpy
 
 
 @pytest.mark.parametrize("nproc", [1, 2])
@@ -60,3 +61,40 @@ def test_bad_input_one_line(tmp_path, script, bad, word):
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and word in lines[0], proc.stderr
     assert not (tmp_path / "o").exists()
+
+
+# ------------------------------------------------------------- analytic.growth (direct)
+@pytest.mark.parametrize("growth, monotonic, changes", [([0.1, 0.2, 0.2, 0.5], True, 0),
+                                                        ([0.5, 0.5, 0.3, 0.0], True, 0),
+                                                        ([0.1, 0.4, 0.2, 0.3], False, 2)])
+def test_curve_shape(growth, monotonic, changes):
+    x = [0.1, 1.0, 10.0, 100.0]
+    c = curve_shape(x, growth, "mu2")
+    assert c == {"max_growth": max(growth), "mu2_at_max": x[growth.index(max(growth))],
+                 "monotonic": monotonic, "direction_changes": changes}
+
+
+def test_best_over_k_is_a_fastest_root_at_least_the_grid_maximum():
+    p, region, ks = Params(), Region(1e-4, 2.0, 4.0), np.array([1.0, 2.0, 4.0])
+    best = best_over_k(p, ks, region)
+    grid = [fastest_root(p, k, region)[0] for k in ks]
+    assert best["failed_counts"] == 0
+    assert best["re_lambda"] >= max(z.real for z in grid)
+    z = fastest_root(p, best["k"], region)[0]  # the value is the fastest root at its k
+    assert complex(best["re_lambda"], best["im_lambda"]) == z
+
+
+def test_envelope_maximum_refines_the_grid_maximum():
+    p, region, ks = Params(), Region(), [1.0, 3.0, 6.0, 9.0]
+    zs = [fastest_root(p, k, region)[0] for k in ks]
+    best = envelope_maximum(p, region, ks, zs)
+    j = int(np.argmax([z.real for z in zs]))
+    assert best["grid_k_of_largest_value"] == ks[j] and best["at_grid_edge"] == (j in (0, 3))
+    assert best["re_lambda"] >= zs[j].real and best["kH"] == best["k"] * p.H
+    z = fastest_root(p, best["k"], region)[0]
+    # a refined peak is a root of the exact family polished to 1e-8 relative (the check in
+    # refine_envelope): the fastest root at its k within that
+    assert abs(complex(best["re_lambda"], best["im_lambda"]) - z) <= 1e-8 * abs(z)
+    # the maximum is the largest of the refined peaks that are the fastest in the region
+    assert all(pk["re_lambda"] <= best["re_lambda"] for pk in best["local_peaks"]
+               if pk["fastest_in_region"])

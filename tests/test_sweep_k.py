@@ -13,9 +13,12 @@ import numpy as np
 import pytest
 from _workflows import run_workflow
 
+from mpi4py import MPI
+
 from analytic import Params, roots_in_box
 from analytic.spectrum import Region, certified_roots, families
-from forms.certified import CertifiedSolver, default_discretisation
+from forms import sweep
+from forms.certified import CertifiedSolver, KResult, default_discretisation
 
 #: k = 1, branch 0-, paper defaults (docs/design.md section 4).
 CHECK_VALUE = 0.2716852879456 - 6.5866951866228j
@@ -104,6 +107,79 @@ def test_region_holds_the_fastest_mode():
         wide = roots_in_box(p, k, (region.re_min, region.re_max, -2 * w, 2 * w))
         outside = [r.value.real for r in wide if abs(r.value.imag) > w]
         assert max(r.value.real for r in inside) > max(outside, default=-1.0)
+
+
+def test_distributed_solve_equals_the_serial_solve_and_resumes(tmp_path):
+    """forms.sweep: families and k values shared over the ranks (round robin), written to the
+    raw files, read back; equal to the serial solve at every k on every rank. A removed file
+    is the only pending k on resume; without resume every k is pending again."""
+    comm = MPI.COMM_WORLD
+    folder = comm.bcast(str(tmp_path) if comm.rank == 0 else None)
+    p, region, k = Params(H=0.5), Region(), np.array([0.5, 1.5, 2.5])
+    disc = default_discretisation(p, region, float(k[-1]), 1e-8)
+    todo = sweep.pending_k(comm, folder, len(k), resumed=False)
+    assert todo == [0, 1, 2]
+    plan, items = sweep.family_plan(comm, p, region, float(k[-1]))
+    fams = sweep.follow_families(comm, p, region, plan, items, k,
+                                 list(range(comm.rank, len(items), comm.size)))
+    assert [f.label for f in fams] == [f.label for f in families(p, region, k)]
+    mine = todo[comm.rank::comm.size]
+    calls = []
+    share = sweep.solve_k_values(p, region, disc, 1e-8, k, mine, fams, folder,
+                                 lambda: calls.append(1))
+    assert share.k_values == len(mine) == len(calls) and share.unknowns > 0
+    comm.Barrier()
+    results = sweep.load_results(folder, len(k))
+    solver = CertifiedSolver(p, region, *disc, float(k[-1]), 1e-8)
+    try:
+        serial = [solver.solve(float(kk), fams) for kk in k]
+    finally:
+        solver.destroy()
+    for a, b in zip(results, serial, strict=True):
+        assert a.k == b.k and a.closed and b.closed and a.n_fe == b.n_fe
+        assert [r["label"] for r in a.rows] == [r["label"] for r in b.rows]
+        for ra, rb in zip(a.rows, b.rows, strict=True):
+            # the same computation on another rank (same Newton starts): measured identical
+            z = complex(rb["re_lambda"], rb["im_lambda"])
+            assert abs(complex(ra["re_lambda"], ra["im_lambda"]) - z) <= 1e-12 * abs(z)
+    comm.Barrier()
+    if comm.rank == 0:
+        os.remove(sweep.raw_file(folder, 1))
+    assert sweep.pending_k(comm, folder, len(k), resumed=True) == [1]
+    assert sweep.pending_k(comm, folder, len(k), resumed=False) == [0, 1, 2]
+
+
+def _row(k, re, status="ok", err=1e-10, est=2e-10):
+    return {"k": k, "label": f"L{re}", "re_lambda": re, "im_lambda": -1.0,
+            "re_lambda_exact": re, "im_lambda_exact": -1.0, "rel_error": err,
+            "error_estimate": est, "residual": 0.0, "status": status}
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("closed", [True, False])
+@pytest.mark.parametrize("best_status", ["ok", "error 1e-06 > rtol"])
+def test_summary_counts_and_most_unstable(closed, best_status):
+    """forms.sweep.summarise on hand-made results: counts, accuracy, the largest Re Lambda and
+    its certificate (certified only if its row is ok and every k closed)."""
+    p, region, k = Params(H=0.5), Region(), np.array([1.0, 2.0])
+    results = [KResult(1.0, [_row(1.0, -0.5), _row(1.0, 0.1, est=float("nan"))], 2, 2,
+                       (-1.0, 2.0, -9.0, 9.0), True),
+               KResult(2.0, [_row(2.0, 0.3, best_status, err=3e-9)], 1, 1 if closed else 2,
+                       (-1.0, 2.0, -12.0, 12.0), closed, "" if closed else "not closed")]
+    s = sweep.summarise(p, region, k, results, [])
+    cert = s["certificate"]
+    assert (cert["k_values"], cert["k_closed"], cert["rows"]) == (2, 1 + closed, 3)
+    assert cert["rows_ok"] == 2 + (best_status == "ok")
+    assert [r["k"] for r in cert["k_not_closed"]] == ([] if closed else [2.0])
+    assert s["accuracy"] == {"max_rel_error_vs_exact": 3e-9, "max_error_estimate": 2e-10}
+    best = s["most_unstable"]
+    assert (best["k"], best["re_lambda"], best["branch"]) == (2.0, 0.3, "L0.3")
+    assert best["at_edge_of_k_range"] and best["certificate"]["count_at_k"] == 1
+    assert best["certificate"]["region_at_k"] == [-1.0, 2.0, -12.0, 12.0]
+    assert best["certificate"]["certified"] == (closed and best_status == "ok")
+    assert [d["k"] for d in s["per_k"]] == [1.0, 2.0]
+    assert sweep.summarise(p, region, k, [KResult(1.0), KResult(2.0)], [])[
+        "most_unstable"] is None
 
 
 # ------------------------------------------------------------------- the scene (subprocesses)

@@ -26,148 +26,37 @@ import argparse
 import csv
 import json
 import os
-import subprocess
-import sys
-import tempfile
-import time
 
 import _cli
 import numpy as np
 
-from mpi4py import MPI
-
-from analytic.baseline import continue_S
-from analytic.branches import follow_branch
-from analytic.params import Params
-from forms.banded import BandedModel
-from forms.certified import continue_fe
-from forms.cross_section import CrossSectionModel
+from forms import benchmark as bench
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-CHECK_VALUE = 0.2716852879456 - 6.5866951866228j  # docs/design.md section 4
 PETSC_PREFIXES: tuple[str, ...] = ()
 OUTPUTS = ("benchmark.json", "convergence.csv", "convergence.png", "run.json", "run.lock")
-CONVERGENCE_CELLS = {1: (32, 64, 128, 256), 2: (6, 8, 12, 16, 24), 3: (3, 4, 6, 8, 12),
-                     4: (2, 3, 4, 6)}
-KERNEL = ("import time, numpy as np\nt=time.perf_counter()\na=np.random.default_rng(0)"
-          ".standard_normal((300,300))\nfor _ in range(60): np.linalg.eigvals(a)\n"
-          "print(time.perf_counter()-t)")
-
-
-def speed(k: np.ndarray) -> dict:
-    """Sections 1-3: per-branch-point times and errors, side by side."""
-    p = Params()
-    res = {"k": [float(k[0]), float(k[-1]), len(k)], "branches": ["0+", "0-"]}
-    t0 = time.perf_counter()
-    exact = {s: follow_branch(p, 0, s, k) for s in (1, -1)}
-    t_an = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    base = {s: continue_S(p, 0, s, k)[0] for s in (1, -1)}
-    t_base = time.perf_counter() - t0
-    points = 2 * len(k)
-    res["baseline"] = {"s_per_point": t_base / points, "max_rel_error": max(
-        float(np.nanmax(np.abs(base[s] - exact[s].Lambda) / np.abs(exact[s].Lambda)))
-        for s in (1, -1))}
-    res["analytic_certified"] = {"s_per_point": t_an / points,
-                                 "all_ok": bool(all(exact[s].ok.all() for s in (1, -1)))}
-    fe = None
-    for cells in (3, 4, 5, 6, 8, 10, 12, 16):
-        model = CrossSectionModel(MPI.COMM_SELF, p, degree=4, cells=cells, ratio=1.0)
-        banded = BandedModel(model)
-        t0 = time.perf_counter()
-        vals, facts = {}, 0
-        for s in (1, -1):
-            vals[s], f = continue_fe(banded, k, exact[s].Lambda[0])
-            facts += f
-        t_fe = time.perf_counter() - t0
-        model.destroy()
-        err = max(float(np.max(np.abs(vals[s] - exact[s].Lambda) / np.abs(exact[s].Lambda)))
-                  for s in (1, -1))
-        if err <= 1e-10:
-            fe = {"degree": 4, "cells": cells, "s_per_point": t_fe / points,
-                  "max_rel_error": err, "factorizations_per_point": facts / points}
-            break
-    res["fe_continuation"] = fe
-    b = res["baseline"]["s_per_point"]
-    res["ratios"] = {"analytic_certified_over_baseline": res["analytic_certified"]
-                     ["s_per_point"] / b, "target_analytic": 10.0,
-                     "fe_over_baseline": fe["s_per_point"] / b if fe else None,
-                     "target_fe": 20.0}
-    return res
-
-
-def _env() -> dict:
-    # this process is an MPI singleton: do not leak its OpenMPI/PMIx state to mpirun
-    return {key: v for key, v in os.environ.items()
-            if not key.startswith(("OMPI_COMM", "OMPI_MCA_ess", "PMIX_", "OMPI_FILE", "OMPI_APP",
-                                   "OMPI_UNIVERSE", "OMPI_FIRST", "OMPI_NUM_APP", "OMPI_ARGV",
-                                   "OMPI_COMMAND"))}
-
-
-def mpi(k_spec: str) -> dict:
-    """Section 4: two-copy throughput, sweep speed-up, post-processing share."""
-    env = _env()
-    one = float(subprocess.run([sys.executable, "-c", KERNEL], capture_output=True, text=True,
-                               env=env).stdout)
-    t0 = time.perf_counter()
-    procs = [subprocess.Popen([sys.executable, "-c", KERNEL], stdout=subprocess.PIPE,
-                              text=True, env=env) for _ in range(2)]
-    for pr in procs:
-        pr.communicate()
-    two = time.perf_counter() - t0
-    res = {"kernel_one_copy_s": one, "kernel_two_copies_s": two,
-           "two_copy_throughput": 2 * one / two, "sweep_k": k_spec}
-    for n in (1, 2):
-        with tempfile.TemporaryDirectory() as tmp:
-            out = os.path.join(tmp, "o")
-            cmd = ["mpirun", "-n", str(n), sys.executable, os.path.join(HERE, "sweep_k.py"),
-                   "--k", k_spec, "--quiet", "--out", out]
-            proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
-            if proc.returncode not in (0, 1):
-                res[f"n{n}"] = {"error": (proc.stdout + proc.stderr)[-800:]}
-                continue
-            with open(os.path.join(out, "summary.json")) as fh:
-                s = json.load(fh)
-            res[f"n{n}"] = {"wall_s": s["timing_s"]["wall"],
-                            "post_processing_s": s["timing_s"]["post_processing_rank0"],
-                            "per_rank": s["mpi"]["per_rank"]}
-    if "wall_s" in res.get("n1", {}) and "wall_s" in res.get("n2", {}):
-        sp = res["n1"]["wall_s"] / res["n2"]["wall_s"]
-        res["sweep_speedup"] = sp
-        res["speedup_fraction_of_two_copy_throughput"] = sp / res["two_copy_throughput"]
-        res["post_processing_share_2_ranks"] = (res["n2"]["post_processing_s"]
-                                                / res["n2"]["wall_s"])
-        res["targets"] = {"speedup_fraction": 0.9, "post_processing_share": 0.10}
-    return res
 
 
 def convergence(out: str) -> dict:
-    """Section 5: relative error at the check point for P1..P4; observed orders."""
-    p = Params()
-    rows = []
-    for deg, cells_list in CONVERGENCE_CELLS.items():
-        prev = None
-        for cells in cells_list:
-            model = CrossSectionModel(MPI.COMM_SELF, p, degree=deg, cells=cells, ratio=1.0)
-            lam = BandedModel(model).operator(1.0).newton(CHECK_VALUE).value
-            model.destroy()
-            h = p.H / cells
-            err = abs(lam - CHECK_VALUE) / abs(CHECK_VALUE)
-            order = np.log(prev[1] / err) / np.log(prev[0] / h) if prev else float("nan")
-            rows.append({"degree": deg, "cells": cells, "h": h, "rel_error": err,
-                         "order": order})
-            prev = (h, err)
+    """Section 5: relative error at the check point for P1..P4; observed orders (CSV, PNG)."""
+    rows = bench.convergence(bench.CONVERGENCE_CELLS)
     with open(os.path.join(out, "convergence.csv"), "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
+    plot_convergence(os.path.join(out, "convergence.png"), rows, bench.CONVERGENCE_CELLS)
+    return {"reference": "docs/design.md check value (13 digits)", "rows": rows}
+
+
+def plot_convergence(path: str, rows: list[dict], cells: dict) -> None:
+    """convergence.png: relative error against h per degree, with the h^(2p) slopes."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6, 4.5))
-    for deg in CONVERGENCE_CELLS:
+    for deg in cells:
         sel = [r for r in rows if r["degree"] == deg]
         h = np.array([r["h"] for r in sel])
         e = np.array([r["rel_error"] for r in sel])
@@ -180,11 +69,9 @@ def convergence(out: str) -> dict:
     ax.legend()
     ax.grid(True, which="both", lw=0.3)
     fig.tight_layout()
-    fig.savefig(os.path.join(out, "convergence.png"), dpi=130,
-                metadata=_cli.png_metadata({"cells": CONVERGENCE_CELLS},
-                                           "h-convergence of the cross-section model"))
+    fig.savefig(path, dpi=130, metadata=_cli.png_metadata(
+        {"cells": cells}, "h-convergence of the cross-section model"))
     plt.close(fig)
-    return {"reference": "docs/design.md check value (13 digits)", "rows": rows}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -207,9 +94,9 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     with _cli.RunFolder(comm, args.out, "benchmark", {"k": args.k, "sweep_k": args.sweep_k},
                         outputs=OUTPUTS) as run:
         report = {"machine": {"cpus": os.cpu_count(), "load_average_at_start": os.getloadavg()},
-                  "speed": speed(k)}
+                  "speed": bench.speed(k)}
         if not args.skip_mpi:
-            report["mpi"] = mpi(args.sweep_k)
+            report["mpi"] = bench.mpi_scaling(os.path.join(HERE, "sweep_k.py"), args.sweep_k)
         report["convergence"] = convergence(run.path)
         report["versions"] = _cli.versions()
         report["command"] = _cli.command()

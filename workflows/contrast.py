@@ -24,8 +24,8 @@ import os
 import _cli
 import numpy as np
 
-from analytic.roots import ContourError
-from analytic.spectrum import Region, fastest_root
+from analytic.growth import best_over_k, curve_shape
+from analytic.spectrum import Region
 
 PETSC_PREFIXES: tuple[str, ...] = ()
 OUTPUTS = ("contrast.csv", "summary.json", "contrast.png", "run.json", "run.lock")
@@ -64,33 +64,6 @@ def heights(spec: str, H: float) -> list[float]:
     return out
 
 
-def best_over_k(p: object, ks: np.ndarray, region: Region) -> dict:
-    """Fastest root over every mode in R and over k (grid, then local samples)."""
-
-    def growth(k: float) -> tuple[float, complex | None, int]:
-        try:
-            z, n, _ = fastest_root(p, float(k), region)
-        except ContourError:
-            return -np.inf, None, -1
-        return (z.real if z is not None else -np.inf), z, n
-
-    vals = [growth(k) for k in ks]
-    re = np.array([v[0] for v in vals])
-    failed = int(sum(v[2] < 0 for v in vals))
-    best = (float(ks[int(np.argmax(re))]), *vals[int(np.argmax(re))])
-    for j in np.argsort(re)[::-1][:2]:
-        if not np.isfinite(re[j]):
-            continue
-        lo, hi = ks[max(j - 1, 0)], ks[min(j + 1, len(ks) - 1)]
-        for k in np.linspace(lo, hi, 8):
-            g = growth(k)
-            if g[0] > best[1]:
-                best = (float(k), *g)
-    k, g, z, _ = best
-    return {"k": k, "re_lambda": g if np.isfinite(g) else None,
-            "im_lambda": z.imag if z is not None else None, "failed_counts": failed}
-
-
 def main(comm: object = None, argv: list[str] | None = None) -> int:
     """Run the contrast scan."""
     args, comm = _cli.start(build_parser(), argv, comm)
@@ -122,16 +95,9 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                 w = csv.DictWriter(fh, fieldnames=list(rows[0]))
                 w.writeheader()
                 w.writerows(rows)
-            curves = {}
-            for h in h2s:
-                g = np.array([r["re_lambda"] if r["re_lambda"] is not None else 0.0
-                              for r in rows if r["H2"] == h])
-                d = np.sign(np.diff(g))
-                d = d[d != 0]
-                curves[str(h)] = {"max_growth": float(g.max()),
-                                  "mu2_at_max": float(mus[int(np.argmax(g))]),
-                                  "monotonic": bool(np.all(d >= 0) or np.all(d <= 0)),
-                                  "direction_changes": int(np.sum(d[1:] != d[:-1]))}
+            curves = {str(h): curve_shape(mus, [r["re_lambda"] if r["re_lambda"] is not None
+                                                else 0.0 for r in rows if r["H2"] == h], "mu2")
+                      for h in h2s}
             summary = {"config": config, "curves": curves, "rows": rows,
                        "note": "re_lambda None: no root in the region at any k of the grid",
                        "versions": _cli.versions(), "command": _cli.command()}

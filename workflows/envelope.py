@@ -24,8 +24,9 @@ import _cli
 import numpy as np
 
 from analytic import halfspace
+from analytic.growth import envelope_maximum
 from analytic.roots import ContourError
-from analytic.spectrum import Region, family_peak, fastest_root
+from analytic.spectrum import Region, fastest_root
 
 PETSC_PREFIXES: tuple[str, ...] = ()
 OUTPUTS = ("envelope.csv", "summary.json", "envelope.png", "run.json", "run.lock")
@@ -41,34 +42,6 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--re-min", type=float, default=Region().re_min, help="region: smallest Re")
     ap.add_argument("--out", default=os.path.join("out", "envelope"), help="output folder")
     return ap
-
-
-def refine(p: object, region: Region, ks: list[float], zs: list, top: int = 6) -> dict:
-    """Refine the ``top`` largest local maxima of the sampled envelope.
-
-    The envelope is a maximum over families (a new mode takes over as k grows): it has kinks
-    and many nearly equal local maxima. At each local maximum of the samples the fastest root's
-    own family is maximised over the neighbouring interval (:func:`family_peak`), and the
-    result is checked to be the fastest root in the region there (argument principle).
-    """
-    re = np.array([z.real if z is not None else -np.inf for z in zs])
-    interior = [j for j in range(len(ks)) if np.isfinite(re[j])
-                and re[j] >= re[max(j - 1, 0)] and re[j] >= re[min(j + 1, len(ks) - 1)]]
-    best = {"k": ks[int(np.argmax(re))], "Lambda": zs[int(np.argmax(re))], "fastest": True}
-    peaks = []
-    for j in sorted(interior, key=lambda i: -re[i])[:top]:
-        lo, hi = ks[max(j - 1, 0)], ks[min(j + 1, len(ks) - 1)]
-        k, z = family_peak(p, ks[j], zs[j], lo, hi)
-        try:
-            zf = fastest_root(p, k, region)[0]
-        except ContourError:
-            zf = None
-        fastest = zf is not None and abs(zf - z) <= 1e-8 * abs(z)
-        peaks.append({"k": k, "re_lambda": z.real, "im_lambda": z.imag,
-                      "fastest_in_region": fastest})
-        if fastest and z.real > best["Lambda"].real:
-            best = {"k": k, "Lambda": z, "fastest": True}
-    return {"best": best, "peaks": peaks}
 
 
 def main(comm: object = None, argv: list[str] | None = None) -> int:
@@ -96,17 +69,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         ks = [float(v) for v in k]
         re = np.array([rows[i][0].real if rows[i][0] is not None else np.nan
                        for i in range(len(k))])
-        j = int(np.nanargmax(re))
-        best = None
         if comm.rank == 0:
-            ref = refine(p, region, ks, [rows[i][0] for i in range(len(k))])
-            kb, zb = ref["best"]["k"], ref["best"]["Lambda"]
-            best = {"k": kb, "kH": kb * p.H, "re_lambda": zb.real, "im_lambda": zb.imag,
-                    "phase_velocity_over_c_d": abs(zb.imag) / kb * p.beta,
-                    "grid_k_of_largest_value": ks[j], "at_grid_edge": j in (0, len(ks) - 1),
-                    "refinement": "each of the 6 largest local maxima of the samples: "
-                    "golden-section on its root's family, checked to be the fastest in R",
-                    "local_peaks": ref["peaks"]}
+            best = envelope_maximum(p, region, ks, [rows[i][0] for i in range(len(k))])
             hs = halfspace.max_growth("dilatational", p.replace(H=math.inf))
             with open(run.file("envelope.csv"), "w", newline="") as fh:
                 w = csv.writer(fh)

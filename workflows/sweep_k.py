@@ -36,8 +36,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import csv  # noqa: E402
-import glob  # noqa: E402
-import json  # noqa: E402
 import math  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
@@ -46,13 +44,9 @@ import _cli  # noqa: E402
 import numpy as np  # noqa: E402
 
 from analytic.params import Params  # noqa: E402
-from analytic.spectrum import (  # noqa: E402
-    Region,
-    follow_family,
-    plan_families,
-    plan_items,
-)
-from forms.certified import ROW_FIELDS, CertifiedSolver, KResult, default_discretisation  # noqa: E402
+from analytic.spectrum import Region  # noqa: E402
+from forms import sweep  # noqa: E402
+from forms.certified import ROW_FIELDS, KResult, default_discretisation  # noqa: E402
 
 #: Default k grid: the paper's range (k H up to 3 at H = 0.5).
 DEFAULT_K = "0.05:6:120"
@@ -119,88 +113,23 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
     return params, k, len(k_all) - len(k), region
 
 
-def _raw(out: str, i: int) -> str:
-    return os.path.join(out, "raw", f"k{i:05d}.json")
-
-
-def _write_json(path: str, data: dict) -> None:
-    tmp = os.path.join(os.path.dirname(path), "." + os.path.basename(path) + ".tmp")
-    with open(tmp, "w") as fh:
-        json.dump(data, fh, indent=1)
-    os.replace(tmp, path)
-
-
-def follow_all(comm: object, params: Params, region: Region, k: np.ndarray,
-               quiet: bool) -> tuple[list, float]:
-    """Every family, followed to every k: shared over the ranks, gathered on all."""
-    t0 = time.perf_counter()
-    plan = comm.bcast(plan_families(params, region, float(k[-1])) if comm.rank == 0 else None)
-    items = plan_items(plan)
-    if not quiet:
-        _cli.say(f"following {len(items)} root families (continuation in k) ...", err=True)
-    # cost ~ number of requested k the family is followed to: about equal; LPT keeps it even
-    mine = _cli.my_share(comm, [1.0] * len(items))
-    done = {i: follow_family(params, plan, items[i], k, region) for i in mine}
-    merged: dict[int, object] = {}
-    for part in comm.allgather(done):
-        merged.update(part)
-    return [merged[i] for i in range(len(items))], time.perf_counter() - t0
-
-
 def write_outputs(out: str, params: Params, region: Region, k: np.ndarray,
                   results: list[KResult], fams: list, meta: dict, plot: bool) -> dict:
     """Rank 0: spectrum.csv and dispersion.png; returns the summary.
 
     The caller adds the timings and writes ``summary.json`` once.
     """
-    rows = [r for res in results for r in res.rows]
     tmp = os.path.join(out, ".spectrum.csv.tmp")
     with open(tmp, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(ROW_FIELDS))
         w.writeheader()
-        for r in rows:
+        for r in (r for res in results for r in res.rows):
             w.writerow({f: (repr(r[f]) if isinstance(r[f], float) else r[f]) for f in ROW_FIELDS})
     os.replace(tmp, os.path.join(out, "spectrum.csv"))
-    flagged = [r for r in rows if r["status"] != "ok"]
-    open_k = [{"k": res.k, "n_fe": res.n_fe, "n_exact": res.n_exact, "note": res.note}
-              for res in results if not res.closed]
-    best = max(rows, key=lambda r: r["re_lambda"]) if rows else None
-    res_best = next((res for res in results if best is not None and res.k == best["k"]), None)
-    most = None
-    if best is not None:
-        most = {"k": best["k"], "re_lambda": best["re_lambda"], "im_lambda": best["im_lambda"],
-                "branch": best["label"], "status": best["status"],
-                "rel_error": best["rel_error"], "error_estimate": best["error_estimate"],
-                "at_edge_of_k_range": best["k"] in (float(k[0]), float(k[-1])),
-                "certificate": {
-                    "statement": "largest Re Lambda over every eigenvalue in the region R at "
-                    "every swept k; at each k the FE count in R equals the exact "
-                    "argument-principle count and every FE value is matched to a distinct "
-                    "exact root",
-                    "all_k_closed": not open_k,
-                    "region_at_k": list(res_best.box) if res_best else None,
-                    "count_at_k": res_best.n_exact if res_best else None,
-                    "certified": bool(best["status"] == "ok" and not open_k)}}
-    errs = [r["rel_error"] for r in rows if math.isfinite(r["rel_error"])]
-    ests = [r["error_estimate"] for r in rows if math.isfinite(r["error_estimate"])]
-    fam_notes = {f.label: f.note for f in fams if f.note}
-    summary = meta | {
-        "region": region.as_dict(params),
-        "certificate": {"k_values": len(results), "k_closed": len(results) - len(open_k),
-                        "k_not_closed": open_k, "rows": len(rows), "rows_ok": len(rows)
-                        - len(flagged), "rows_flagged": flagged[:200]},
-        "accuracy": {"max_rel_error_vs_exact": max(errs) if errs else None,
-                     "max_error_estimate": max(ests) if ests else None},
-        "families": {"count": len(fams), "notes": fam_notes},
-        "most_unstable": most,
-        "per_k": [{"k": res.k, "n_fe": res.n_fe, "n_exact": res.n_exact, "closed": res.closed,
-                   "box": list(res.box), "seconds": res.seconds,
-                   "factorizations": res.factorizations}
-                  for res in results],
-    }
+    summary = meta | sweep.summarise(params, region, k, results, fams)
     if plot:
         plot_dispersion(os.path.join(out, "dispersion.png"), params, region, results, fams,
-                        most, meta["parameters"])
+                        summary["most_unstable"], meta["parameters"])
     return summary
 
 
@@ -274,93 +203,76 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     args, comm = _cli.start(build_parser(), argv, comm)
     params, k, merged, region = validate(args)  # every rank, before any collective or file
     degree, cells, ratio = default_discretisation(params, region, float(k[-1]), args.rtol)
-    degree = args.degree or degree
-    cells = args.cells or cells
+    disc = (args.degree or degree, args.cells or cells, ratio)
     config = {"params": params.as_dict(), "k": [float(v) for v in k],
-              "region": region.as_dict(params), "rtol": args.rtol, "degree": degree,
-              "cells": cells, "grading_ratio": ratio}
+              "region": region.as_dict(params), "rtol": args.rtol, "degree": disc[0],
+              "cells": disc[1], "grading_ratio": ratio}
     with _cli.RunFolder(comm, args.out, "sweep_k", config, resume=args.resume, resumable=True,
                         outputs=OUTPUTS) as run:
         out = run.path
         t_start = time.perf_counter()
-        if comm.rank == 0:
-            os.makedirs(os.path.join(out, "raw"), exist_ok=True)
-            if not run.resumed:
-                for name in glob.glob(os.path.join(out, "raw", "k*.json")):
-                    os.remove(name)
         if merged and not args.quiet:
             _cli.say(f"note: {merged} duplicate k value(s) merged", err=True)
-        comm.Barrier()
-        todo = [i for i in range(len(k)) if not os.path.exists(_raw(out, i))]
-        todo = comm.bcast(todo)
-        fams, t_fam = follow_all(comm, params, region, k, args.quiet)
-        t1 = time.perf_counter()
-        # cost of a k ~ the number of roots in R ~ the height of R
-        costs = [region.im_max(params, float(k[i])) for i in todo]
-        mine = [todo[j] for j in _cli.my_share(comm, costs)]
-        solver = CertifiedSolver(params, region, degree, cells, ratio, float(k[-1]), args.rtol)
-        unknowns, solver_cells2 = solver.unknowns, solver.cells2
+        todo = sweep.pending_k(comm, out, len(k), run.resumed)
+        t_fam = time.perf_counter()
+        plan, items = sweep.family_plan(comm, params, region, float(k[-1]))
+        if not args.quiet:
+            _cli.say(f"following {len(items)} root families (continuation in k) ...", err=True)
+        # cost ~ number of requested k the family is followed to: about equal; LPT keeps it even
+        fams = sweep.follow_families(comm, params, region, plan, items, k,
+                                     _cli.my_share(comm, [1.0] * len(items)))
+        t_fam = time.perf_counter() - t_fam
+        mine = [todo[j] for j in _cli.my_share(comm, sweep.k_costs(params, region, k, todo))]
         bar = None
         if comm.rank == 0 and not args.quiet and mine:
             from tqdm import tqdm
 
             bar = tqdm(total=len(mine), desc=f"k values (rank 0 of {comm.size})", unit="k",
                        file=sys.stderr)
-        for i in mine:
-            res = solver.solve(float(k[i]), fams)
-            _write_json(_raw(out, i), res.as_dict())
-            if bar is not None:
-                bar.update(1)
+        share = sweep.solve_k_values(params, region, disc, args.rtol, k, mine, fams, out,
+                                     bar.update if bar is not None else None)
         if bar is not None:
             bar.close()
-        solver.destroy()
-        t_solve = time.perf_counter() - t1
-        times = comm.gather({"rank": comm.rank, "families_s": t_fam, "solve_s": t_solve,
-                             "k_values": len(mine)})
+        times = comm.gather({"rank": comm.rank, "families_s": t_fam, "solve_s": share.seconds,
+                             "k_values": share.k_values})
         comm.Barrier()
         code = 0
         if comm.rank == 0:
             t2 = time.perf_counter()
-            results = []
-            for i in range(len(k)):
-                with open(_raw(out, i)) as fh:
-                    results.append(KResult.from_dict(json.load(fh)))
             meta = {"parameters": params.as_dict(),
                     "k": {"spec": args.k, "count": len(k), "merged_duplicates": merged,
                           "min": float(k[0]), "max": float(k[-1])},
-                    "discretisation": {"model": "cross-section (1D in y), polynomial form"
-                                       + (", layered (two bodies)" if params.two_body else ""),
-                                       "degree": degree, "cells": cells, "grading_ratio": ratio,
-                                       "substrate_cells": solver_cells2,
-                                       "unknowns": unknowns, "rtol": args.rtol,
-                                       "error_estimate": f"P{degree + 1} on the same mesh, one "
-                                       f"Newton solve from the P{degree} value"},
-                    "method": "exact continuation labels; FE Newton on the discrete NEP from "
-                              "the exact roots; FE and exact argument-principle counts in R",
+                    **sweep.describe_discretisation(params, disc, share, args.rtol),
                     "mpi": {"ranks": comm.size, "per_rank": times},
                     "resumed": run.resumed, "computed_this_run": len(todo),
                     "versions": _cli.versions(), "command": _cli.command()}
-            summary = write_outputs(out, params, region, k, results, fams, meta,
-                                    not args.no_plot)
+            summary = write_outputs(out, params, region, k, sweep.load_results(out, len(k)),
+                                    fams, meta, not args.no_plot)
             wall = time.perf_counter() - t_start
             summary["timing_s"] = {"wall": wall, "post_processing_rank0": time.perf_counter()
                                    - t2}
-            _write_json(os.path.join(out, "summary.json"), summary)
-            cert = summary["certificate"]
-            if cert["k_not_closed"] or cert["rows_ok"] < cert["rows"]:
-                code = 1
-                print(f"warning: {cert['rows'] - cert['rows_ok']} of {cert['rows']} "
-                      f"eigenvalue(s) flagged, count not closed at {len(cert['k_not_closed'])}"
-                      f" of {len(k)} k value(s); see status in {out}/spectrum.csv",
-                      file=sys.stderr)
-            best = summary["most_unstable"]
-            if best is not None and not args.quiet:
-                sure = "certified" if best["certificate"]["certified"] else "NOT certified"
-                print(f"most unstable ({sure}): {best['branch']} at k = {best['k']:.6g}: "
-                      f"Lambda = {best['re_lambda']:.10g} {best['im_lambda']:+.10g}i "
-                      f"({cert['rows']} eigenvalues in R over {len(k)} k values, {wall:.1f} s"
-                      f" on {comm.size} rank(s)) -> {out}")
+            sweep.write_json(os.path.join(out, "summary.json"), summary)
+            code = report(summary, len(k), wall, comm.size, out, args.quiet)
         code = comm.bcast(code)
+    return code
+
+
+def report(summary: dict, n_k: int, wall: float, ranks: int, out: str, quiet: bool) -> int:
+    """Rank 0: the warning (flagged rows or open counts) and the most unstable line; exit code."""
+    cert = summary["certificate"]
+    code = 0
+    if cert["k_not_closed"] or cert["rows_ok"] < cert["rows"]:
+        code = 1
+        print(f"warning: {cert['rows'] - cert['rows_ok']} of {cert['rows']} "
+              f"eigenvalue(s) flagged, count not closed at {len(cert['k_not_closed'])}"
+              f" of {n_k} k value(s); see status in {out}/spectrum.csv", file=sys.stderr)
+    best = summary["most_unstable"]
+    if best is not None and not quiet:
+        sure = "certified" if best["certificate"]["certified"] else "NOT certified"
+        print(f"most unstable ({sure}): {best['branch']} at k = {best['k']:.6g}: "
+              f"Lambda = {best['re_lambda']:.10g} {best['im_lambda']:+.10g}i "
+              f"({cert['rows']} eigenvalues in R over {n_k} k values, {wall:.1f} s"
+              f" on {ranks} rank(s)) -> {out}")
     return code
 
 

@@ -41,7 +41,18 @@ import time
 import _cli
 import numpy as np
 
+from analytic import parse_branch_label
+from analytic.growth_fit import excited_branch, figure_data, mode_period, summarise_run
 from analytic.params import require_rigid
+from forms.timedomain import NonlinearLaw
+from forms.timedomain_run import (
+    RunWriter,
+    read_checkpoint,
+    read_outputs,
+    run_record,
+    run_time_domain,
+    setup_strip,
+)
 
 PETSC_PREFIXES = ("td_",)
 #: Files the scene writes (and the results folder's measured tables, made from its runs).
@@ -109,16 +120,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 def validate(args: argparse.Namespace):  # noqa: ANN201 - (Params, NonlinearLaw)
     """Check every option (no collective call); raise ParameterError with one line."""
-    from forms.timedomain import NonlinearLaw
-
     params = _cli.params_from_args(args)
     require_rigid(params, "the time-domain scene")
     if not math.isfinite(params.H):
         raise _cli.ParameterError("H = inf is outside its allowed range (finite H for a strip)")
     _cli.check_k(args.k)
     law = NonlinearLaw(params, a=args.a, v0=args.v0, kind=args.friction)
-    from analytic import parse_branch_label
-
     parse_branch_label(args.branch)
     checks = [("amplitude", args.amplitude, 0.0, 1.0), ("periods", args.periods, 0.0, math.inf),
               ("linear-limit", args.linear_limit, args.amplitude, 1.0),
@@ -167,9 +174,6 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
 
 def _run(args: argparse.Namespace, comm: object, params: object, law: object) -> int:
     """The simulation, in a checked and locked output folder."""
-    from analytic.growth_fit import excited_branch, mode_period
-    from forms.timedomain_run import RunWriter, read_checkpoint, run_time_domain, setup_strip
-
     config = _config(args, comm.size)
     resume = read_checkpoint(args.out) if args.resume else None
     if resume is not None and resume["config"] != config:
@@ -209,9 +213,6 @@ def _summarise(args: argparse.Namespace, params: object, td: object, mode: objec
                exact: complex, period: float, t_end: float, outcome: object,
                setup_time: float) -> None:
     """summary.json, the printed numbers and the pictures (rank 0)."""
-    from analytic.growth_fit import figure_data, summarise_run
-    from forms.timedomain_run import read_outputs, run_record
-
     data, frames = read_outputs(args.out)
     analysis = summarise_run(data, frames, exact, args.k, params.f,
                              args.fit_start if args.fit_start is not None else period,

@@ -32,6 +32,7 @@ import time
 
 import _cli
 import _plots
+from tqdm import tqdm
 
 from mpi4py import MPI
 
@@ -124,12 +125,7 @@ def _run(comm: MPI.Comm, opts: argparse.Namespace, rows: list[tuple[float, float
     t0 = time.perf_counter()
     iterator = mine
     if comm.rank == 0:
-        try:
-            from tqdm import tqdm
-
-            iterator = tqdm(mine, desc="phase diagram (rank 0 share)", file=sys.stderr)
-        except ImportError:
-            pass
+        iterator = tqdm(mine, desc="phase diagram (rank 0 share)", file=sys.stderr)
     local = [r for f, b, fam, g in iterator
              for r in pd.boundary_records(f, b, fam, g, window.delta_max)]
     gathered = comm.gather(local, root=0)

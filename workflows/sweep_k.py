@@ -42,6 +42,7 @@ import time  # noqa: E402
 
 import _cli  # noqa: E402
 import numpy as np  # noqa: E402
+from tqdm import tqdm  # noqa: E402
 
 from analytic.params import Params  # noqa: E402
 from analytic.spectrum import Region  # noqa: E402
@@ -225,8 +226,6 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         mine = [todo[j] for j in _cli.my_share(comm, sweep.k_costs(params, region, k, todo))]
         bar = None
         if comm.rank == 0 and not args.quiet and mine:
-            from tqdm import tqdm
-
             bar = tqdm(total=len(mine), desc=f"k values (rank 0 of {comm.size})", unit="k",
                        file=sys.stderr)
         share = sweep.solve_k_values(params, region, disc, args.rtol, k, mine, fams, out,

@@ -40,6 +40,7 @@ import time
 
 import _cli
 import numpy as np
+from tqdm import tqdm
 
 from analytic import parse_branch_label
 from analytic.growth_fit import excited_branch, figure_data, mode_period, summarise_run
@@ -193,8 +194,6 @@ def _run(args: argparse.Namespace, comm: object, params: object, law: object) ->
     theta_switch = writer.start(td, resume)
     bar = None
     if comm.rank == 0 and not args.quiet:
-        from tqdm import tqdm
-
         bar = tqdm(total=n_steps, initial=td.step, unit="step", file=sys.stderr,
                    desc=f"time domain {label} k={args.k:g}")
     outcome = run_time_domain(td, writer, n_steps,

@@ -446,6 +446,19 @@ def my_share(comm: Any, costs: Sequence[float]) -> list[int]:
     return share_by_cost(costs, comm.size)[comm.rank]
 
 
+def map_shared(comm: Any, costs: Sequence[float], fn: Callable[[int], Any]) -> dict[int, Any]:
+    """``{i: fn(i)}`` for every index of ``costs``, each computed on one rank, on every rank.
+
+    This rank computes its :func:`my_share`; the results are gathered on every rank
+    (collective: every rank calls it).
+    """
+    local = {i: fn(i) for i in my_share(comm, costs)}
+    merged: dict[int, Any] = {}
+    for part in comm.allgather(local):
+        merged.update(part)
+    return merged
+
+
 # -------------------------------------------------------------------------- output folder
 def _first_difference(old: Any, new: Any, path: str = "") -> str | None:
     """Dotted path of the first difference of two JSON values, ``None`` if equal."""

@@ -83,11 +83,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     config = {"params": p0.as_dict(), "mu2_grid": args.mu2_grid, "H2s": h2s, "k": args.k,
               "rho2_exponent": args.rho2_exponent, "region": region.as_dict(p0)}
     with _cli.RunFolder(comm, args.out, "contrast", config, outputs=OUTPUTS) as run:
-        mine = _cli.my_share(comm, [1.0 + (not math.isfinite(h)) for _, h in cases])
-        local = {i: best_over_k(params[i], ks, region) for i in mine}
-        res: dict[int, dict] = {}
-        for part in comm.allgather(local):
-            res.update(part)
+        res = _cli.map_shared(comm, [1.0 + (not math.isfinite(h)) for _, h in cases],
+                              lambda i: best_over_k(params[i], ks, region))
         if comm.rank == 0:
             rows = [{"mu2": float(m), "rho2": params[i].rho2, "H2": h, **res[i]}
                     for i, (m, h) in enumerate(cases)]

@@ -54,18 +54,16 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     region = Region(args.re_min, 2.0, args.c_max)
     config = {"params": p.as_dict(), "k": args.k, "region": region.as_dict(p)}
     with _cli.RunFolder(comm, args.out, "envelope", config, outputs=OUTPUTS) as run:
-        mine = _cli.my_share(comm, [region.im_max(p, kk) ** 1.5 for kk in k])
-        local = {}
-        for i in mine:
+
+        def fastest(i: int) -> tuple[complex | None, int]:
             try:
-                z, n, bx = fastest_root(p, float(k[i]), region)
+                z, n, _ = fastest_root(p, float(k[i]), region)
             except ContourError as err:  # reported, the run goes on
                 _cli.say(f"k = {k[i]:g}: no count ({err})", err=True)
-                z, n = None, -1
-            local[i] = (z, n)
-        rows = {}
-        for part in comm.allgather(local):
-            rows.update(part)
+                return None, -1
+            return z, n
+
+        rows = _cli.map_shared(comm, [region.im_max(p, kk) ** 1.5 for kk in k], fastest)
         ks = [float(v) for v in k]
         re = np.array([rows[i][0].real if rows[i][0] is not None else np.nan
                        for i in range(len(k))])

@@ -72,9 +72,12 @@ def envelope_maximum(p: Params, region: Region, ks: list[float], zs: list) -> di
     Returns:
         ``k``, ``kH``, ``re_lambda``, ``im_lambda``, ``phase_velocity_over_c_d`` of the
         maximum; ``grid_k_of_largest_value`` and ``at_grid_edge`` of the largest sample;
-        ``refinement`` (what was done) and ``local_peaks``.
+        ``refinement`` (what was done) and ``local_peaks``. None if no ``k`` of the grid has a
+        root in the region (or a count).
     """
     re = np.array([z.real if z is not None else np.nan for z in zs])
+    if np.isnan(re).all():
+        return None
     j = int(np.nanargmax(re))
     ref = refine_envelope(p, region, ks, zs)
     kb, zb = ref["best"]["k"], ref["best"]["Lambda"]

@@ -54,13 +54,41 @@ def test_contrast_rigid_limit_and_rows(tmp_path, nproc):
 
 @pytest.mark.parametrize("script, bad, word", [("contrast.py", ["--H2s", "0"], "--H2s"),
                                                ("contrast.py", ["--mu2", "-1"], "mu2"),
-                                               ("envelope.py", ["--k", "2:1:10log"], "--k")])
+                                               ("envelope.py", ["--k", "2:1:10log"], "--k"),
+                                               ("envelope.py", ["--mu2", "3", "--H2", "0.5"],
+                                                "mu2")])
 def test_bad_input_one_line(tmp_path, script, bad, word):
     proc = run_workflow(script, [*bad, "--out", str(tmp_path / "o")])
     assert proc.returncode == 2
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and word in lines[0], proc.stderr
     assert not (tmp_path / "o").exists()
+
+
+def test_envelope_without_any_root_in_the_region(tmp_path):
+    """Frictionless sliding (f = 0): every root is neutral, none has Re >= 1e-3 (no maximum)."""
+    out = tmp_path / "e"
+    proc = run_workflow("envelope.py", ["--f", "0", "--re-min", "1e-3", "--k", "1,2", "--out",
+                                        str(out)])
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "no root in the region" in proc.stdout
+    s = json.loads((out / "summary.json").read_text())
+    assert s["global_max_on_grid"] is None and s["large_kH"]["re_lambda_max"] is None
+    with open(out / "envelope.csv") as fh:
+        assert all(r["re_lambda_max"] == "" for r in csv.DictReader(fh))
+
+
+def test_contrast_reports_a_failed_count_in_its_exit_code(tmp_path):
+    """mu2 = 0.1, H2 = H, k = 20: the two-body count fails on its contour (measured: more than
+    50000 samples near z = 0.000346 - 184.9i; the README's contrast run met it too)."""
+    out = tmp_path / "c"
+    proc = run_workflow("contrast.py", ["--mu2-grid", "0.1", "--H2s", "H", "--k", "20",
+                                        "--out", str(out)])
+    with open(out / "contrast.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [int(r["failed_counts"]) for r in rows] == [1]
+    assert proc.returncode == 1, proc.stderr[-2000:]
+    assert "warning: the count failed at 1 grid k value(s)" in proc.stderr
 
 
 # ------------------------------------------------------------- analytic.growth (direct)

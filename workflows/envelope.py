@@ -6,10 +6,11 @@ At every k the argument principle counts every exact root in the region R of the
 (``analytic.spectrum.Region``: phase velocities up to ``--c-max`` c_d) and the fastest one is
 kept; the largest local maxima of the samples are refined along their root's family.
 Answers: where is the global maximum of the growth rate over k, and what does the envelope do
-as k H grows? The
-half-space (k H -> infinity) maximum of the dilatational family (``analytic.halfspace``) is drawn
-for comparison. Writes ``envelope.csv``, ``summary.json``, ``envelope.png``. ``--k`` accepts
-``start:stop:count`` (linear), ``start:stop:countlog`` (geometric) or a comma list.
+as k H grows? The half-space (k H -> infinity) maximum of the dilatational family
+(``analytic.halfspace``) is drawn for comparison. Writes ``envelope.csv``, ``summary.json``,
+``envelope.png``. ``--k`` accepts ``start:stop:count`` (linear), ``start:stop:countlog``
+(geometric) or a comma list. Exit code 1 if the root count failed at some k (each is reported,
+and left out of the maximum).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ import numpy as np
 
 from analytic import halfspace
 from analytic.growth import envelope_maximum
+from analytic.params import require_rigid
 from analytic.roots import ContourError
 from analytic.spectrum import Region, fastest_root
 
@@ -50,20 +52,23 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     p = _cli.params_from_args(args)
     if not math.isfinite(p.H):
         raise _cli.ParameterError("H = inf is outside its allowed range here (a finite strip)")
+    require_rigid(p, "envelope.py")
     k = _cli.parse_grid(args.k)
     region = Region(args.re_min, 2.0, args.c_max)
     config = {"params": p.as_dict(), "k": args.k, "region": region.as_dict(p)}
     with _cli.RunFolder(comm, args.out, "envelope", config, outputs=OUTPUTS) as run:
 
-        def fastest(i: int) -> tuple[complex | None, int]:
+        def fastest(i: int) -> tuple[complex | None, int, str]:
             try:
                 z, n, _ = fastest_root(p, float(k[i]), region)
-            except ContourError as err:  # reported, the run goes on
-                _cli.say(f"k = {k[i]:g}: no count ({err})", err=True)
-                return None, -1
-            return z, n
+            except ContourError as err:  # reported (by rank 0, below), the run goes on
+                return None, -1, str(err)
+            return z, n, ""
 
         rows = _cli.map_shared(comm, [region.im_max(p, kk) ** 1.5 for kk in k], fastest)
+        failed = [i for i in range(len(k)) if rows[i][1] < 0]
+        for i in failed:
+            _cli.say(f"k = {k[i]:g}: no count ({rows[i][2]})", err=True)
         ks = [float(v) for v in k]
         re = np.array([rows[i][0].real if rows[i][0] is not None else np.nan
                        for i in range(len(k))])
@@ -74,25 +79,35 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                 w = csv.writer(fh)
                 w.writerow(["k", "kH", "re_lambda_max", "im_lambda", "roots_in_region"])
                 for i, kk in enumerate(ks):
-                    z, n = rows[i]
+                    z, n, _ = rows[i]
                     w.writerow([repr(kk), repr(kk * p.H), repr(z.real) if z else "",
                                 repr(z.imag) if z else "", n])  # n = -1: count failed
             summary = {"parameters": p.as_dict(), "region": region.as_dict(p),
                        "global_max_on_grid": best,
                        "halfspace_dilatational_max": {"growth": hs.growth, "q": hs.q_growth},
-                       "large_kH": {"kH": ks[-1] * p.H, "re_lambda_max": float(re[-1])},
+                       "large_kH": {"kH": ks[-1] * p.H, "re_lambda_max":
+                                    float(re[-1]) if np.isfinite(re[-1]) else None},
+                       "failed_counts_k": [ks[i] for i in failed],
                        "versions": _cli.versions(), "command": _cli.command()}
             with open(run.file("summary.json"), "w") as fh:
                 json.dump(summary, fh, indent=1)
             plot(run.file("envelope.png"), p, np.array(ks), re, best, hs.growth, config)
-            _cli.say(f"global maximum on [{ks[0]:g}, {ks[-1]:g}]: Re Lambda = "
-                     f"{best['re_lambda']:.6f} at k = {best['k']:.5g} (k H = {best['kH']:.4g}),"
-                     f" Im Lambda = {best['im_lambda']:.6g}; at k H = {ks[-1] * p.H:g}: "
-                     f"{re[-1]:.6f}")
-    return 0
+            if best is None:
+                _cli.say(f"no root in the region (Re Lambda >= {region.re_min:g}) at any k of "
+                         f"[{ks[0]:g}, {ks[-1]:g}]")
+            else:
+                _cli.say(f"global maximum on [{ks[0]:g}, {ks[-1]:g}]: Re Lambda = "
+                         f"{best['re_lambda']:.6f} at k = {best['k']:.5g} (k H = "
+                         f"{best['kH']:.4g}), Im Lambda = {best['im_lambda']:.6g}; at k H = "
+                         f"{ks[-1] * p.H:g}: {re[-1]:.6f}")
+            if failed:
+                _cli.say(f"warning: the count failed at {len(failed)} of {len(ks)} k value(s) "
+                         "(no value there; the maximum is over the others); see "
+                         "failed_counts_k in summary.json", err=True)
+    return 1 if failed else 0
 
 
-def plot(path: str, p: object, k: np.ndarray, re: np.ndarray, best: dict, hs: float,
+def plot(path: str, p: object, k: np.ndarray, re: np.ndarray, best: dict | None, hs: float,
          meta: dict) -> None:
     """envelope.png: max Re Lambda against k H (log axis)."""
     import matplotlib
@@ -102,8 +117,9 @@ def plot(path: str, p: object, k: np.ndarray, re: np.ndarray, best: dict, hs: fl
 
     fig, ax = plt.subplots(figsize=(8, 4.5))
     ax.semilogx(k * p.H, re, "o-", ms=3, color="k", label="max Re Lambda over every mode in R")
-    ax.plot([best["kH"]], [best["re_lambda"]], "*", ms=15, color="gold", mec="k",
-            label=f"maximum: {best['re_lambda']:.5f} at k H = {best['kH']:.3g}")
+    if best is not None:
+        ax.plot([best["kH"]], [best["re_lambda"]], "*", ms=15, color="gold", mec="k",
+                label=f"maximum: {best['re_lambda']:.5f} at k H = {best['kH']:.3g}")
     ax.axhline(hs, color="tab:blue", ls="--", lw=1,
                label=f"half-space dilatational maximum {hs:.2g}")
     ax.axhline(0, color="0.5", lw=0.6)

@@ -36,6 +36,23 @@ def _finite(name: str, value: float) -> float:
     return v
 
 
+def _beta(name: str, value: float, meaning: str) -> float:
+    """A wave-speed ratio ``c_s/c_d`` of one body: finite, ``0 < value < 1/sqrt(2)``."""
+    v = _finite(name, value)
+    if not 0.0 < v < BETA_MAX:
+        raise ParameterError(
+            f"{name} = {value!r} is outside its allowed range 0 < {name} < 1/sqrt(2)"
+            f" = {BETA_MAX:.6f} ({name} = {meaning})"
+        )
+    return v
+
+
+def _boundary_condition(name: str, value: str) -> None:
+    """An outer boundary condition: one of :data:`BOUNDARY_CONDITIONS`."""
+    if value not in BOUNDARY_CONDITIONS:
+        raise ParameterError(f"{name} = {value!r} is not one of {', '.join(BOUNDARY_CONDITIONS)}")
+
+
 def _positive_or_inf(name: str, value: float) -> float:
     try:
         v = float(value)
@@ -122,12 +139,7 @@ class Params:
         gamma = _finite("gamma", self.gamma)
         if gamma <= 0:
             raise ParameterError(f"gamma = {self.gamma!r} is outside its allowed range gamma > 0")
-        beta = _finite("beta", self.beta)
-        if not 0.0 < beta < BETA_MAX:
-            raise ParameterError(
-                f"beta = {self.beta!r} is outside its allowed range 0 < beta < 1/sqrt(2)"
-                f" = {BETA_MAX:.6f} (beta = c_s/c_d)"
-            )
+        beta = _beta("beta", self.beta, "c_s/c_d")
         delta = _finite("Delta", self.Delta)
         try:
             h = float(self.H)
@@ -135,10 +147,7 @@ class Params:
             raise ParameterError(f"H = {self.H!r} is not a number") from None
         if math.isnan(h) or h <= 0:
             raise ParameterError(f"H = {self.H!r} is outside its allowed range H > 0")
-        if self.bc not in BOUNDARY_CONDITIONS:
-            raise ParameterError(
-                f"bc = {self.bc!r} is not one of {', '.join(BOUNDARY_CONDITIONS)}"
-            )
+        _boundary_condition("bc", self.bc)
         apc = _finite("alpha_pc", self.alpha_pc)
         ald = _finite("alpha_ld", self.alpha_ld)
         if apc < 0:
@@ -149,19 +158,9 @@ class Params:
         rho2 = _finite("rho2", self.rho2)
         if rho2 <= 0:
             raise ParameterError(f"rho2 = {self.rho2!r} is outside its allowed range rho2 > 0")
-        beta2 = None
-        if self.beta2 is not None:
-            beta2 = _finite("beta2", self.beta2)
-            if not 0.0 < beta2 < BETA_MAX:
-                raise ParameterError(
-                    f"beta2 = {self.beta2!r} is outside its allowed range 0 < beta2 < 1/sqrt(2)"
-                    f" = {BETA_MAX:.6f} (beta2 = c_s2/c_d2)"
-                )
+        beta2 = None if self.beta2 is None else _beta("beta2", self.beta2, "c_s2/c_d2")
         h2 = _positive_or_inf("H2", self.H2)
-        if self.bc2 not in BOUNDARY_CONDITIONS:
-            raise ParameterError(
-                f"bc2 = {self.bc2!r} is not one of {', '.join(BOUNDARY_CONDITIONS)}"
-            )
+        _boundary_condition("bc2", self.bc2)
         for name, value in (("f", f), ("gamma", gamma), ("beta", beta), ("Delta", delta),
                             ("H", h), ("alpha_pc", apc), ("alpha_ld", ald), ("mu2", mu2),
                             ("rho2", rho2), ("beta2", beta2), ("H2", h2)):

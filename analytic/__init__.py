@@ -6,8 +6,7 @@ Generic root tools: ``roots``. Physical units: ``units``. Half-space: ``halfspac
 Deformable substrate (finite ``mu2``, issue 9): ``twobody`` (the branch tools dispatch on it).
 """
 
-from analytic import halfspace, largek, twobody
-from analytic.branches import (
+from analytic.numerics.branches import (
     BranchResult,
     branch_label,
     follow_branch,
@@ -16,8 +15,18 @@ from analytic.branches import (
     polish_root,
     roots_in_box,
 )
-from analytic.finite_h import cutoff, det_M, matrix_M, spectrum_S
-from analytic.halfspace import (
+from analytic.numerics.roots import (
+    ContourError,
+    Root,
+    count_zeros,
+    polish,
+    winding_number,
+    zeros_in_box,
+)
+from analytic.params import ParameterError, Params, check_k
+from analytic.physics import halfspace, largek, twobody
+from analytic.physics.finite_h import cutoff, det_M, matrix_M, spectrum_S
+from analytic.physics.halfspace import (
     HalfSpaceRoot,
     dilatational_root,
     max_growth,
@@ -25,10 +34,8 @@ from analytic.halfspace import (
     s_tilde,
     shear_root,
 )
-from analytic.params import ParameterError, Params, check_k
-from analytic.roots import ContourError, Root, count_zeros, polish, winding_number, zeros_in_box
-from analytic.smallk import lambda_smallk, slope
-from analytic.twobody import det_twobody, generalized_rayleigh
+from analytic.physics.smallk import lambda_smallk, slope
+from analytic.physics.twobody import det_twobody, generalized_rayleigh
 from analytic.units import Conversion, Physical, to_dimensionless, to_physical
 
 __all__ = [

@@ -151,7 +151,7 @@ def _finite_params(args: argparse.Namespace) -> Params:
 
 
 def _branch(args: argparse.Namespace) -> int:
-    from analytic.branches import follow_branches
+    from analytic.numerics.branches import follow_branches
 
     p = _finite_params(args)
     k = parse_k(args.k)
@@ -224,7 +224,7 @@ def _dispersion(args: argparse.Namespace) -> int:
 
 
 def _gr(args: argparse.Namespace) -> int:
-    from analytic.twobody import generalized_rayleigh
+    from analytic.physics.twobody import generalized_rayleigh
 
     g = generalized_rayleigh(args.mu2, args.rho2, args.beta, args.beta2)
     print(json.dumps(g.as_dict()))
@@ -232,7 +232,7 @@ def _gr(args: argparse.Namespace) -> int:
 
 
 def _grmap(args: argparse.Namespace) -> int:
-    from analytic.twobody import write_gr_map
+    from analytic.physics.twobody import write_gr_map
 
     Params(beta=args.beta, beta2=args.beta2)  # validates
     positive_int("--n", args.n, 3, 1000)

@@ -10,9 +10,9 @@ import sys
 
 import numpy as np
 
-from analytic.branches import BranchResult, follow_branches
+from analytic.numerics.branches import BranchResult, follow_branches
 from analytic.params import Params
-from analytic.smallk import lambda_smallk
+from analytic.physics.smallk import lambda_smallk
 
 
 def _versions() -> dict[str, str]:

@@ -217,7 +217,8 @@ def require_rigid(p: Params, what: str) -> None:
     """
     if p.two_body:
         raise ParameterError(f"mu2 = {p.mu2!r}: {what} is for the rigid substrate (mu2 = inf) "
-                             "only; two bodies: analytic.twobody / analytic.branches")
+                             "only; two bodies: analytic.physics.twobody / "
+                             "analytic.numerics.branches")
 
 
 def check_k(k: float | np.ndarray, name: str = "k") -> np.ndarray:

@@ -2,8 +2,8 @@
 
 Works on a displacement field ``u`` (a :class:`dolfinx.fem.Function` on a vector Lagrange space
 of a :mod:`meshes.strip` mesh), whatever produced it: a strip eigenvector
-(:meth:`forms.strip.StripProblem.to_function`) or the cross-section mode interpolated on the
-strip (:meth:`forms.cross_section_continuation.CrossSectionMode.field`).
+(:meth:`forms.models.strip.StripProblem.to_function`) or the cross-section mode interpolated on the
+strip (:meth:`forms.solvers.continuation.CrossSectionMode.field`).
 
 - :func:`harmonic_content`: share of ``|u|^2`` in each wavenumber ``k + 2 pi m / L`` of a
   Bloch cell (tells the wanted mode from the ``0, -k, 2k, ...`` modes the cell also holds);
@@ -26,7 +26,7 @@ from mpi4py import MPI
 from forms.elasticity import sigma
 
 if TYPE_CHECKING:
-    from forms.strip import StripProblem
+    from forms.models.strip import StripProblem
 
 
 def _allgather_rows(comm: MPI.Comm, rows: np.ndarray) -> np.ndarray:

@@ -168,7 +168,8 @@ def layered_strip_mesh(comm: MPI.Comm, length: float, pieces: list[np.ndarray], 
                        ) -> dolfinx.mesh.Mesh:
     """Triangles on ``0 < x < length`` times the bodies of a layered stack (two-body strip).
 
-    Each piece (increasing ``y`` vertices of one body, e.g. :meth:`forms.layered.Stack.pieces`)
+    Each piece (increasing ``y`` vertices of one body, e.g.
+    :meth:`forms.models.layered.Stack.pieces`)
     becomes a structured grid of ``nx`` columns, every quadrilateral cut into two triangles;
     the bodies get *separate* nodes where they touch (``y = 0``), as in
     :func:`meshes.layered.interval_from_pieces`, so the slider may slip on the substrate. The

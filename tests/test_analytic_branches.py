@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from analytic.branches import (
+from analytic.numerics.branches import (
     branch_label,
     follow_branch,
     follow_branches,

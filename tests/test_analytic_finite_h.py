@@ -4,8 +4,10 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from analytic.branches import follow_branch, polish_root, roots_in_box
-from analytic.finite_h import (
+from analytic.numerics.branches import follow_branch, polish_root, roots_in_box
+from analytic.numerics.roots import count_zeros, polish
+from analytic.params import ParameterError, Params
+from analytic.physics.finite_h import (
     cutoff,
     det_M,
     det_M_even,
@@ -13,8 +15,6 @@ from analytic.finite_h import (
     friction_coefficients,
     spectrum_S,
 )
-from analytic.params import ParameterError, Params
-from analytic.roots import count_zeros, polish
 
 # Pure numpy (no MPI, no FE): the serial pass is enough.
 pytestmark = pytest.mark.serial

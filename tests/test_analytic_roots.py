@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from analytic.roots import ContourError, count_zeros, polish, winding_number, zeros_in_box
+from analytic.numerics.roots import ContourError, count_zeros, polish, winding_number, zeros_in_box
 
 # Pure numpy (no MPI, no FE): the serial pass is enough.
 pytestmark = pytest.mark.serial

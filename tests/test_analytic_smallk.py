@@ -3,10 +3,10 @@ import math
 import numpy as np
 import pytest
 
-from analytic.branches import follow_branch
-from analytic.finite_h import cutoff
+from analytic.numerics.branches import follow_branch
 from analytic.params import ParameterError, Params
-from analytic.smallk import growth_rate_beta_half, growth_rate_paper, lambda_smallk, slope
+from analytic.physics.finite_h import cutoff
+from analytic.physics.smallk import growth_rate_beta_half, growth_rate_paper, lambda_smallk, slope
 
 # Pure numpy (no MPI, no FE): the serial pass is enough.
 pytestmark = pytest.mark.serial

@@ -1,4 +1,5 @@
-"""forms.benchmark: the measurements of workflows/benchmark.py (errors and orders, no times).
+"""forms.studies.benchmark: the measurements of workflows/benchmark.py (errors and orders, no
+times).
 
 The models live on COMM_SELF: every rank of the mpirun -n 2 pass computes the same numbers.
 """
@@ -6,7 +7,7 @@ The models live on COMM_SELF: every rank of the mpirun -n 2 pass computes the sa
 import numpy as np
 import pytest
 
-from forms import benchmark as bench
+from forms.studies import benchmark as bench
 
 
 @pytest.mark.parametrize("degree, cells", [(2, (6, 12)), (3, (3, 6))])

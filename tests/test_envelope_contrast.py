@@ -1,5 +1,5 @@
 """Smoke tests of workflows/envelope.py and workflows/contrast.py (serial and mpirun -n 2),
-checked against the exact roots they are built on; direct tests of analytic.growth."""
+checked against the exact roots they are built on; direct tests of analytic.studies.growth."""
 
 import csv
 import json
@@ -9,8 +9,8 @@ import pytest
 from _workflows import run_workflow
 
 from analytic import Params, roots_in_box
-from analytic.growth import best_over_k, curve_shape, envelope_maximum
-from analytic.spectrum import Region, fastest_root
+from analytic.numerics.spectrum import Region, fastest_root
+from analytic.studies.growth import best_over_k, curve_shape, envelope_maximum
 
 pytestmark = pytest.mark.serial  # subprocesses (their own mpirun) and pure numpy
 
@@ -91,7 +91,7 @@ def test_contrast_reports_a_failed_count_in_its_exit_code(tmp_path):
     assert "warning: the count failed at 1 grid k value(s)" in proc.stderr
 
 
-# ------------------------------------------------------------- analytic.growth (direct)
+# ------------------------------------------------------------- analytic.studies.growth (direct)
 @pytest.mark.parametrize("growth, monotonic, changes", [([0.1, 0.2, 0.2, 0.5], True, 0),
                                                         ([0.5, 0.5, 0.3, 0.0], True, 0),
                                                         ([0.1, 0.4, 0.2, 0.3], False, 2)])

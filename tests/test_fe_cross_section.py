@@ -12,11 +12,11 @@ import pytest
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from analytic.numerics.tracking import branches, normalized, waveguide_lambda
 from analytic.params import Params
-from analytic.tracking import branches, normalized, waveguide_lambda
-from forms.cross_section import CrossSectionModel
 from forms.friction import FrictionLaw
-from forms.solvers import PolynomialSolver, SplitSolver, relative_residual
+from forms.models.cross_section import CrossSectionModel
+from forms.solvers.slepc import PolynomialSolver, SplitSolver, relative_residual
 
 logging.disable(logging.INFO)
 

@@ -12,11 +12,11 @@ import pytest
 
 from mpi4py import MPI
 
-from analytic.branches import follow_branch, polish_root
+from analytic.numerics.branches import follow_branch, polish_root
+from analytic.numerics.tracking import Branch, waveguide_lambda
 from analytic.params import Params
-from analytic.tracking import Branch, waveguide_lambda
-from forms.cross_section import CrossSectionModel
-from forms.solvers import PolynomialSolver
+from forms.models.cross_section import CrossSectionModel
+from forms.solvers.slepc import PolynomialSolver
 
 logging.disable(logging.INFO)
 

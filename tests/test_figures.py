@@ -1,5 +1,6 @@
-"""Smoke tests of workflows/figures.py (serial and mpirun -n 2); its data (analytic.gallery) and
-FE checks (forms.gallery) directly."""
+"""Smoke tests of workflows/figures.py (serial and mpirun -n 2); its data
+(analytic.studies.gallery) and
+FE checks (forms.studies.gallery) directly."""
 
 import json
 import os
@@ -83,8 +84,8 @@ def test_figures_bad_input(tmp_path, args, word):
 @pytest.mark.serial
 def test_gap_tracks_are_continuous_and_switch_sheet():
     """The data behind Fig. gaps: each curve is one continuous root, solid (s) then dashed (s~)."""
-    from analytic.halfspace import dilatational_tracks, physical_curve
     from analytic.params import Params
+    from analytic.physics.halfspace import dilatational_tracks, physical_curve
 
     p = Params(gamma=0.96 / 0.3)
     steps = {}
@@ -105,7 +106,7 @@ def test_gap_tracks_are_continuous_and_switch_sheet():
 
 @pytest.mark.serial
 def test_finite_h_figure_written(tmp_path):
-    """stress_top (finite-H continuation of analytic.branches, no FE) is written."""
+    """stress_top (finite-H continuation of analytic.numerics.branches, no FE) is written."""
     out = tmp_path / "fig"
     res = run(["--out", str(out), "--only", "stress_top", "--n-q", "24", "--no-fe"])
     assert res.returncode == 0, res.stderr
@@ -114,12 +115,12 @@ def test_finite_h_figure_written(tmp_path):
     assert (out / "stress_top.png").stat().st_size > 10_000
 
 
-# ---------------------------------------------------- the gallery's data (analytic.gallery)
+# ---------------------------------------------------- the gallery's data (analytic.studies.gallery)
 @pytest.mark.serial
 @pytest.mark.parametrize("n", [1, 2, 3, 7, 50])
 @pytest.mark.parametrize("mask", ["all", "middle", "sparse", "none"])
 def test_sample_spreads_over_the_valid_points(n, mask):
-    from analytic.gallery import sample
+    from analytic.studies.gallery import sample
 
     valid = {"all": np.ones(30, bool), "middle": np.r_[np.zeros(8), np.ones(15), np.zeros(7)],
              "sparse": np.arange(30) % 4 == 1, "none": np.zeros(30, bool)}[mask].astype(bool)
@@ -136,7 +137,7 @@ def test_sample_spreads_over_the_valid_points(n, mask):
 
 @pytest.mark.serial
 def test_read_overlay_groups_by_panel_and_label(tmp_path):
-    from analytic.gallery import read_overlay
+    from analytic.studies.gallery import read_overlay
 
     (tmp_path / "comparison.csv").write_text(
         "x,y,label,panel\n1,2,a,0\n3,4,a,0\n5,6,b,1\n7,8,a,1\n")
@@ -157,7 +158,7 @@ def test_read_overlay_groups_by_panel_and_label(tmp_path):
 @pytest.mark.parametrize("name", ["comparison", "both", "modified1", "gaps", "stress_top"])
 @pytest.mark.parametrize("fe_points", [2, 5])
 def test_fe_tasks_lie_on_the_drawn_curves(name, fe_points):
-    from analytic import gallery
+    from analytic.studies import gallery
 
     data = gallery.MAKERS[name](gallery.Settings(n_q=12, fe_points=fe_points))
     assert data.name == name and data.series and data.tasks
@@ -177,9 +178,9 @@ def test_fe_tasks_lie_on_the_drawn_curves(name, fe_points):
 @pytest.mark.parametrize("quantity", ["growth", "re_z"])
 def test_fe_value_matches_the_half_space_root(quantity):
     """``Re z`` of a task is its root's ``z`` (``Lambda = -i q z``); growth its ``Re Lambda``."""
-    from analytic import gallery
-    from analytic.halfspace import dilatational_root
     from analytic.params import Params
+    from analytic.physics.halfspace import dilatational_root
+    from analytic.studies import gallery
 
     p = Params(gamma=0.96 / 0.3)
     for q in (0.05, 1.0, 20.0):
@@ -190,14 +191,15 @@ def test_fe_value_matches_the_half_space_root(quantity):
         assert np.isclose(gallery.fe_value(t.target, t, quantity), want, rtol=1e-12, atol=1e-15)
 
 
-# ------------------------------------------------------- the FE check points (forms.gallery)
+# ------------------------------------------------------- the FE check points
+# (forms.studies.gallery)
 @pytest.mark.serial
 @pytest.mark.parametrize("flags", [[], ["residual"]])
 @pytest.mark.parametrize("rel", [1e-9, 3e-6])
 def test_check_points_trusts_unflagged_finite_results(flags, rel):
-    from analytic.gallery import FETask
     from analytic.params import Params
-    from forms.gallery import FE_MODELS, check_points, figure_check
+    from analytic.studies.gallery import FETask
+    from forms.studies.gallery import FE_MODELS, check_points, figure_check
 
     p = Params()
     tasks = [FETask("gaps", f"c{i}", "C0", "pml", p, 0.5 + i, complex(-1e-3, 2.0 + i),
@@ -225,8 +227,8 @@ def test_check_points_trusts_unflagged_finite_results(flags, rel):
 def test_solve_fe_shares_the_units_and_every_rank_gets_every_result():
     from mpi4py import MPI
 
-    from analytic import gallery
-    from forms.gallery import check_points, fe_units, solve_fe
+    from analytic.studies import gallery
+    from forms.studies.gallery import check_points, fe_units, solve_fe
 
     comm = MPI.COMM_WORLD
     s = gallery.Settings(n_q=12, fe_points=2)

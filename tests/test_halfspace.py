@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from analytic import halfspace as hs
 from analytic.params import ParameterError, Params
+from analytic.physics import halfspace as hs
 
 # Pure numpy (no MPI, no FE): the serial pass is enough.
 pytestmark = pytest.mark.serial
@@ -152,7 +152,7 @@ def test_dilatational_roots_and_gap_closure():
 def test_argument_principle_counts():
     """Checked statements: exactly one physical unstable dilatational/shear root near the branch
     points, none with Im z >= 0.05 in a large box."""
-    from analytic.roots import count_zeros
+    from analytic.numerics.roots import count_zeros
 
     p = Params(gamma=4.0)
     q = 0.5
@@ -209,7 +209,7 @@ def test_bad_input():
 @pytest.mark.parametrize("case", ["shear", "dilatational", "dilatational_generalized",
                                   "quasistatic"])
 def test_finite_h_roots_tend_to_half_space_roots(bc, case):
-    """Independent cross-check with det M(Lambda, k, H) (analytic.finite_h): the
+    """Independent cross-check with det M(Lambda, k, H) (analytic.physics.finite_h): the
     finite-H root polished from the half-space root converges to it as H -> infinity, for both
     top conditions (the paper: they become equivalent for H -> infinity).
 
@@ -218,7 +218,7 @@ def test_finite_h_roots_tend_to_half_space_roots(bc, case):
     (shear), 1.4e-7, 1.1e-7 (dilatational), 2.8e-8, 2.6e-8 (generalized), so the agreement is
     the limit, not a coincidence.
     """
-    from analytic.branches import polish_root
+    from analytic.numerics.branches import polish_root
 
     if case == "shear":
         p, q, root = Params(gamma=0.25, Delta=0.0), 0.24, hs.shear_root

@@ -1,6 +1,8 @@
-"""The paper's large-kH closed forms against the exact roots of s(z, q) (analytic.halfspace).
+"""The paper's large-kH closed forms against the exact roots of s(z, q)
+(analytic.physics.halfspace).
 
-Numbers quoted in comments were measured on 2026-11-21 (this machine, analytic.halfspace with
+Numbers quoted in comments were measured on 2026-11-21 (this machine, analytic.physics.halfspace
+with
 Newton tol 1e-14); where a closed form is an approximation the test pins the measured error.
 """
 
@@ -10,9 +12,9 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq, minimize_scalar
 
-from analytic import halfspace as hs
-from analytic import largek as lk
 from analytic.params import Params
+from analytic.physics import halfspace as hs
+from analytic.physics import largek as lk
 
 # Pure numpy (no MPI, no FE): the serial pass is enough.
 pytestmark = pytest.mark.serial

@@ -1,8 +1,9 @@
-"""Layered cross-section model (forms/layered.py): rigid limit, two bodies vs exact, PML layers.
+"""Layered cross-section model (forms/models/layered.py): rigid limit, two bodies vs exact, PML
+layers.
 
 Runs serially and under ``mpirun -n 2 python -m mpi4py -m pytest`` (``world``: one mesh
 distributed over both ranks; ``self``: one mesh per rank). The exact two-body roots come from
-:func:`analytic.twobody.det_twobody`, polished (Newton) from each FE root.
+:func:`analytic.physics.twobody.det_twobody`, polished (Newton) from each FE root.
 """
 
 import logging
@@ -13,14 +14,14 @@ import pytest
 
 from mpi4py import MPI
 
-from analytic import largek
-from analytic.halfspace import dilatational_root
+from analytic.numerics.roots import polish
+from analytic.numerics.tracking import normalized
 from analytic.params import Params
-from analytic.roots import polish
-from analytic.tracking import normalized
-from analytic.twobody import det_twobody
-from forms.cross_section import CrossSectionModel
-from forms.layered import (
+from analytic.physics import largek
+from analytic.physics.halfspace import dilatational_root
+from analytic.physics.twobody import det_twobody
+from forms.models.cross_section import CrossSectionModel
+from forms.models.layered import (
     Layer,
     LayeredModel,
     Stack,
@@ -28,8 +29,8 @@ from forms.layered import (
     pml_stack,
     stack_from_params,
 )
-from forms.pml import HalfSpaceModel, design_layer
-from forms.solvers import PolynomialSolver, SplitSolver
+from forms.models.pml import HalfSpaceModel, design_layer
+from forms.solvers.slepc import PolynomialSolver, SplitSolver
 
 logging.disable(logging.INFO)
 COMMS = {"world": MPI.COMM_WORLD, "self": MPI.COMM_SELF}
@@ -191,7 +192,7 @@ def test_stiff_substrate_approaches_rigid():
 
 @pytest.mark.parametrize("comm_name", ["world", "self"])
 def test_stretched_layer_is_the_halfspace_model(comm_name):
-    """Rigid half-space: a PML as a stretched Layer equals forms.pml.HalfSpaceModel."""
+    """Rigid half-space: a PML as a stretched Layer equals forms.models.pml.HalfSpaceModel."""
     comm = COMMS[comm_name]
     p = Params(H=math.inf)
     q = 0.3
@@ -316,7 +317,7 @@ def test_k_blocks_recombine_to_the_operator():
 @pytest.mark.parametrize("case", ["rigid", "vel-stress"])
 def test_two_body_strip_agrees_with_cross_section(case):
     """2D Bloch strip of the same stack (P3 triangles, one wavelength) vs the 1D model."""
-    from forms.layered_strip import LayeredStrip
+    from forms.models.layered_strip import LayeredStrip
 
     p = Params() if case == "rigid" else TWO_BODY[case]
     target = -6.6j if case == "rigid" else -0.1 - 1.95j
@@ -346,7 +347,7 @@ def test_two_body_strip_agrees_with_cross_section(case):
 
 def test_two_body_strip_mode_picture(tmp_path_factory):
     """Strip mode: u_y equal on both sides of y = 0 at every x, slip nonzero; PNG written."""
-    from forms.layered_strip import LayeredStrip, mode_data, plot_mode
+    from forms.models.layered_strip import LayeredStrip, mode_data, plot_mode
 
     p = TWO_BODY["vel-stress"]
     comm = MPI.COMM_WORLD
@@ -374,8 +375,8 @@ def test_two_body_strip_mode_picture(tmp_path_factory):
 
 
 def test_spatial_roots_work_on_two_bodies():
-    """forms.spatial_stability.spatial_roots (a PEP in k from the k-blocks) recovers k."""
-    from forms.spatial_stability import spatial_roots
+    """forms.solvers.spatial_stability.spatial_roots (a PEP in k from the k-blocks) recovers k."""
+    from forms.solvers.spatial_stability import spatial_roots
 
     p = TWO_BODY["vel-stress"]
     comm = MPI.COMM_WORLD

@@ -2,7 +2,7 @@
 
 The workflow runs in a subprocess (it must import pyvista before dolfinx, see its header), once
 serially and once under ``mpirun -n 2``; these tests are marked serial so each launches once.
-Its computation (:mod:`forms.strip_mode`) is also tested directly, serially and under MPI.
+Its computation (:mod:`forms.studies.strip_mode`) is also tested directly, serially and under MPI.
 """
 
 import json
@@ -20,8 +20,8 @@ import pyvista  # noqa: F401, I001
 from mpi4py import MPI
 
 from analytic.params import Params
-from forms import strip_mode
-from forms.cross_section_continuation import follow_branch
+from forms.solvers.continuation import follow_branch
+from forms.studies import strip_mode
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCRIPT = os.path.join(ROOT, "workflows", "mode_shape.py")
@@ -112,7 +112,8 @@ def test_mode_shape_from_cross_section(tmp_path):
         assert im.info["Title"].startswith("cross-section model")
 
 
-# ------------------------------------------------------------ forms.strip_mode, called directly
+# ------------------------------------------------------------ forms.studies.strip_mode, called
+# directly
 @pytest.fixture(scope="module")
 def bloch_k1():
     """The tiny strip of the workflow test (k = 1, 12 x 3 cells, P2) and its solved mode."""

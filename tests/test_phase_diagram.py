@@ -7,7 +7,7 @@ import os
 import pytest
 from _workflows import run_workflow
 
-from analytic import largek as lk
+from analytic.physics import largek as lk
 
 TINY = ["--f", "0.3", "--n-gamma", "2", "--gamma-min", "1e-4", "--gamma-max", "0.5"]
 

@@ -1,4 +1,4 @@
-"""Half-space modes with a PML layer (forms/pml.py) against the roots of s(z, q).
+"""Half-space modes with a PML layer (forms/models/pml.py) against the roots of s(z, q).
 
 Runs serially and under ``mpirun -n 2 python -m mpi4py -m pytest`` (``world``: one mesh
 distributed over both ranks; ``self``: one mesh per rank).
@@ -13,10 +13,10 @@ import pytest
 
 from mpi4py import MPI
 
-from analytic import largek
-from analytic.halfspace import dilatational_root, shear_root
 from analytic.params import Params
-from forms.pml import (
+from analytic.physics import largek
+from analytic.physics.halfspace import dilatational_root, shear_root
+from forms.models.pml import (
     classify_sheet,
     design_layer,
     solve_halfspace,
@@ -134,13 +134,13 @@ def test_layer_design_damps_both_waves(q, gamma, delta, family):
     assert cmath.phase(s) == pytest.approx(d.phi)
 
 
-# ------------------------------------------------------------ forms/halfspace_modes.py
+# ------------------------------------------------------------ forms/studies/halfspace_modes.py
 @pytest.mark.parametrize("comm_name", ["world", "self"])
 @pytest.mark.parametrize("q,sheet", [(0.3, "physical"), (1.0, "s_tilde")])
 def test_solve_k_rows(q, sheet, comm_name):
     """The rows of one k as halfspace_modes.py writes them: PML trusted and right, a short
     plain strip flagged and wrong."""
-    from forms.halfspace_modes import COLUMNS, solve_k
+    from forms.studies.halfspace_modes import COLUMNS, solve_k
 
     p = _p(3.0, 0.7)
     root = dilatational_root(q, p)
@@ -164,7 +164,7 @@ def test_solve_k_rows(q, sheet, comm_name):
 @pytest.mark.serial
 @pytest.mark.parametrize("silent_rtol", [1e-6, 1e-3])
 def test_silent_failures_and_summary(silent_rtol):
-    from forms.halfspace_modes import failure_summary, merge_rows, silent_failures
+    from forms.studies.halfspace_modes import failure_summary, merge_rows, silent_failures
 
     def row(k, method, trusted, err, H=math.inf):  # noqa: N803
         return {"k": k, "branch": "unstable", "method": method, "bc": "", "H": H,

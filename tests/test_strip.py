@@ -13,8 +13,8 @@ slepc4py.init(sys.argv[:1])
 from mpi4py import MPI  # noqa: E402
 
 from analytic.params import ParameterError, Params  # noqa: E402
-from forms.periodic import bloch_map  # noqa: E402
-from forms.strip import build_strip_problem, solve_modes  # noqa: E402
+from forms.models.periodic import bloch_map  # noqa: E402
+from forms.models.strip import build_strip_problem, solve_modes  # noqa: E402
 from meshes.strip import LEFT, RIGHT, edge_dofs, strip_mesh, wavelength  # noqa: E402
 
 # docs/design.md section 4: velocity top, paper defaults, H = 0.5, k = 1, branch 0- (exact root).
@@ -127,9 +127,9 @@ def test_bad_strip_arguments(bad):
 def test_strip_matches_cross_section(bc, branch, measured):
     import logging
 
-    from analytic.tracking import Branch, waveguide_lambda
-    from forms.cross_section import CrossSectionModel
-    from forms.solvers import PolynomialSolver
+    from analytic.numerics.tracking import Branch, waveguide_lambda
+    from forms.models.cross_section import CrossSectionModel
+    from forms.solvers.slepc import PolynomialSolver
 
     logging.disable(logging.INFO)
     k, params = 1.0, Params(bc=bc)
@@ -142,7 +142,7 @@ def test_strip_matches_cross_section(bc, branch, measured):
     model.destroy()
     if bc == "velocity" and branch == "0-":
         assert abs(reference - CHECK_VALUE) < 1e-10 * abs(CHECK_VALUE)
-    from analytic.branches import polish_root
+    from analytic.numerics.branches import polish_root
 
     exact = polish_root(params, k, reference)
     assert exact.converged
@@ -171,9 +171,9 @@ def test_follow_branch_stays_on_stress_top_0plus():
 
     The branch peaks at Re Lambda = 0.23294 near k = 1.545 (checked against the exact root).
     """
-    from analytic.branches import polish_root
-    from analytic.tracking import Branch, waveguide_lambda
-    from forms.cross_section_continuation import follow_branch
+    from analytic.numerics.branches import polish_root
+    from analytic.numerics.tracking import Branch, waveguide_lambda
+    from forms.solvers.continuation import follow_branch
 
     params = Params(bc="stress")
     b = Branch.parse("0+")

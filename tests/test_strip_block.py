@@ -1,4 +1,5 @@
-"""Finite block (free lateral ends): real operators, forms.block, the finite_block workflow."""
+"""Finite block (free lateral ends): real operators, forms.studies.block, the finite_block
+workflow."""
 
 import csv
 import json
@@ -16,11 +17,11 @@ slepc4py.init(sys.argv[:1])
 from mpi4py import MPI  # noqa: E402
 
 from analytic.params import Params  # noqa: E402
-from forms import block  # noqa: E402
-from forms.cross_section_continuation import follow_branch  # noqa: E402
 from forms.mode_postprocessing import interface_stresses  # noqa: E402
-from forms.spatial_stability import kulikovskii_limit  # noqa: E402
-from forms.strip import build_strip_problem, solve_modes  # noqa: E402
+from forms.models.strip import build_strip_problem, solve_modes  # noqa: E402
+from forms.solvers.continuation import follow_branch  # noqa: E402
+from forms.solvers.spatial_stability import kulikovskii_limit  # noqa: E402
+from forms.studies import block  # noqa: E402
 from meshes.strip import strip_mesh  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -148,7 +149,8 @@ def test_finite_block_workflow(tmp_path, ranks):
     assert again[:2] == rows
 
 
-# ---------------------------------------------------------------- forms.block, called directly
+# ---------------------------------------------------------------- forms.studies.block, called
+# directly
 @pytest.mark.serial
 @pytest.mark.parametrize("p", [1.0, 2.3])
 @pytest.mark.parametrize("ratio", [2.0, 3.0])

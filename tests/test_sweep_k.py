@@ -1,4 +1,5 @@
-"""The certified complete spectrum: forms.certified / analytic.spectrum and workflows/sweep_k.py.
+"""The certified complete spectrum: forms.solvers.certified / analytic.numerics.spectrum and
+workflows/sweep_k.py.
 
 The module-level tests run serially and under mpirun -n 2 (the models live on COMM_SELF, so
 every rank must get the same numbers); the scene runs are subprocesses, launched from the serial
@@ -16,9 +17,9 @@ from _workflows import run_workflow
 from mpi4py import MPI
 
 from analytic import Params, roots_in_box
-from analytic.spectrum import Region, certified_roots, families
-from forms import sweep
-from forms.certified import CertifiedSolver, KResult, default_discretisation
+from analytic.numerics.spectrum import Region, certified_roots, families
+from forms.solvers.certified import CertifiedSolver, KResult, default_discretisation
+from forms.studies import sweep
 
 #: k = 1, branch 0-, paper defaults (docs/design.md section 4).
 CHECK_VALUE = 0.2716852879456 - 6.5866951866228j
@@ -68,7 +69,8 @@ def test_fe_count_equals_exact_count_and_values_match(bc, k):
     {"mu2": 10.0, "rho2": 2.0, "H2": 0.3, "alpha_pc": 0.2},
 ])
 def test_two_body_certified_spectrum(case):
-    """Two deformable bodies (layered FE model vs analytic.twobody): counts close, values match."""
+    """Two deformable bodies (layered FE model vs analytic.physics.twobody): counts close, values
+    match."""
     res, ex, fe, nearest = _solve_and_match(Params(H=0.5, **case), 1.5)
     assert res.closed and res.n_fe == res.n_exact == len(ex) == len(res.rows) > 0
     assert sorted(nearest) == list(range(len(ex)))
@@ -79,7 +81,7 @@ def test_two_body_certified_spectrum(case):
 
 def test_count_check_fails_when_a_root_is_removed(monkeypatch):
     """A root taken out of the candidates on purpose: the k must be flagged, every row too."""
-    import forms.certified as fc
+    import forms.solvers.certified as fc
 
     p, region, k = Params(H=0.5), Region(), 3.0
     fams = families(p, region, np.array([k]))
@@ -110,7 +112,8 @@ def test_region_holds_the_fastest_mode():
 
 
 def test_distributed_solve_equals_the_serial_solve_and_resumes(tmp_path):
-    """forms.sweep: families and k values shared over the ranks (round robin), written to the
+    """forms.studies.sweep: families and k values shared over the ranks (round robin), written to
+    the
     raw files, read back; equal to the serial solve at every k on every rank. A removed file
     is the only pending k on resume; without resume every k is pending again."""
     comm = MPI.COMM_WORLD
@@ -159,7 +162,8 @@ def _row(k, re, status="ok", err=1e-10, est=2e-10):
 @pytest.mark.parametrize("closed", [True, False])
 @pytest.mark.parametrize("best_status", ["ok", "error 1e-06 > rtol"])
 def test_summary_counts_and_most_unstable(closed, best_status):
-    """forms.sweep.summarise on hand-made results: counts, accuracy, the largest Re Lambda and
+    """forms.studies.sweep.summarise on hand-made results: counts, accuracy, the largest Re Lambda
+    and
     its certificate (certified only if its row is ok and every k closed)."""
     p, region, k = Params(H=0.5), Region(), np.array([1.0, 2.0])
     results = [KResult(1.0, [_row(1.0, -0.5), _row(1.0, 0.1, est=float("nan"))], 2, 2,

@@ -1,6 +1,6 @@
 """Time domain (issue 10): growth and decay rates measured in a simulation against eigenvalues.
 
-:mod:`forms.timedomain` runs on ``COMM_WORLD`` (so under ``mpirun -n 2`` the strip is
+:mod:`forms.timedomain.model` runs on ``COMM_WORLD`` (so under ``mpirun -n 2`` the strip is
 distributed); the scene runs as a subprocess, serially and on 2 ranks, marked serial.
 Coarse mesh everywhere: Q1, 32 x 8 cells on one wavelength (576 unknowns), a few periods.
 The reference numbers in the comments were measured with these exact settings
@@ -44,8 +44,8 @@ def _run(params, branch, cfl=0.9, t_end=T_END, amplitude=1e-6, friction="rate-st
          initial="lumped"):
     from mpi4py import MPI
 
-    from analytic.growth_fit import fit_growth, linear_window
-    from forms.timedomain import NonlinearLaw, build_time_domain
+    from analytic.studies.growth_fit import fit_growth, linear_window
+    from forms.timedomain.model import NonlinearLaw, build_time_domain
     from meshes.strip import strip_mesh
 
     n, sign = parse_branch_label(branch)
@@ -135,7 +135,7 @@ def test_energy_balance(friction):
 @pytest.mark.serial
 def test_friction_law_linearisation():
     """The nonlinear law's derivatives at steady sliding are the project's (a, b, Delta, gamma)."""
-    from forms.timedomain import NonlinearLaw, aging_step
+    from forms.timedomain.model import NonlinearLaw, aging_step
 
     p = Params()
     law = NonlinearLaw(p)
@@ -254,7 +254,7 @@ def test_momentum_balance_top_force():
     """
     from mpi4py import MPI
 
-    from forms.timedomain import NonlinearLaw, build_time_domain
+    from forms.timedomain.model import NonlinearLaw, build_time_domain
     from meshes.strip import strip_mesh
 
     params = Params()
@@ -304,7 +304,7 @@ def test_scene_stops_at_end_of_validity(tmp_path):
     assert s["nonlinear"]["arrested_fraction"] > 0  # it got there through local arrest
 
 
-# --- the measurement of a recorded run (analytic.growth_fit, pure numpy) and the run driver
+# --- the measurement of a recorded run (analytic.studies.growth_fit, pure numpy) and the run driver
 SERIES_FIELDS = ("step", "t", "re_c", "im_c", "energy", "energy_change", "work_friction",
                  "max_dv", "top_force")
 
@@ -329,7 +329,7 @@ def test_summarise_run_synthetic(re_lambda, fit_end):
     the phase over 200-700 samples); tolerances 1e-13. The energy residual is the 1e-20 put
     in (measured to 8.7e-9 relative: the round-off of ``1e-12 sin t`` cancelled).
     """
-    from analytic.growth_fit import mode_period, summarise_run
+    from analytic.studies.growth_fit import mode_period, summarise_run
 
     lam = complex(re_lambda, -6.4)
     exact = complex(1.1 * re_lambda, -6.5)
@@ -373,7 +373,7 @@ def test_figure_data_synthetic():
     The three ``approx`` checks measured exact (0); tolerances 1e-14 and 1e-12 leave room for
     the rounding of ``exp`` and of the squared maximum on other platforms.
     """
-    from analytic.growth_fit import figure_data, mode_period
+    from analytic.studies.growth_fit import figure_data, mode_period
 
     exact = complex(0.3, -6.0)
     t = np.arange(0.0, 20.0, 0.01)
@@ -403,7 +403,7 @@ def test_figure_data_synthetic():
 @pytest.mark.serial
 def test_excited_branch():
     """The named branch's exact root; --most-unstable: the largest Re Lambda of n = 0..2."""
-    from analytic.growth_fit import excited_branch
+    from analytic.studies.growth_fit import excited_branch
 
     params = Params()
     roots = {}
@@ -420,8 +420,8 @@ def test_excited_branch():
 @pytest.mark.serial
 def test_end_of_validity():
     """Opening is named before slip reversal, with the nodes where it happened."""
-    from forms.timedomain import Sample
-    from forms.timedomain_run import end_of_validity
+    from forms.timedomain.model import Sample
+    from forms.timedomain.run import end_of_validity
 
     fields = {"x": np.array([0.0, 1.0, 2.0]), "sigma": np.array([0.1, -1.0, -0.5]),
               "v": np.array([1.0, -0.1, 0.5])}
@@ -441,9 +441,9 @@ def test_run_driver_files_and_resume(tmp_path):
     """
     from mpi4py import MPI
 
-    from analytic.growth_fit import excited_branch
-    from forms.timedomain import NonlinearLaw
-    from forms.timedomain_run import (
+    from analytic.studies.growth_fit import excited_branch
+    from forms.timedomain.model import NonlinearLaw
+    from forms.timedomain.run import (
         CSV_COLUMNS,
         RunWriter,
         read_checkpoint,

@@ -1,10 +1,10 @@
-"""Branch tracking by eigenvector overlap (analytic.tracking), on synthetic candidates."""
+"""Branch tracking by eigenvector overlap (analytic.numerics.tracking), on synthetic candidates."""
 
 import numpy as np
 import pytest
 
+from analytic.numerics.tracking import Branch, branches, normalized, track_branch, waveguide_lambda
 from analytic.params import Params
-from analytic.tracking import Branch, branches, normalized, track_branch, waveguide_lambda
 
 pytestmark = pytest.mark.serial  # pure numpy: once is enough
 

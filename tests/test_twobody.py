@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from analytic.branches import follow_branch, polish_root, roots_in_box, spectrum_function
 from analytic.cli import main
-from analytic.finite_h import det_M
+from analytic.numerics.branches import follow_branch, polish_root, roots_in_box, spectrum_function
+from analytic.numerics.roots import count_zeros, polish, zeros_in_box
 from analytic.params import ParameterError, Params
-from analytic.roots import count_zeros, polish, zeros_in_box
-from analytic.twobody import (
+from analytic.physics.finite_h import det_M
+from analytic.physics.twobody import (
     _layer,
     _state_matrix,
     cutoff_twobody,
@@ -95,7 +95,7 @@ def test_argument_principle_counts_agree_with_entire_propagator(box, bc2):
 
 def test_spurious_order_of_the_even_basis_is_eight():
     """det(M_even) vanishes like Lambda^8 at 0 (Lambda^4 per layer), det_twobody does not."""
-    from analytic.twobody import matrix_twobody
+    from analytic.physics.twobody import matrix_twobody
 
     p = Params(**TWO_BODY)
     d = [abs(np.linalg.det(matrix_twobody(e * (1 + 0.3j), 0.8, p, "even"))) for e in (1e-3, 5e-4)]
@@ -370,7 +370,8 @@ def test_finite_stack_phase_is_continuous_across_the_imaginary_axis(kw, k):
     a = det_twobody(1e-10 + 1j * y, k, p)
     b = det_twobody(-1e-10 + 1j * y, k, p)
     assert np.abs(np.angle(a / b)).max() < 1e-5  # measured <= 6e-7 rad
-    # measured <= 0.14 relative: far below the 0.8 that analytic.roots.winding_number allows
+    # measured <= 0.14 relative: far below the 0.8 that analytic.numerics.roots.winding_number
+    # allows
     # between samples (a larger jump would raise ContourError, not miscount)
     assert np.abs(np.abs(a) / np.abs(b) - 1).max() < 0.3
 
@@ -388,7 +389,7 @@ def test_half_space_substrate_branch_is_leaky_then_followed_continuously(kw):
     # distance ~0.07: the counting boxes meet it and the point is flagged "ambiguous")
     b = follow_branch(p, 0, -1, [0.1, 0.5, 1.0])
     assert b.ok.all(), b.note
-    from analytic.twobody import root_sheet
+    from analytic.physics.twobody import root_sheet
 
     sheets = [root_sheet(L, kk, p) for L, kk in zip(b.Lambda, b.k, strict=True)]
     assert sheets[0] == "leaky"

@@ -53,8 +53,8 @@ def test_dense_companion_matches_pep():
     from mpi4py import MPI
 
     from analytic.params import Params
-    from forms.cross_section import CrossSectionModel
-    from forms.solvers import PolynomialSolver, dense_companion_eig
+    from forms.models.cross_section import CrossSectionModel
+    from forms.solvers.slepc import PolynomialSolver, dense_companion_eig
 
     model = CrossSectionModel(MPI.COMM_SELF, Params(), degree=3, cells=6)
     op = model.operator(1.0)
@@ -70,9 +70,10 @@ def test_dense_companion_matches_pep():
     model.destroy()
 
 
-# ----------------------------------------------------------- forms/work_precision.py directly
+# ----------------------------------------------------------- forms/studies/work_precision.py
+# directly
 def _pt(case, method, seconds, err):
-    from forms.work_precision import error_row
+    from forms.studies.work_precision import error_row
 
     ref = 1.0 + 0j
     return error_row(case, method, 2, 4, 10, seconds, ref * (1 + err), ref)
@@ -83,7 +84,7 @@ def _pt(case, method, seconds, err):
 @pytest.mark.parametrize("fe_only", [False, True])
 def test_mark_pareto(case, fe_only):
     """Dominance in time and error, with errors within PARETO_SLACK counted as equal."""
-    from forms.work_precision import PARETO_SLACK, mark_pareto
+    from forms.studies.work_precision import PARETO_SLACK, mark_pareto
 
     other = "halfspace" if case == "finite_H" else "finite_H"
     rows = {"analytic": _pt(case, "analytic", 1e-4, 1e-15),
@@ -104,7 +105,13 @@ def test_mark_pareto(case, fe_only):
 
 @pytest.mark.serial
 def test_best_of_and_rows():
-    from forms.work_precision import best_of, error_row, fastest_seconds, job_cost, make_jobs
+    from forms.studies.work_precision import (
+        best_of,
+        error_row,
+        fastest_seconds,
+        job_cost,
+        make_jobs,
+    )
 
     calls = []
     sec, out = best_of(lambda x: calls.append(x) or len(calls), 3, "a")
@@ -128,7 +135,7 @@ def test_job_points(job):
     """One job of each kind, as the scene runs it (one rank each)."""
     from mpi4py import MPI
 
-    from forms.work_precision import COLUMNS, job_points, merge_rows, reference_cases
+    from forms.studies.work_precision import COLUMNS, job_points, merge_rows, reference_cases
 
     cases = reference_cases()
     rows = job_points(MPI.COMM_SELF, job, cases, 1, True, prefixes=("twp_pep_", "twp_nep_"))

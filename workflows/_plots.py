@@ -18,8 +18,8 @@ import os
 import _cli
 import numpy as np
 
-from analytic import largek as lk
-from analytic.phase_diagram import FAMILIES, Window
+from analytic.physics import largek as lk
+from analytic.physics.phase_diagram import FAMILIES, Window
 
 #: Colour of each root family in the phase diagram.
 COLORS = {"dilatational": "tab:blue", "shear": "tab:red", "quasistatic": "tab:green"}
@@ -60,9 +60,9 @@ def draw_phase_diagram(rows: list[tuple[float, float]], records: list[dict],
 
     Args:
         rows: ``(f, beta)`` rows.
-        records: Kept boundary records (:func:`analytic.phase_diagram.sort_records`); the
+        records: Kept boundary records (:func:`analytic.physics.phase_diagram.sort_records`); the
             numerical ones are drawn as markers over the closed-form lines.
-        window: Axes extent (:class:`analytic.phase_diagram.Window`).
+        window: Axes extent (:class:`analytic.physics.phase_diagram.Window`).
 
     Returns:
         The matplotlib figure (the caller saves and closes it).

@@ -5,10 +5,11 @@
 On one k grid (paper defaults, both partners of n = 0), in this one run:
 
 1. baseline: the paper's method, numpy Newton continuation on the closed form S(Lambda, k, H)
-   (:mod:`analytic.baseline`), one root per branch;
-2. ``analytic`` certified continuation (:func:`analytic.branches.follow_branch`: adaptive steps,
+   (:mod:`analytic.physics.baseline`), one root per branch;
+2. ``analytic`` certified continuation (:func:`analytic.numerics.branches.follow_branch`: adaptive
+steps,
    a root count at every step);
-3. FE continuation (:func:`forms.certified.continue_fe`: Newton on the discrete nonlinear
+3. FE continuation (:func:`forms.solvers.certified.continue_fe`: Newton on the discrete nonlinear
    eigenproblem, previous eigenpair + predictor) on the cheapest P4 mesh whose largest error on
    the grid is <= 1e-10 (measured here against the exact roots);
 4. MPI: the throughput of two concurrent copies of a CPU-bound kernel against one copy, and
@@ -30,7 +31,7 @@ import os
 import _cli
 import numpy as np
 
-from forms import benchmark as bench
+from forms.studies import benchmark as bench
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 PETSC_PREFIXES: tuple[str, ...] = ()

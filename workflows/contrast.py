@@ -5,7 +5,7 @@
 For every substrate stiffness ``mu2`` (density ``rho2 = --rho2 * (mu2)^--rho2-exponent``: 0 keeps
 the density, 1 keeps the shear-wave speed) and every substrate height of ``--H2s``, the growth
 rate is maximised over every mode and over k: at each k of ``--k`` the argument principle
-counts every exact root of ``analytic.twobody`` in the region R of the sweep (``Re >=
+counts every exact root of ``analytic.physics.twobody`` in the region R of the sweep (``Re >=
 --re-min``, phase velocities up to ``--c-max`` c_d), the fastest is kept, and the largest grid
 values are refined by sampling between their neighbours (as ``envelope.py``). For a half-space
 substrate (``inf``) the region stays in ``Re > 0``, on the physical sheet. Is the curve
@@ -24,8 +24,8 @@ import os
 import _cli
 import numpy as np
 
-from analytic.growth import best_over_k, curve_shape
-from analytic.spectrum import Region
+from analytic.numerics.spectrum import Region
+from analytic.studies.growth import best_over_k, curve_shape
 
 PETSC_PREFIXES: tuple[str, ...] = ()
 OUTPUTS = ("contrast.csv", "summary.json", "contrast.png", "run.json", "run.lock")

@@ -3,11 +3,12 @@
     mpirun -n N python workflows/envelope.py [--bc velocity] [--k 0.05:100:48log] [--out DIR]
 
 At every k the argument principle counts every exact root in the region R of the sweep
-(``analytic.spectrum.Region``: phase velocities up to ``--c-max`` c_d) and the fastest one is
+(``analytic.numerics.spectrum.Region``: phase velocities up to ``--c-max`` c_d) and the fastest one
+is
 kept; the largest local maxima of the samples are refined along their root's family.
 Answers: where is the global maximum of the growth rate over k, and what does the envelope do
 as k H grows? The half-space (k H -> infinity) maximum of the dilatational family
-(``analytic.halfspace``) is drawn for comparison. Writes ``envelope.csv``, ``summary.json``,
+(``analytic.physics.halfspace``) is drawn for comparison. Writes ``envelope.csv``, ``summary.json``,
 ``envelope.png``. ``--k`` accepts ``start:stop:count`` (linear), ``start:stop:countlog``
 (geometric) or a comma list. Exit code 1 if the root count failed at some k (each is reported,
 and left out of the maximum).
@@ -24,11 +25,11 @@ import os
 import _cli
 import numpy as np
 
-from analytic import halfspace
-from analytic.growth import envelope_maximum
+from analytic.numerics.roots import ContourError
+from analytic.numerics.spectrum import Region, fastest_root
 from analytic.params import require_rigid
-from analytic.roots import ContourError
-from analytic.spectrum import Region, fastest_root
+from analytic.physics import halfspace
+from analytic.studies.growth import envelope_maximum
 
 PETSC_PREFIXES: tuple[str, ...] = ()
 OUTPUTS = ("envelope.csv", "summary.json", "envelope.png", "run.json", "run.lock")

@@ -7,15 +7,15 @@ Figures (``--only`` takes a comma list of these names):
 
 - ``finiteH``: waveguide growth ``H Re Lambda`` vs ``Hk`` for several ``gamma f`` and ``n``,
   and for several ``H`` (Fig. finiteH), with the small-``k`` slope of Eq. (Hspectrum)
-  (``analytic.branches``, ``analytic.smallk``);
+  (``analytic.numerics.branches``, ``analytic.physics.smallk``);
 - ``comparison``: ``Re lambda`` and ``Re z`` vs ``q`` for several ``gamma f``, exact roots of
   ``s(z, q)`` and Eqs. (analytic_spectrum), (kappa_d)+(kappa_d1) (Fig. comparison);
 - ``both``: dilatational and shear instabilities at small ``Delta`` (Fig. both);
-- ``phase_diagram``: Fig. stability_diagram (:mod:`analytic.phase_diagram`, as
+- ``phase_diagram``: Fig. stability_diagram (:mod:`analytic.physics.phase_diagram`, as
   ``workflows/phase_diagram.py``);
 - ``modified1`` / ``modified2``: effect of ``alpha_PC`` / ``alpha_LD`` (Figs. modified1/2);
 - ``stress_top``: velocity vs stress top condition at finite ``H`` (Appendix B figure),
-  ``analytic.branches``;
+  ``analytic.numerics.branches``;
 - ``gaps``: the gaps of the spectrum closed by ``s~`` (Appendix C, Fig. gaps).
 
 Every PNG carries its command line and parameters in the PNG metadata (``Description``,
@@ -23,7 +23,7 @@ Every PNG carries its command line and parameters in the PNG metadata (``Descrip
 
 FE points: every figure except the phase diagram gets FE eigenvalues computed here, at up to
 ``--fe-points`` points per curve, with the exact root as reference: the cross-section model
-(finite H) and the PML half-space model (``forms.pml.solve_halfspace``, including
+(finite H) and the PML half-space model (``forms.models.pml.solve_halfspace``, including
 ``alpha_PC``/``alpha_LD``: the friction row carries them). Only points the FE itself trusts
 are drawn (cross-section: converged, backward error < 1e-10; PML: no flag); ``figures.json``
 lists per figure the number of points, the largest relative deviation from the exact root and
@@ -47,11 +47,11 @@ import numpy as np
 
 from mpi4py import MPI
 
-from analytic import gallery
-from analytic.gallery import FETask, FigureData, Series
 from analytic.params import ParameterError
-from forms import gallery as fe_gallery
-from forms.gallery import CS_DEGREE, PML_DEGREE, Marker
+from analytic.studies import gallery
+from analytic.studies.gallery import FETask, FigureData, Series
+from forms.studies import gallery as fe_gallery
+from forms.studies.gallery import CS_DEGREE, PML_DEGREE, Marker
 
 #: Options prefixes of the SLEPc objects: cross-section solves, PML solves.
 PETSC_PREFIXES = (fe_gallery.CS_PREFIX, "pml_")
@@ -70,7 +70,7 @@ def plot_series(axes, series: list[Series]) -> None:  # noqa: ANN001
 
 def plot_overlay(ax, overlay: dict[int, dict[str, np.ndarray]],  # noqa: ANN001
                  panel: int = 0) -> None:
-    """Draw the overlay points of ``panel`` (:func:`analytic.gallery.read_overlay`) as markers."""
+    """Draw the overlay points of ``panel`` (``analytic.studies.gallery.read_overlay``)."""
     for label, (x, y) in overlay.get(panel, {}).items():
         ax.plot(x, y, "s", ms=4, mfc="none", label=label)
 

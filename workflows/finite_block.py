@@ -1,6 +1,6 @@
 """Finite slider: global modes of a block of length L on the substrate, versus the infinite strip.
 
-The block ``0 < x < L``, ``0 < y < H`` has the same physics as the strip (:mod:`forms.strip`,
+The block ``0 < x < L``, ``0 < y < H`` has the same physics as the strip (:mod:`forms.models.strip`,
 ``k = None``: no Bloch map), with lateral ends ``--lateral free`` (traction-free, default),
 ``roller`` (``u_x = 0``) or ``clamped`` (``u = 0``). For every ``L`` of ``--lengths`` the
 eigenvalues near the infinite strip's branches (``--branches``, cross-section model at several
@@ -14,7 +14,7 @@ kept. Written to ``--out``:
   infinite-strip value, and ``|Lambda_block - Lambda_inf|`` on log axes;
 - ``block_mode.png``: that mode for the largest ``L``: stresses and slip along the interface;
 - ``finite_block.json``: parameters, reference, timings, versions, and the long-block limit
-  from the cross-section model alone (:func:`forms.spatial_stability.kulikovskii_limit`: the
+  from the cross-section model alone (:func:`forms.solvers.spatial_stability.kulikovskii_limit`: the
   global mode of a long block is made of two spatial waves ``k1, k2``; either they have equal
   spatial growth ``Im k1 = Im k2`` (Kulikovskii's condition, convective instability with
   reflections) or they pinch, ``k1 = k2`` (saddle point, absolute instability)), drawn in
@@ -40,10 +40,10 @@ import _plots  # matplotlib only: no pyvista/VTK here, so no import order to kee
 import numpy as np
 from tqdm import tqdm
 
-from analytic.branches import parse_branch_label
+from analytic.numerics.branches import parse_branch_label
 from analytic.params import require_rigid  # noqa: E402
-from forms import block
 from forms.mode_postprocessing import interface_stresses
+from forms.studies import block
 
 #: Options prefixes of the SLEPc objects: block solves, cross-section model, spatial roots.
 PETSC_PREFIXES = ("block_", "xs_", "kroots_")
@@ -121,8 +121,9 @@ def plot_convergence(L: np.ndarray, lam: np.ndarray, g_inf: float, order_p: floa
     """Growth rate of the most unstable block mode against L (rank 0).
 
     ``L``, ``lam``: the converged lengths, sorted, and their eigenvalues
-    (:func:`forms.block.converged_rows`); ``g_inf``, ``order_p``: the extrapolated limit and its
-    order (:func:`forms.block.extrapolate`).
+    (:func:`forms.studies.block.converged_rows`); ``g_inf``, ``order_p``: the extrapolated limit
+    and its
+    order (:func:`forms.studies.block.extrapolate`).
     """
     import matplotlib
 

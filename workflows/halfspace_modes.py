@@ -2,19 +2,20 @@
 
     mpirun -n N python workflows/halfspace_modes.py [options] --out DIR
 
-For every ``k`` the root of the half-space spectrum (``analytic.halfspace``: the dilatational
+For every ``k`` the root of the half-space spectrum (``analytic.physics.halfspace``: the
+dilatational
 family near ``z = 1/beta``, continued in ``k`` through ``q_c`` onto the ``s~`` sheet of
 Appendix C, or the shear family near ``z = -1``) is the reference. The FE computes it
 
-- with the PML layer of :mod:`forms.pml` (two layer settings, failure flags), and
+- with the PML layer of :mod:`forms.models.pml` (two layer settings, failure flags), and
 - with plain strips of the heights ``--H-trunc`` and the top conditions ``--bc-trunc``
-  (the cross-section model of :mod:`forms.cross_section`; flag: reflection estimate at the
+  (the cross-section model of :mod:`forms.models.cross_section`; flag: reflection estimate at the
   top).
 
 Every row says whether the code trusted its number (``trusted``, ``flags``) and how far it is
 from the analytic root; ``summary.json`` counts the *silent failures* (trusted but wrong by
 more than ``--silent-rtol``), which must be zero. The rows and the checks are computed by
-:mod:`forms.halfspace_modes`. Ranks share the ``k`` values (one mesh per
+:mod:`forms.studies.halfspace_modes`. Ranks share the ``k`` values (one mesh per
 rank). Writes ``DIR/halfspace_modes.csv``, ``DIR/summary.json``, ``DIR/halfspace_modes.png``.
 
 Exit codes: 0 fine; 1 some silent failure; 2 bad input (nothing written).
@@ -34,10 +35,10 @@ import numpy as np
 
 from mpi4py import MPI
 
-from analytic.halfspace import follow
 from analytic.params import Params, require_rigid
-from forms import halfspace_modes
-from forms.halfspace_modes import COLUMNS
+from analytic.physics.halfspace import follow
+from forms.studies import halfspace_modes
+from forms.studies.halfspace_modes import COLUMNS
 
 #: Options prefixes of the SLEPc objects: the PML solves and the truncated strips.
 PETSC_PREFIXES = ("pml_", "trunc_")

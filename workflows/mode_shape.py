@@ -1,6 +1,6 @@
 """Mode shape of the sliding strip in real space: files for ParaView and pictures.
 
-Solves the Bloch-periodic strip (:mod:`forms.strip`) at one wavenumber ``k`` near a target,
+Solves the Bloch-periodic strip (:mod:`forms.models.strip`) at one wavenumber ``k`` near a target,
 keeps the eigenvalue whose mode really carries ``exp(-i k x)`` (a one-wavelength cell also holds
 ``0, -k, 2k, ...``: see :func:`forms.mode_postprocessing.harmonic_content`), and writes to
 ``--out``:
@@ -45,10 +45,10 @@ import _plots  # noqa: E402
 
 import dolfinx.io  # noqa: E402
 
-from analytic.branches import parse_branch_label  # noqa: E402
+from analytic.numerics.branches import parse_branch_label  # noqa: E402
 from analytic.params import require_rigid  # noqa: E402
-from analytic.tracking import Branch  # noqa: E402
-from forms import strip_mode  # noqa: E402
+from analytic.numerics.tracking import Branch  # noqa: E402
+from forms.studies import strip_mode  # noqa: E402
 from forms.mode_postprocessing import interface_stresses  # noqa: E402
 
 DEFAULT_K = 1.0
@@ -121,8 +121,9 @@ def plot_mode(gathered: dict, frames: list[tuple[np.ndarray, np.ndarray]], out_p
               fractions: tuple[float, ...] = (0.0,)) -> None:
     """Deformed strip coloured by ``|u|`` or ``sigma_yy``, with direction arrows (rank 0).
 
-    ``gathered`` is :func:`forms.strip_mode.gather_mode`'s grid and ``frames`` its fields at
-    ``t = fraction * period`` (:func:`forms.strip_mode.phase_frames`, growth factored out): each
+    ``gathered`` is :func:`forms.studies.strip_mode.gather_mode`'s grid and ``frames`` its fields at
+    ``t = fraction * period`` (:func:`forms.studies.strip_mode.phase_frames`, growth factored out):
+    each
     row of the picture is one frame, so successive rows step forward in time and the pattern
     moves with the phase velocity ``Im(Lambda) / k``.
     """

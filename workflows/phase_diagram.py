@@ -3,9 +3,9 @@
 For each ``(f, beta)`` row (default: the paper's two rows, ``(0.3, 0.45)`` and ``(0.3, 0.6)``):
 
 - the three boundaries of Eq. (stability_boundaries) from the closed forms
-  (:mod:`analytic.largek`), and
+  (:mod:`analytic.physics.largek`), and
 - the same three boundaries located numerically from the spectrum ``s(z, q)``
-  (:func:`analytic.phase_diagram.bracket_and_threshold`: Brent bisection in ``Delta`` on the
+  (:func:`analytic.physics.phase_diagram.bracket_and_threshold`: Brent bisection in ``Delta`` on the
   sign of the largest growth rate over ``q`` of each root family; the bracket is found by
   doubling, not from the closed form),
 
@@ -36,8 +36,8 @@ from tqdm import tqdm
 
 from mpi4py import MPI
 
-from analytic import phase_diagram as pd
 from analytic.params import ParameterError, Params
+from analytic.physics import phase_diagram as pd
 
 
 # -------------------------------------------------------------------------------------- main
@@ -143,8 +143,8 @@ def _run(comm: MPI.Comm, opts: argparse.Namespace, rows: list[tuple[float, float
                   "delta_min": opts.delta_min, "delta_max": opts.delta_max,
                   "n_gamma": opts.n_gamma, "ranks": comm.size,
                   "method": "Brent bisection in Delta on the sign of max_q of the unstable margin"
-                            " (analytic.halfspace.max_growth, q grids of"
-                            " analytic.halfspace.default_qgrid)"}
+                            " (analytic.physics.halfspace.max_growth, q grids of"
+                            " analytic.physics.halfspace.default_qgrid)"}
     summary = {"parameters": parameters, "versions": _cli.versions(),
                "command": _cli.command(),
                "wall_time_s": elapsed,

@@ -21,8 +21,8 @@ from mpi4py import MPI
 
 from analytic.params import Params
 from forms.friction import DIRICHLET_DIAGONAL, FrictionLaw, apply_dirichlet, friction_operator
-from forms.solvers import PolynomialSolver
-from forms.strip import build_strip_problem
+from forms.models.strip import build_strip_problem
+from forms.solvers.slepc import PolynomialSolver
 from meshes.strip import strip_mesh, wavelength
 
 CHECK_VALUE = 0.2716852879456 - 6.5866951866228j

@@ -44,10 +44,10 @@ import _cli  # noqa: E402
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
+from analytic.numerics.spectrum import Region  # noqa: E402
 from analytic.params import Params  # noqa: E402
-from analytic.spectrum import Region  # noqa: E402
-from forms import sweep  # noqa: E402
-from forms.certified import ROW_FIELDS, KResult, default_discretisation  # noqa: E402
+from forms.solvers.certified import ROW_FIELDS, KResult, default_discretisation  # noqa: E402
+from forms.studies import sweep  # noqa: E402
 
 #: Default k grid: the paper's range (k H up to 3 at H = 0.5).
 DEFAULT_K = "0.05:6:120"

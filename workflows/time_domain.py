@@ -1,7 +1,7 @@
 """Time domain: watch a predicted instability grow on the sliding strip, then see what it becomes.
 
 Simulates the periodic strip (one or more wavelengths ``2 pi / k``) with the full nonlinear
-rate-and-state law (:mod:`forms.timedomain`: explicit central differences, lumped Q1/P1 mass,
+rate-and-state law (:mod:`forms.timedomain.model`: explicit central differences, lumped Q1/P1 mass,
 implicit slip rate per interface node, exact aging step), starting from steady sliding plus
 the eigenmode of ``--branch`` at ``--k`` (``--initial lumped``: the eigenvector of the
 linearised lumped system on the same mesh; ``cross-section``: the 1D model's mode interpolated
@@ -21,8 +21,8 @@ relative difference, window, mesh, time step, parameters, nonlinear outcome, ver
 ``energy.png``; with ``--xdmf-every N`` also ``fields.xdmf`` (displacement perturbation, for
 ParaView).
 
-The run itself is :mod:`forms.timedomain_run` (set-up, stepping loop, files), its measurement
-:mod:`analytic.growth_fit` (fit, summary against the prediction, the figures' curves).
+The run itself is :mod:`forms.timedomain.run` (set-up, stepping loop, files), its measurement
+:mod:`analytic.studies.growth_fit` (fit, summary against the prediction, the figures' curves).
 
 Example (the README pictures)::
 
@@ -43,10 +43,10 @@ import numpy as np
 from tqdm import tqdm
 
 from analytic import parse_branch_label
-from analytic.growth_fit import excited_branch, figure_data, mode_period, summarise_run
 from analytic.params import require_rigid
-from forms.timedomain import NonlinearLaw
-from forms.timedomain_run import (
+from analytic.studies.growth_fit import excited_branch, figure_data, mode_period, summarise_run
+from forms.timedomain.model import NonlinearLaw
+from forms.timedomain.run import (
     RunWriter,
     read_checkpoint,
     read_outputs,
@@ -247,7 +247,7 @@ def plot_all(out: str, fig_data: dict, frames: dict, summary: dict, exact: compl
 
     Args:
         out: Output folder.
-        fig_data: :func:`analytic.growth_fit.figure_data` of the run.
+        fig_data: :func:`analytic.studies.growth_fit.figure_data` of the run.
         frames: Interface frames (``t``, ``x``, ``v``, ``tau``, ``sigma``).
         summary: The run's summary record.
         exact: The predicted eigenvalue.

@@ -7,11 +7,12 @@ Cases (parameters in ``summary.json``):
 
 - ``finite_H``: velocity top, paper defaults (``f=0.3, gamma=3, beta=0.5, Delta=0.7,
   H=0.5``), ``k = 1``, branch ``0-``; reference: the exact root
-  (``analytic.branches.polish_root``, = the check value of docs/design.md section 4,
+  (``analytic.numerics.branches.polish_root``, = the check value of docs/design.md section 4,
   ``0.2716852879456 - 6.5866951866228i``). Cross-section FE, P1..P4, several uniform meshes.
 - ``halfspace``: the same ``f, gamma, beta, Delta``, ``H = inf``, ``k = 0.3``: the
-  dilatational instability; reference ``analytic.halfspace.dilatational_root``. Cross-section
-  FE with the PML layer of :mod:`forms.pml` (one layer setting, i.e. without the second,
+  dilatational instability; reference ``analytic.physics.halfspace.dilatational_root``.
+  Cross-section
+  FE with the PML layer of :mod:`forms.models.pml` (one layer setting, i.e. without the second,
   checking solve, which doubles the cost), P2..P4, the layer's cell size scaled.
 
 Methods: SLEPc PEP (TOAR, shift-and-invert, MUMPS) on the polynomial form, SLEPc NEP
@@ -23,7 +24,7 @@ root itself (Newton on ``det M`` / on ``s`` from a generic start). Time per k: t
 assembled once and not counted; half-space: the layer depends on k, so assembly is counted).
 The Pareto front (no other point both faster and more accurate) is marked.
 
-The points, their errors and the Pareto marks are computed by :mod:`forms.work_precision`.
+The points, their errors and the Pareto marks are computed by :mod:`forms.studies.work_precision`.
 Writes ``DIR/work_precision.csv``, ``DIR/summary.json``, ``DIR/work_precision.png``.
 """
 
@@ -39,8 +40,8 @@ import _cli
 
 from mpi4py import MPI
 
-from forms import work_precision as wp
-from forms.work_precision import COLUMNS, DENSE_MAX, K_FINITE, K_HALF
+from forms.studies import work_precision as wp
+from forms.studies.work_precision import COLUMNS, DENSE_MAX, K_FINITE, K_HALF
 
 #: Options prefixes of the SLEPc objects (PEP and NEP solvers).
 PETSC_PREFIXES = ("wp_pep_", "wp_nep_")
@@ -49,13 +50,13 @@ OUTPUT_FILES = ("work_precision.csv", "summary.json", "work_precision.png")
 #: Meshes per degree (finite H, uniform cells on H = 0.5).
 FINITE_CELLS = {1: (16, 32, 64, 128, 256, 512), 2: (3, 4, 6, 8, 12, 16, 24),
                 3: (2, 3, 4, 6, 8, 12), 4: (1, 2, 3, 4, 6, 8)}
-#: PML cell size factors (times forms.pml.RESOLUTION[degree]).
+#: PML cell size factors (times forms.models.pml.RESOLUTION[degree]).
 HALF_SCALES = {2: (2.0, 1.4, 1.0, 0.7, 0.5), 3: (2.0, 1.4, 1.0, 0.7, 0.5),
                4: (2.5, 2.0, 1.4, 1.0, 0.7, 0.5)}
 TINY_FINITE = {2: (4, 8), 3: (4,)}
 TINY_HALF = {2: (2.0,)}
 #: Largest companion pencil (d n) handed to the dense eigensolver with --tiny (else
-#: forms.work_precision.DENSE_MAX).
+#: forms.studies.work_precision.DENSE_MAX).
 TINY_DENSE_MAX = 300
 
 

@@ -1,0 +1,1 @@
+"""The root machinery: contour counts, Newton, continuation, spectra, tracking."""

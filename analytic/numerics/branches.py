@@ -1,0 +1,490 @@
+"""Branches of the finite-H spectrum, followed in k from the waveguide cut-offs.
+
+A branch ``(n, sign)`` (label ``"0-"``, ``"1+"``, ...) starts at
+``Lambda_0 = sign i (2n+1) pi / (2 beta H)`` when ``k -> 0``. :func:`follow_branch`:
+
+1. at a small ``k_start`` it isolates the single root near ``Lambda_0`` with the argument
+   principle (a box around the small-k prediction :func:`analytic.physics.smallk.lambda_smallk`
+   must hold
+   exactly one root), then polishes it;
+2. marches in ``k`` with a quadratic (three-point) predictor and a Newton corrector on
+   :func:`det_M`;
+3. accepts a step only if the corrector moved less than a quarter of the step's move ``dL``
+   and the square centred between the old and the new root, of half-width
+   ``max(dL, 2 * corrector)``, holds exactly one root both at the new and at the old ``k``
+   (argument principle): otherwise another root is close and the step is halved ("halve the
+   step on doubt"). A silent jump to a neighbouring root would need a predictor error above
+   ~3/4 of the move, and a root approaching ours during the step is seen at one end. If the
+   step falls below ``dk_min`` while roots stay closer than the box (a near-collision), one
+   step of 4x the last undoubted size is tried across it (accepted under the same checks; a
+   note says so); failing that, the point is kept with flag ``"ambiguous"`` (the root nearest
+   the prediction) and the march continues.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from analytic.numerics.roots import (
+    ContourError,
+    Root,
+    count_zeros,
+    polish,
+    winding_numbers,
+    zeros_in_box,
+)
+from analytic.params import ParameterError, Params, check_k
+from analytic.physics.finite_h import cutoff, det_M
+from analytic.physics.smallk import slope
+from analytic.physics.twobody import branch_sheet, cutoff_twobody, det_twobody
+
+#: ``skip(k, Lambda_predicted, uncertainty) -> bool`` (see :func:`follow_branch`).
+Skip = Callable[[float, complex, float], bool]
+
+
+def branch_label(n: int, sign: int) -> str:
+    """``"0-"`` for ``n = 0, sign = -1`` etc."""
+    return f"{n}{'+' if sign > 0 else '-'}"
+
+
+def parse_branch_label(label: str, name: str = "branch") -> tuple[int, int]:
+    """Inverse of :func:`branch_label`: ``"1+" -> (1, +1)``. The one parser of branch labels.
+
+    Args:
+        label: ``"<n>+"`` or ``"<n>-"`` (surrounding blanks ignored).
+        name: What the error message calls the input (e.g. ``"--branch"``).
+
+    Raises:
+        ParameterError: On a malformed label.
+    """
+    s = label.strip()
+    if len(s) < 2 or s[-1] not in "+-" or not s[:-1].isdigit():
+        raise ParameterError(f"{name} = {label!r} is not of the form '<n>+' or '<n>-' (n >= 0)")
+    return int(s[:-1]), (1 if s[-1] == "+" else -1)
+
+
+@dataclass
+class BranchResult:
+    """A branch sampled at the requested wavenumbers (plus the whole continuation path).
+
+    Attributes:
+        label: ``"0-"``, ``"1+"``, ...
+        n: Cut-off index.
+        sign: Sign of ``Im Lambda_0``.
+        k: Requested wavenumbers (ascending, unique).
+        Lambda: Root at each requested ``k`` (NaN where the branch was lost).
+        residual: :attr:`analytic.numerics.roots.Root.residual` of each root (``|det_M|``).
+        cond: :attr:`analytic.numerics.roots.Root.cond` of each root.
+        ok: True where the root is converged and its isolation was checked all the way from
+            the cut-off.
+        flag: ``""`` when ok, otherwise why not: ``"ambiguous"`` (not isolated here),
+            ``"after an ambiguous point at k = ..."`` (the branch's identity is in doubt from
+            there on), ``"lost"``.
+        k_path: Every ``k`` of the continuation (for plots).
+        Lambda_path: The root at every ``k_path``.
+        note: Human-readable summary (where a branch could not be followed).
+    """
+
+    label: str
+    n: int
+    sign: int
+    k: np.ndarray
+    Lambda: np.ndarray
+    residual: np.ndarray
+    cond: np.ndarray
+    ok: np.ndarray
+    flag: list[str]
+    k_path: np.ndarray = field(default_factory=lambda: np.empty(0))
+    Lambda_path: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=complex))
+    note: str = ""
+
+
+def spectrum_function(p: Params, k: float, sheet: str = "physical"):
+    """``Lambda -> det_M(Lambda, k, p)`` (vectorised), the function all root finding uses.
+
+    For a deformable substrate (``p.two_body``, finite ``mu2``) it is
+    :func:`analytic.physics.twobody.det_twobody` instead (same properties: single-valued for finite
+    ``H, H2``, no poles, modulus a relative residual); ``sheet`` selects the continuation of a
+    half-space's square roots (``"physical"`` or ``"outgoing"``; ignored otherwise).
+    """
+    if p.two_body:
+        return lambda L: det_twobody(L, k, p, sheet)
+    return lambda L: det_M(L, k, p)
+
+
+def polish_root(p: Params, k: float, Lambda_guess: complex, *, tol: float = 1e-14,
+                sheet: str = "physical") -> Root:
+    """Polish an arbitrary guess (e.g. a finite-element eigenvalue) onto the exact root.
+
+    Newton on :func:`analytic.physics.finite_h.det_M` (residual = ``|det_M|``, a relative residual);
+    on :func:`analytic.physics.twobody.det_twobody` for a deformable substrate (``p.two_body``).
+    It converges to the root nearest the guess when the guess is closer to it than to any
+    other root, roughly; use :func:`roots_in_box` when that is in doubt.
+
+    Args:
+        p: Parameters (finite ``H``).
+        k: Wavenumber ``> 0``.
+        Lambda_guess: Starting point.
+        tol: Relative Newton step tolerance.
+        sheet: Two bodies with a half-space: ``"physical"`` or ``"outgoing"`` (leaky modes,
+            what a PML sees; :func:`analytic.physics.twobody.layer_wavenumbers`).
+
+    Returns:
+        The :class:`analytic.numerics.roots.Root` (check ``converged``).
+    """
+    kk = float(check_k(k)[0])
+    return polish(spectrum_function(p, kk, sheet), complex(Lambda_guess), tol=tol)
+
+
+def roots_in_box(p: Params, k: float, box: tuple[float, float, float, float], *,
+                 sheet: str = "physical") -> list[Root]:
+    """Every eigenvalue inside ``box = (re_min, re_max, im_min, im_max)`` at wavenumber ``k``.
+
+    Checked by the argument principle (:func:`analytic.numerics.roots.zeros_in_box`); ``det_M`` has
+    no
+    poles. Keep the box edges off ``Lambda = 0`` (rigid substrate). Two bodies
+    (``p.two_body``): :func:`analytic.physics.twobody.det_twobody`; with ``H`` or ``H2`` infinite
+    the
+    box must not cross the imaginary axis beyond ``min(c_s1, c_s2) k`` (the physical sheet's
+    cuts); with ``sheet="outgoing"`` it must not cross the horizontal cuts from ``+-i c k``
+    (every ``c`` of a half-space) to the left.
+    """
+    kk = float(check_k(k)[0])
+    return zeros_in_box(spectrum_function(p, kk, sheet), box, n_initial=_n_initial(p, box))
+
+
+def _n_initial(p: Params, box: tuple[float, float, float, float]) -> int:
+    """Initial contour samples per side: ``det_M`` turns by about ``H (1 + beta)`` per unit.
+
+    Two bodies: plus ``H2 (1 + beta2) / c_s2`` for a finite substrate; a half-space (either
+    body) adds no such rotation (its partial waves carry no ``exp(i H Im k)`` phase): 32
+    samples per side then.
+    """
+    side = max(box[1] - box[0], box[3] - box[2])
+    turn = p.H * (1.0 + p.beta) if math.isfinite(p.H) else 0.0
+    if p.two_body and math.isfinite(p.H2):
+        m2 = p.substrate
+        turn += p.H2 * (1.0 + m2.beta) / m2.c_s
+    if not math.isfinite(p.H) or (p.two_body and not math.isfinite(p.H2)):
+        return 32 + int(math.ceil(2.0 * turn * side))
+    return 8 + int(math.ceil(2.0 * turn * side))
+
+
+def _box_around(z: complex, r: float) -> tuple[float, float, float, float]:
+    return (z.real - r, z.real + r, z.imag - r, z.imag + r)
+
+
+def _count(p: Params, k: float, z: complex, r: float) -> int:
+    """Roots within the square of half-width ``r`` around ``z``; -1 if the contour is unusable."""
+    fun = spectrum_function(p, k, branch_sheet(p))
+    for shrink in (1.0, 0.93, 1.07):
+        box = _box_around(z, r * shrink)
+        try:
+            return count_zeros(fun, box, n_initial=_n_initial(p, box))
+        except ContourError:
+            continue
+    return -1
+
+
+def _count_pair(p: Params, k1: float, k2: float, z: complex, r: float) -> tuple[int, int]:
+    """:func:`_count` at two wavenumbers; rigid substrate: one ``det_M`` call per refinement."""
+    if p.two_body:
+        return _count(p, k1, z, r), _count(p, k2, z, r)
+
+    def both(zz: np.ndarray) -> np.ndarray:
+        ks = np.concatenate([np.full(zz.shape, k1), np.full(zz.shape, k2)])
+        return det_M(np.concatenate([zz, zz]), ks, p).reshape(2, zz.size)
+
+    for shrink in (1.0, 0.93, 1.07):
+        box = _box_around(z, r * shrink)
+        try:
+            c1, c2 = winding_numbers(both, box, 2, n_initial=_n_initial(p, box))
+            return c1, c2
+        except ContourError:
+            continue
+    return _count(p, k1, z, r), _count(p, k2, z, r)
+
+
+def branch_cutoff(n: int, sign: int, p: Params) -> complex:
+    """The ``k -> 0`` start of branch ``(n, sign)``.
+
+    Rigid substrate: :func:`analytic.physics.finite_h.cutoff`; two bodies:
+    :func:`analytic.physics.twobody.cutoff_twobody` (the composite rod's ``n``-th mode).
+    """
+    return cutoff_twobody(n, sign, p) if p.two_body else cutoff(n, sign, p)
+
+
+def _start(p: Params, n: int, sign: int, k0: float) -> tuple[Root | None, str]:
+    """The single root near the cut-off at small k0, isolated by counting."""
+    L0 = branch_cutoff(n, sign, p)
+    fun = spectrum_function(p, k0, branch_sheet(p))
+    if p.two_body:
+        guess = L0
+        # distance to the nearest other cut-off (or to the flexural root at 0)
+        others = [0.0] + [branch_cutoff(m, sign, p) for m in (n - 1, n + 1) if m >= 0]
+        spacing = min(abs(L0 - z) for z in others)
+    else:
+        guess = L0 + slope(n, sign, p) * k0
+        spacing = math.pi / (p.beta * p.H)  # distance between neighbouring cut-offs
+    r = 0.3 * spacing
+    for _ in range(12):
+        try:
+            box = _box_around(guess, r)
+            roots = zeros_in_box(fun, box, n_initial=_n_initial(p, box))
+        except ContourError:
+            roots = None
+        if roots is not None and len(roots) == 1 and roots[0].converged:
+            return roots[0], ""
+        r *= 0.3
+    return None, f"no isolated root found near the cut-off {L0:.6g} at k = {k0:.3g}"
+
+
+def follow_branch(
+    p: Params,
+    n: int,
+    sign: int,
+    k_values: float | np.ndarray,
+    *,
+    k_start: float | None = None,
+    dk_min: float | None = None,
+    max_steps: int = 20000,
+    skip: Skip | None = None,
+) -> BranchResult:
+    """Follow branch ``(n, sign)`` from its cut-off to every requested ``k``.
+
+    Two bodies (``p.two_body``): the branch starts at
+    :func:`analytic.physics.twobody.cutoff_twobody` and is followed on
+    :func:`analytic.physics.twobody.det_twobody` with the same checks. The flexural branch (from
+    ``Lambda = 0`` at ``k = 0``, finite ``H2``) is not one of these; :func:`roots_in_box` finds
+    it. With a half-space substrate (``H2 = inf``) the branches are leaky at small ``k`` and are
+    followed on the ``"outgoing"`` continuation (:func:`analytic.physics.twobody.branch_sheet`); use
+    :func:`analytic.physics.twobody.root_sheet` to tell a leaky point from an eigenvalue. Counting
+    fails (flag ``"ambiguous"``) where a root meets a horizontal cut ``Im Lambda = +-c k``.
+
+    Args:
+        p: Parameters (finite ``H``; any ``bc`` and friction model).
+        n: Cut-off index ``n >= 0``.
+        sign: ``+1`` or ``-1``.
+        k_values: Wavenumbers ``> 0`` where the root is wanted (sorted internally).
+        k_start: First wavenumber of the continuation (default ``min(1e-3/H, k_min/2)``).
+        dk_min: Smallest step before a point is accepted as ``"ambiguous"`` (default
+            ``1e-6 * max(k_max, 1/H)``).
+        max_steps: Safety limit on the number of continuation steps.
+        skip: ``skip(k, Lambda_predicted, uncertainty)`` True when the root is not wanted at a
+            requested ``k`` (e.g. predicted far outside a region): no value there (flag
+            ``"outside"``), and no continuation step has to end there.
+
+    Returns:
+        A :class:`BranchResult`.
+
+    Raises:
+        ParameterError: On invalid ``k_values``, ``n`` or ``sign``.
+    """
+    if not math.isfinite(p.H):
+        raise ParameterError("H = inf: branches start at finite-H cut-offs; use a finite H")
+    branch_cutoff(n, sign, p)  # validates n and sign (and H2 for two bodies)
+    ks = np.unique(check_k(k_values))
+    k_max = float(ks[-1])
+    label = branch_label(n, sign)
+    if k_start is None:
+        k_start = min(1e-3 / p.H, 0.5 * float(ks[0]))
+    if dk_min is None:
+        dk_min = 1e-6 * max(k_max, 1.0 / p.H)
+    out_L = np.full(ks.shape, np.nan + 0j)
+    out_res = np.full(ks.shape, np.nan)
+    out_cond = np.full(ks.shape, np.nan)
+    out_ok = np.zeros(ks.shape, dtype=bool)
+    flags = ["lost"] * ks.size
+    k_path: list[float] = []
+    L_path: list[complex] = []
+
+    root, note = _start(p, n, sign, k_start)
+    if root is None:
+        return BranchResult(label, n, sign, ks, out_L, out_res, out_cond, out_ok, flags,
+                            np.array(k_path), np.array(L_path, dtype=complex), note)
+    # the cut-off is the k = 0 point of the branch
+    return _continue(p, label, n, sign, ks, (0.0, branch_cutoff(n, sign, p)), (k_start, root.value),
+                     dk_min, max_steps, skip)
+
+
+def follow_root(
+    p: Params,
+    label: str,
+    k0: float,
+    Lambda0: complex,
+    k_values: float | np.ndarray,
+    *,
+    dk_min: float | None = None,
+    max_steps: int = 20000,
+    skip: Skip | None = None,
+) -> BranchResult:
+    """Follow the root at ``(k0, Lambda0)`` to every requested ``k >= k0``.
+
+    As :func:`follow_branch` (same step control, root count at every step), for a root that
+    does not start at a waveguide cut-off. The root is polished at ``k0``, and a first point at
+    ``k0 (1 - 1e-3)`` gives the secant predictor. Requested ``k < k0`` are reported lost.
+
+    Returns:
+        A :class:`BranchResult` with ``n = -1``, ``sign = 0``.
+    """
+    ks = np.unique(check_k(k_values))
+    if dk_min is None:
+        dk_min = 1e-6 * max(float(ks[-1]), 1.0 / p.H)
+    fun = spectrum_function(p, k0)
+    r0 = polish(fun, complex(Lambda0))
+    k_a = k0 * (1.0 - 1e-3)
+    r_a = polish(spectrum_function(p, k_a), r0.value)
+    nan = np.full(ks.shape, np.nan + 0j)
+    if not (r0.converged and r_a.converged and abs(r_a.value - r0.value) < 1e-2 * max(
+            1.0, abs(r0.value))):
+        return BranchResult(label, -1, 0, ks, nan, np.full(ks.shape, np.nan),
+                            np.full(ks.shape, np.nan), np.zeros(ks.shape, bool),
+                            ["lost"] * ks.size, note=f"{label}: no root near {Lambda0} at k0")
+    first = int(np.searchsorted(ks, k0))
+    res = _continue(p, label, -1, 0, ks[first:], (k_a, r_a.value), (k0, r0.value),
+                    dk_min, max_steps, skip)
+    if first == 0:
+        return res
+    pad = ks[:first]
+
+    def cat(a: np.ndarray, fill: object) -> np.ndarray:
+        return np.concatenate([np.full(pad.shape, fill, dtype=np.asarray(a).dtype), a])
+
+    return BranchResult(label, -1, 0, ks, cat(res.Lambda, np.nan), cat(res.residual, np.nan),
+                        cat(res.cond, np.nan), cat(res.ok, False),
+                        ["lost"] * first + list(res.flag), res.k_path, res.Lambda_path,
+                        res.note)
+
+
+def _continue(p: Params, label: str, n: int, sign: int, ks: np.ndarray,
+              prev: tuple[float, complex], cur: tuple[float, complex], dk_min: float,
+              max_steps: int, skip: Skip | None = None) -> BranchResult:
+    """The continuation loop shared by :func:`follow_branch` and :func:`follow_root`.
+
+    ``skip(k, Lambda_predicted, uncertainty)`` True: the requested ``k`` is not needed (flag
+    ``"outside"``, no value); the continuation then does not stop there.
+    """
+    out_L = np.full(ks.shape, np.nan + 0j)
+    out_res = np.full(ks.shape, np.nan)
+    out_cond = np.full(ks.shape, np.nan)
+    out_ok = np.zeros(ks.shape, dtype=bool)
+    flags = ["lost"] * ks.size
+    k_prev, L_prev = prev
+    k_cur, L_cur = cur
+    k_path = [k_prev, k_cur]
+    L_path = [L_prev, L_cur]
+    dk = k_cur - k_prev if k_prev > 0 else k_cur
+    if ks.size == 0:
+        return BranchResult(label, n, sign, ks, out_L, out_res, out_cond, out_ok, flags,
+                            np.array(k_path), np.array(L_path, dtype=complex), "")
+    good_h = dk  # last step accepted without doubt
+    hist: tuple[float, complex] | None = None
+    target_i = 0
+    notes: list[str] = []
+    doubt = ""
+    steps = 0
+
+    def attempt(k_new: float) -> tuple[Root, bool, float, float]:
+        """Predict, correct and check one step to k_new: (root, accepted, corrector, move)."""
+        h = k_new - k_cur
+        # predictor: quadratic through the last three points (secant with only two)
+        d1 = (L_cur - L_prev) / (k_cur - k_prev)
+        L_pred = L_cur + d1 * h
+        if hist is not None:
+            k2, L2 = hist
+            d2 = (d1 - (L_prev - L2) / (k_prev - k2)) / (k_cur - k2)
+            L_pred = L_pred + d2 * h * (k_new - k_prev)
+        r = polish(spectrum_function(p, k_new, branch_sheet(p)), L_pred)
+        dL = abs(r.value - L_cur)
+        corr = abs(r.value - L_pred)
+        # Until three points exist the secant cannot know the curvature (the linear term may
+        # vanish at the cut-off, e.g. beta = 1/5): allow a larger corrector on those steps.
+        ratio = 0.25 if hist is not None else 0.75
+        ok = r.converged and corr <= ratio * max(dL, 1e-12 * abs(L_cur))
+        if ok:
+            # Counting between steps: the square centred between the old and the new root,
+            # half-width max(dL, 2 corr), must hold exactly one root at k_new *and* at k_cur.
+            # A jump to a neighbouring root would need a predictor error of ~3/4 of the move,
+            # and a root approaching ours within the step is seen at one end or the other.
+            centre = 0.5 * (L_cur + r.value)
+            rad = max(2.0 * corr, dL, 1e-9 * abs(r.value))
+            ok = _count_pair(p, k_new, k_cur, centre, rad) == (1, 1)
+        return r, ok, corr, dL
+
+    while target_i < ks.size and steps < max_steps:
+        k_target = float(ks[target_i])
+        if skip is not None and k_target > k_cur:
+            d1 = (L_cur - L_prev) / (k_cur - k_prev)
+            if skip(k_target, L_cur + d1 * (k_target - k_cur), abs(d1) * (k_target - k_cur)):
+                flags[target_i] = "outside"
+                target_i += 1
+                continue
+        steps += 1
+        # the step ends on a requested k (may be short; never leave a sliver before it)
+        clamped = k_cur + dk * (1.0 + 1e-6) >= k_target
+        k_new = k_target if clamped else k_cur + dk
+        h = k_new - k_cur
+        r, accepted, corr, dL = attempt(k_new)
+        if not accepted and h > dk_min:
+            dk = 0.5 * h
+            continue
+        flag = ""
+        if not accepted:
+            # Roots closer than the step can resolve (a near-collision): step over it with a
+            # step of the last undoubted size, if the root there is isolated.
+            k_over = min(k_cur + max(4.0 * good_h, 100.0 * dk_min), k_target)
+            r_over, ok_over, corr_o, dL_o = attempt(k_over)
+            if ok_over:
+                notes.append(f"branch {label}: stepped over a near-collision of roots between"
+                             f" k = {k_cur:.6g} and {k_over:.6g}")
+                k_new, h, r, corr, dL = k_over, k_over - k_cur, r_over, corr_o, dL_o
+            else:
+                flag = "ambiguous" if r.converged else "lost"
+        if flag == "lost":
+            notes.append(f"branch {label} lost at k = {k_new:.6g} ({r.reason})")
+            break
+        if flag == "ambiguous":
+            notes.append(f"branch {label}: root near k = {k_new:.6g} not isolated"
+                         " (close roots or a crossing)")
+            if not doubt:
+                doubt = f"after an ambiguous point at k = {k_new:.6g}"
+        elif doubt:
+            flag = doubt  # the branch's identity is in doubt from there on
+        hist = (k_prev, L_prev) if k_prev > 0 else None
+        k_prev, L_prev, k_cur, L_cur = k_cur, L_cur, k_new, r.value
+        k_path.append(k_cur)
+        L_path.append(L_cur)
+        if k_new == k_target:
+            out_L[target_i] = r.value
+            out_res[target_i] = r.residual
+            out_cond[target_i] = r.cond
+            out_ok[target_i] = flag == ""
+            flags[target_i] = flag
+            target_i += 1
+        # step control: grow when the predictor was good; after doubt restart at a normal size
+        if flag == "ambiguous":
+            dk = good_h
+        elif clamped and h < dk:
+            pass  # a short step onto a requested k says nothing about the step size
+        elif r.iterations <= 4 and corr < 0.05 * dL:
+            good_h = h
+            dk = min(2.0 * h, max(0.25 * k_cur, dk_min), 0.1 / p.H + 0.1 * k_cur)
+        else:
+            good_h = h
+            dk = h
+    if steps >= max_steps:
+        notes.append(f"branch {label}: max_steps = {max_steps} reached at k = {k_cur:.6g}")
+    return BranchResult(label, n, sign, ks, out_L, out_res, out_cond, out_ok, flags,
+                        np.array(k_path), np.array(L_path, dtype=complex), "; ".join(notes))
+
+
+def follow_branches(p: Params, n_branches: int, k_values: float | np.ndarray
+                    ) -> list[BranchResult]:
+    """Branches ``0+, 0-, 1+, 1-, ...`` (``n < n_branches``), each via :func:`follow_branch`."""
+    if int(n_branches) != n_branches or n_branches < 1:
+        raise ParameterError(f"branches = {n_branches!r} is outside its allowed range >= 1")
+    return [follow_branch(p, n, s, k_values) for n in range(int(n_branches)) for s in (1, -1)]

@@ -1,0 +1,520 @@
+"""Generic root tools for a scalar function of one complex variable.
+
+Three tools, for any function ``F`` analytic (or meromorphic) in a region:
+
+- :func:`polish`: Newton's method (finite-difference derivative unless ``dfun`` is given), with
+  damped steps and a secant fall-back; never raises on non-convergence, reports it in a
+  :class:`Root`.
+- :func:`count_zeros`: the argument principle on a rectangle, with adaptive sampling of the
+  contour so that the winding number is reliable; it counts *zeros minus poles*, so known poles
+  can be passed in (``poles=``) and are added back.
+- :func:`zeros_in_box`: all zeros inside a rectangle, by recursive subdivision + counting +
+  polishing; the total is checked against the count of the whole box, so "all roots in this
+  region" is a checked statement.
+
+The argument principle only needs the *phase* of ``F`` on the contour. A function ``G = rho F``
+with ``rho > 0`` real and continuous (e.g. a determinant normalised by row norms, or a scaling
+``exp(-H Re k)`` that prevents overflow) has the same winding number as ``F`` and the same zeros,
+and Newton's method still converges quadratically on it (the derivative is taken as the Wirtinger
+derivative ``dG/dz``, equal to ``rho F'`` at a root). Such phase-faithful functions are accepted.
+
+Functions are called with a 1D complex numpy array and must return an array of the same shape
+(vectorised). Wrap a scalar function with ``np.vectorize`` otherwise.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+ComplexFunction = Callable[[np.ndarray], np.ndarray]
+Box = tuple[float, float, float, float]
+
+_EPS = np.finfo(float).eps
+
+
+class ContourError(RuntimeError):
+    """The argument principle cannot be trusted on this contour (zero/pole on or near it)."""
+
+
+@dataclass
+class Root:
+    """A polished root and how much to trust it.
+
+    Attributes:
+        value: The root ``z``.
+        residual: ``|F(z)| / scale``: the function value relative to its typical magnitude
+            ``scale`` (an argument of :func:`polish`; 1 for functions normalised to ``|F| <= 1``
+            such as :func:`analytic.physics.finite_h.det_M`).
+        cond: Relative condition number ``scale / (|F'(z)| max(|z|, 1e-300))``: a perturbation of
+            ``F`` of relative size ``e`` (relative to ``scale``) moves the root by about
+            ``cond * e * |z|``. With ``e`` ~ 1e-16 it estimates the attainable relative accuracy.
+        iterations: Newton iterations used.
+        converged: True if the last Newton correction was below ``tol * max(|z|, 1)``, or the
+            residual reached the rounding level of ``F``.
+        reason: Why the iteration stopped (human-readable).
+        step: Size of the last Newton correction ``|dz|`` (a forward-error estimate).
+    """
+
+    value: complex
+    residual: float
+    cond: float
+    iterations: int
+    converged: bool
+    reason: str
+    step: float = math.nan
+
+
+def _call(fun: ComplexFunction, z: np.ndarray) -> np.ndarray:
+    out = np.asarray(fun(np.asarray(z, dtype=complex)), dtype=complex)
+    if out.shape != np.shape(z):
+        out = np.broadcast_to(out, np.shape(z)).astype(complex)
+    return out
+
+
+def _stencil(z: complex) -> tuple[float, np.ndarray]:
+    """Step and points of the central-difference derivative at ``z``."""
+    h = 6e-6 * max(abs(z), 1e-3)  # ~ eps**(1/3): balances truncation and rounding
+    return h, np.array([z + h, z - h, z + 1j * h, z - 1j * h])
+
+
+def _wirtinger(f: np.ndarray, h: float) -> complex:
+    dx = (f[0] - f[1]) / (2 * h)
+    dy = (f[2] - f[3]) / (2 * h)
+    return complex(0.5 * (dx - 1j * dy))
+
+
+def _derivative(fun: ComplexFunction, z: complex, dfun: ComplexFunction | None) -> complex:
+    """``dfun(z)``, or the Wirtinger derivative dF/dz by central differences (one batch of 4)."""
+    if dfun is not None:
+        return complex(_call(dfun, np.array([z]))[0])
+    h, pts = _stencil(z)
+    return _wirtinger(_call(fun, pts), h)
+
+
+def _value_and_derivative(fun: ComplexFunction, z: complex, dfun: ComplexFunction | None
+                          ) -> tuple[complex, complex]:
+    """``(F(z), F'(z))`` in one call of ``fun`` (with the difference stencil)."""
+    if dfun is not None:
+        return complex(_call(fun, np.array([z]))[0]), _derivative(fun, z, dfun)
+    h, pts = _stencil(z)
+    f = _call(fun, np.concatenate([[z], pts]))
+    return complex(f[0]), _wirtinger(f[1:], h)
+
+
+def polish(
+    fun: ComplexFunction,
+    z0: complex,
+    *,
+    dfun: ComplexFunction | None = None,
+    tol: float = 1e-14,
+    maxiter: int = 60,
+    scale: float = 1.0,
+) -> Root:
+    """Polish a root of ``fun`` starting from ``z0`` (Newton, damped, secant fall-back).
+
+    Args:
+        fun: Vectorised complex function (see module docstring).
+        z0: Starting guess.
+        dfun: Derivative of ``fun`` (vectorised); finite differences if None.
+        tol: Relative step tolerance: converged when ``|dz| <= tol * max(|z|, 1)``.
+        maxiter: Maximum number of Newton iterations.
+        scale: Typical magnitude of ``fun`` (defines :attr:`Root.residual` and :attr:`Root.cond`).
+
+    Returns:
+        A :class:`Root`; check :attr:`Root.converged` and :attr:`Root.reason`.
+    """
+    z = complex(z0)
+    # F(z0) and the first derivative in one call; later ones come with each accepted step
+    fz, pending = _value_and_derivative(fun, z, dfun)
+    prev: tuple[complex, complex] | None = None
+    step = math.inf
+    reason = f"maximum number of iterations ({maxiter}) reached"
+    converged = False
+    it = 0
+    dfz = complex("nan")
+    if not np.isfinite(fz):
+        return Root(z, math.inf, math.inf, 0, False, "function not finite at the start point")
+    for _ in range(maxiter):
+        it += 1
+        if fz == 0:
+            converged, reason, step = True, "exact zero", 0.0
+            dfz = pending if pending is not None else complex("nan")  # at this z
+            break
+        if pending is not None:
+            dfz, pending = pending, None
+        else:
+            dfz = _derivative(fun, z, dfun)
+        if not np.isfinite(dfz) or dfz == 0:
+            if prev is not None and prev[1] != fz:  # secant fall-back
+                dz = -fz * (z - prev[0]) / (fz - prev[1])
+            else:  # nudge off a critical point
+                dz = 1e-6 * max(abs(z), 1.0) * (1 + 1j)
+        else:
+            dz = -fz / dfz
+        step = abs(dz)
+        if step <= tol * max(abs(z), 1.0):
+            z += dz
+            fz, dfz = _value_and_derivative(fun, z, dfun)  # dfz: for cond, at the final z
+            converged, reason = True, "Newton step below tolerance"
+            break
+        # damped step: halve until |F| decreases
+        lam = 1.0
+        accepted = False
+        for _ in range(12):
+            zn = z + lam * dz
+            # the value and the next derivative in one call (one call per Newton step)
+            fn, pending = _value_and_derivative(fun, zn, dfun)
+            if np.isfinite(fn) and abs(fn) < abs(fz):
+                accepted = True
+                break
+            lam *= 0.5
+        if not accepted:
+            if step <= 1e3 * tol * max(abs(z), 1.0) or abs(fz) <= 1e3 * _EPS * scale:
+                converged, reason = True, "residual at the rounding level of the function"
+            else:
+                reason = "no decrease of |F| along the Newton direction (stagnation)"
+            break
+        prev = (z, fz)
+        z, fz = zn, fn
+    # (on every exit above dfz is already the derivative at the final z, unless not finite)
+    if not np.isfinite(dfz) or dfz == 0:
+        dfz = _derivative(fun, z, dfun)
+    absd = abs(dfz) if np.isfinite(dfz) else 0.0
+    cond = scale / (absd * max(abs(z), 1e-300)) if absd > 0 else math.inf
+    return Root(
+        value=z,
+        residual=abs(fz) / scale if np.isfinite(fz) else math.inf,
+        cond=cond,
+        iterations=it,
+        converged=converged,
+        reason=reason,
+        step=step,
+    )
+
+
+def _box_checked(box: Sequence[float]) -> Box:
+    if len(box) != 4:
+        raise ValueError(f"box = {box!r} must be (re_min, re_max, im_min, im_max)")
+    a, b, c, d = (float(v) for v in box)
+    if not all(math.isfinite(v) for v in (a, b, c, d)) or not (b > a and d > c):
+        raise ValueError(f"box = {box!r} must be finite with re_max > re_min, im_max > im_min")
+    return a, b, c, d
+
+
+def _perimeter_point(box: Box, t: np.ndarray) -> np.ndarray:
+    """Counter-clockwise boundary parametrised by t in [0, 4): one unit per side."""
+    a, b, c, d = box
+    t = np.asarray(t, dtype=float)
+    side = np.minimum(np.floor(t).astype(int), 3)
+    s = t - side
+    z = np.empty(t.shape, dtype=complex)
+    m = side == 0
+    z[m] = a + s[m] * (b - a) + 1j * c
+    m = side == 1
+    z[m] = b + 1j * (c + s[m] * (d - c))
+    m = side == 2
+    z[m] = b - s[m] * (b - a) + 1j * d
+    m = side == 3
+    z[m] = a + 1j * (d - s[m] * (d - c))
+    return z
+
+
+def winding_number(
+    fun: ComplexFunction,
+    box: Sequence[float],
+    *,
+    n_initial: int = 32,
+    max_dphase: float = math.pi / 3,
+    max_rel: float = 0.8,
+    max_points: int = 50000,
+    zero_tol: float = 1e-12,
+    log: bool = False,
+) -> int:
+    """Winding number of ``fun`` around 0 along the boundary of ``box`` (counter-clockwise).
+
+    The boundary is sampled adaptively: an interval is bisected until the phase of ``fun``
+    changes by less than ``max_dphase`` across it *and* ``|F(t_{i+1}) - F(t_i)| <= max_rel *
+    min(|F(t_i)|, |F(t_{i+1})|)``. The second rule makes the sample spacing smaller than the
+    distance to a zero near the contour (estimated as ``|F| / |F'|``), so a zero just inside and
+    another just outside the contour between two samples cannot cancel unseen. When both rules
+    hold, every interval is bisected once more and checked again (a verification pass): a
+    function that turned by a full ``2 pi`` between two samples (aliasing) is caught there. For
+    rapidly rotating functions, ``n_initial`` should still resolve the rotation roughly.
+
+    Args:
+        fun: Vectorised complex function, continuous and non-zero on the contour.
+        box: ``(re_min, re_max, im_min, im_max)``.
+        n_initial: Initial number of samples per side.
+        max_dphase: Largest allowed phase change between neighbouring samples.
+        max_rel: Largest allowed relative change of ``F`` between neighbouring samples.
+        max_points: Largest number of samples before giving up.
+        zero_tol: A sample with ``|F| < zero_tol * max|F|`` is taken as a zero on the contour
+            (not used with ``log=True``, where ``|F|`` may span thousands of decades along the
+            contour, e.g. a finite-element determinant: the local rules above find zeros on it).
+        log: ``fun`` returns the complex logarithm ``log|F| + i arg F`` (any branch of the
+            argument) instead of ``F``: for functions whose modulus over- or underflows.
+
+    Returns:
+        Zeros minus poles (counted with multiplicity) inside the box.
+
+    Raises:
+        ContourError: If ``fun`` is not finite on the contour, (numerically) vanishes on it, or
+            its phase cannot be resolved (a zero or pole on or extremely near the contour).
+        ValueError: On a malformed box.
+    """
+    def one_row(z: np.ndarray) -> np.ndarray:
+        return _call(fun, z)[None, :]
+
+    return winding_numbers(one_row, box, 1, n_initial=n_initial, max_dphase=max_dphase,
+                           max_rel=max_rel, max_points=max_points, zero_tol=zero_tol,
+                           log=log)[0]
+
+
+def winding_numbers(fun: Callable[[np.ndarray], np.ndarray], box: Sequence[float], m: int, *,
+                    n_initial: int = 32, max_dphase: float = math.pi / 3,
+                    max_rel: float = 0.8, max_points: int = 50000,
+                    zero_tol: float = 1e-12, log: bool = False) -> list[int]:
+    """:func:`winding_number` of ``m`` functions on one contour, sampled together.
+
+    ``fun(z)`` returns an array of shape ``(m, len(z))`` (e.g. one determinant at ``m``
+    wavenumbers in one vectorised call). The samples are refined where *any* row needs it, with
+    the rules and the verification pass of :func:`winding_number` (which is this with
+    ``m = 1``), so each row's count is as reliable; the point is one call of ``fun`` per
+    refinement instead of ``m``.
+
+    Raises:
+        ContourError: As :func:`winding_number`, if any row's contour is unusable.
+    """
+    bx = _box_checked(box)
+    t = np.linspace(0.0, 4.0, 4 * n_initial, endpoint=False)
+
+    def call(tt: np.ndarray) -> np.ndarray:
+        z = _perimeter_point(bx, tt)
+        return np.asarray(fun(z), dtype=complex).reshape(m, z.size)
+
+    f = call(t)
+    min_dt = 4.0 * 1e-12
+    verified = False
+    while True:
+        dph = np.empty(f.shape)
+        bad = np.zeros(t.size, dtype=bool)
+        for r, row in enumerate(f):
+            if log:
+                d, b = _log_increments(row, max_dphase, max_rel)
+                if b is None:
+                    zbad = _perimeter_point(bx, t[~np.isfinite(row.real)][:1])[0]
+                    raise ContourError(f"log F not finite on the contour at z = {zbad:.6g}")
+            else:
+                d, b = _increments(row, bx, t, max_dphase, max_rel, zero_tol)
+            dph[r], bad = d, bad | b
+        t_next = np.roll(t, -1)
+        t_next[-1] = 4.0  # last interval closes the loop
+        dt = t_next - t
+        if not bad.any():
+            if verified:
+                totals = dph.sum(axis=1) / (2 * math.pi)
+                counts = [int(round(v)) for v in totals]
+                for v, c in zip(totals, counts, strict=True):
+                    if abs(v - c) > 1e-6:  # cannot happen for a closed sampled loop; a guard
+                        raise ContourError(f"winding number {v} is not an integer")
+                return counts
+            # Verification pass: bisect every interval once more. A function that turned by
+            # about 2 pi between two samples (aliasing) shows up as a bad interval here.
+            bad = dt > 2 * min_dt
+            verified = True
+        elif np.any(dt[bad] < min_dt):
+            zbad = _perimeter_point(bx, t[bad & (dt < min_dt)][:1])[0]
+            raise ContourError(
+                f"phase of the function jumps on the contour near z = {zbad:.6g}"
+                " (zero, pole or branch cut on the contour): move the box edge"
+            )
+        else:
+            verified = False
+        tm = 0.5 * (t[bad] + t_next[bad])
+        if t.size + tm.size > max_points:
+            zbad = _perimeter_point(bx, tm[:1])[0]
+            raise ContourError(
+                f"contour needs more than max_points = {max_points} samples (near z = {zbad:.6g})"
+            )
+        t = np.concatenate([t, tm])
+        f = np.concatenate([f, call(tm)], axis=1)
+        order = np.argsort(t)
+        t, f = t[order], f[:, order]
+
+def _increments(f: np.ndarray, bx: Box, t: np.ndarray, max_dphase: float, max_rel: float,
+                zero_tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """Wrapped phase increments ``t_i -> t_{i+1}`` of samples ``f`` and the intervals to refine."""
+    if not np.all(np.isfinite(f)):
+        zbad = _perimeter_point(bx, t[~np.isfinite(f)][:1])[0]
+        raise ContourError(f"function not finite on the contour at z = {zbad:.6g} (a pole?)")
+    absf = np.abs(f)
+    fmax = absf.max()
+    if fmax == 0 or absf.min() < zero_tol * fmax:
+        zbad = _perimeter_point(bx, t[np.argmin(absf):][:1])[0]
+        raise ContourError(
+            f"function vanishes on the contour near z = {zbad:.6g}: move the box edge"
+        )
+    ph = np.angle(f)
+    dph = np.angle(np.exp(1j * (np.roll(ph, -1) - ph)))  # wrapped increments t_i -> t_{i+1}
+    df = np.abs(np.roll(f, -1) - f)
+    bad = (np.abs(dph) > max_dphase) | (df > max_rel * np.minimum(absf, np.roll(absf, -1)))
+    return dph, bad
+
+
+def _log_increments(logf: np.ndarray, max_dphase: float, max_rel: float
+                    ) -> tuple[np.ndarray, np.ndarray | None]:
+    """As :func:`_increments` for samples of ``log F`` (``None`` if one is not finite).
+
+    The relative-change rule ``|F_{i+1} - F_i| <= max_rel min(|F_i|, |F_{i+1}|)`` is evaluated
+    from ``r = F_{i+1}/F_i = exp(log F_{i+1} - log F_i)`` as ``|r - 1| <= max_rel min(1, |r|)``.
+    """
+    if not np.all(np.isfinite(logf)):
+        return np.zeros(0), None
+    d = np.roll(logf, -1) - logf
+    dph = np.angle(np.exp(1j * d.imag))
+    with np.errstate(over="ignore", invalid="ignore"):
+        r = np.exp(np.minimum(d.real, 700.0)) * np.exp(1j * dph)
+        bad = (np.abs(dph) > max_dphase) | ~(np.abs(r - 1.0) <= max_rel * np.minimum(1.0,
+                                                                                  np.abs(r)))
+    return dph, bad
+
+
+def _poles_inside(box: Box, poles: Sequence[complex | tuple[complex, int]]) -> int:
+    a, b, c, d = box
+    total = 0
+    for p in poles:
+        z, order = (p if isinstance(p, tuple) else (p, 1))
+        z = complex(z)
+        h = 1e-12 * max(b - a, d - c)
+        on_edge = (
+            (abs(z.real - a) < h or abs(z.real - b) < h) and c - h <= z.imag <= d + h
+        ) or ((abs(z.imag - c) < h or abs(z.imag - d) < h) and a - h <= z.real <= b + h)
+        if on_edge:
+            raise ContourError(f"known pole z = {z:.6g} lies on the contour: move the box edge")
+        if a < z.real < b and c < z.imag < d:
+            total += int(order)
+    return total
+
+
+def count_zeros(
+    fun: ComplexFunction,
+    box: Sequence[float],
+    *,
+    poles: Sequence[complex | tuple[complex, int]] = (),
+    **kwargs: float,
+) -> int:
+    """Number of zeros of ``fun`` inside ``box`` (with multiplicity), by the argument principle.
+
+    The argument principle gives *zeros minus poles*. For a meromorphic ``fun`` pass its known
+    poles (locations, or ``(location, order)`` pairs); those inside the box are added back. (Or
+    multiply ``fun`` by its known denominators so it has no poles.)
+
+    Args:
+        fun: Vectorised complex function (see module docstring).
+        box: ``(re_min, re_max, im_min, im_max)``.
+        poles: Known poles of ``fun``.
+        **kwargs: Passed to :func:`winding_number` (``n_initial``, ``max_dphase``, ...).
+
+    Returns:
+        The number of zeros inside the box.
+
+    Raises:
+        ContourError: See :func:`winding_number`; also if a known pole lies on the contour or
+            the count comes out negative (an unknown pole inside the box).
+    """
+    bx = _box_checked(box)
+    n = winding_number(fun, bx, **kwargs) + _poles_inside(bx, poles)
+    if n < 0:
+        raise ContourError(f"negative zero count {n} in box {bx}: unlisted poles inside the box")
+    return n
+
+
+def _split(box: Box, frac: float) -> tuple[Box, Box]:
+    a, b, c, d = box
+    if (b - a) >= (d - c):
+        m = a + frac * (b - a)
+        return (a, m, c, d), (m, b, c, d)
+    m = c + frac * (d - c)
+    return (a, b, c, m), (a, b, m, d)
+
+
+def zeros_in_box(
+    fun: ComplexFunction,
+    box: Sequence[float],
+    *,
+    poles: Sequence[complex | tuple[complex, int]] = (),
+    dfun: ComplexFunction | None = None,
+    tol: float = 1e-14,
+    scale: float = 1.0,
+    min_size: float = 1e-9,
+    **kwargs: float,
+) -> list[Root]:
+    """All zeros of ``fun`` inside ``box``, each polished; the total is checked.
+
+    The box is counted (:func:`count_zeros`); a box holding one zero is polished from its centre
+    (accepted if Newton converges to a point inside it), otherwise it is bisected along its
+    longer side (the cut is moved if it runs through a zero) and the halves are treated the same
+    way. A box smaller than ``min_size`` (relative) that still holds ``m > 1`` zeros is reported
+    as one :class:`Root` with ``reason`` naming the cluster (a multiple root).
+
+    Args:
+        fun: Vectorised complex function (see module docstring).
+        box: ``(re_min, re_max, im_min, im_max)``.
+        poles: Known poles of ``fun`` (see :func:`count_zeros`).
+        dfun: Derivative of ``fun`` (optional).
+        tol: Newton tolerance (see :func:`polish`).
+        scale: Typical magnitude of ``fun`` (see :func:`polish`).
+        min_size: Smallest box edge relative to ``max(|z|, 1)`` before giving up subdividing.
+        **kwargs: Passed to :func:`count_zeros`.
+
+    Returns:
+        The roots, sorted by real then imaginary part. Every entry counts as one zero except
+        clusters, whose ``reason`` says how many zeros they hold.
+
+    Raises:
+        ContourError: If the outer contour cannot be used, or the roots found do not add up to
+            the count of the whole box.
+    """
+    bx = _box_checked(box)
+    total = count_zeros(fun, bx, poles=poles, **kwargs)
+    found: list[tuple[Root, int]] = []
+
+    def inside(z: complex, b: Box) -> bool:
+        return b[0] <= z.real <= b[1] and b[2] <= z.imag <= b[3]
+
+    def solve(b: Box, n: int) -> None:
+        if n == 0:
+            return
+        centre = complex(0.5 * (b[0] + b[1]), 0.5 * (b[2] + b[3]))
+        size = max(b[1] - b[0], b[3] - b[2])
+        if n == 1:
+            r = polish(fun, centre, dfun=dfun, tol=tol, scale=scale)
+            if r.converged and inside(r.value, b):
+                found.append((r, 1))
+                return
+        if size < min_size * max(abs(centre), 1.0):
+            r = polish(fun, centre, dfun=dfun, tol=tol, scale=scale)
+            r.reason = f"cluster of {n} zeros within a box of size {size:.3g}; " + r.reason
+            found.append((r, n))
+            return
+        for frac in (0.5, 0.4617, 0.5383, 0.4209, 0.5791):
+            halves = _split(b, frac)
+            try:
+                counts = [count_zeros(fun, h, poles=poles, **kwargs) for h in halves]
+            except ContourError:
+                continue
+            if sum(counts) == n:
+                for h, m in zip(halves, counts, strict=True):
+                    solve(h, m)
+                return
+        raise ContourError(f"could not split box {b} holding {n} zeros consistently")
+
+    solve(bx, total)
+    nfound = sum(m for _, m in found)
+    if nfound != total:
+        raise ContourError(f"found {nfound} zeros but the argument principle counts {total}")
+    return sorted((r for r, _ in found), key=lambda r: (r.value.real, r.value.imag))

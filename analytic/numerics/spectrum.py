@@ -1,0 +1,381 @@
+"""The complete spectrum in a stated region, with labels from continuation (docs/design.md 8).
+
+Three pieces, all exact (``det_M`` of :mod:`analytic.physics.finite_h`), used by the sweep to
+certify
+its finite-element eigenvalues:
+
+- :class:`Region`: the part of the ``Lambda`` plane where *every* eigenvalue is reported,
+  ``re_min <= Re Lambda <= re_max``, ``|Im Lambda| <= c_max k / beta + omega0``: all phase
+  velocities up to ``c_max`` times ``c_d`` at every ``k``, plus the first few cut-off
+  frequencies at small ``k``.
+- :func:`exact_roots`: every root in the region at one ``k``, certified by the argument
+  principle (the edges are nudged if a root sits on one; the rectangle actually used is
+  returned so that the FE count uses the same one).
+- :func:`families`: labels by continuation in ``k``. The waveguide branches ``n+`` / ``n-``
+  are followed from their cut-offs (:func:`analytic.numerics.branches.follow_branch`); every other
+  root
+  present at the seed wavenumber ``k_seed = 0.02 / H`` (shear-thickness modes damped by
+  friction, real roots near ``Lambda = -1``, the stress top's pair near ``Lambda = 0``) is
+  followed from there (:func:`analytic.numerics.branches.follow_root`) and labelled by its position
+  at
+  ``k_seed``: ``s0+, s1+, ...`` (``Im > 0``, by ``|Im|``), ``s0-, ...`` and ``r0, r1, ...``
+  (real, by decreasing ``Re``). The continuation uses adaptive steps with a root count at every
+  step, so labels and values do not depend on the requested ``k`` grid.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from typing import TypeVar
+
+import numpy as np
+
+from analytic.numerics.branches import BranchResult, branch_cutoff, follow_branch, follow_root
+from analytic.numerics.roots import Box, ContourError, Root, zeros_in_box
+from analytic.params import ParameterError, Params
+
+T = TypeVar("T")
+
+#: Relative distance within which a continued family value and an exact root are one root.
+SAME_ROOT_RTOL = 1e-7
+#: Seed wavenumber of the non-waveguide families, times H.
+SEED_KH = 0.02
+
+
+@dataclass(frozen=True)
+class Region:
+    """Region of the ``Lambda`` plane in which every eigenvalue is reported.
+
+    Attributes:
+        re_min: Smallest growth rate reported (default slightly below 0: modes at the
+            stability threshold are kept, and the contour stays off ``Lambda = 0``).
+        re_max: Largest growth rate searched.
+        c_max: Largest phase velocity ``|Im Lambda| / k`` reported, in units of ``c_d``.
+        omega0: Frequency allowance at ``k -> 0``; ``None``: ``2 pi / (beta H)`` (the first two
+            dilatational cut-offs of either top).
+    """
+
+    re_min: float = -0.01
+    re_max: float = 2.0
+    c_max: float = 4.0
+    omega0: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("re_min", "re_max", "c_max"):
+            v = getattr(self, name)
+            if not math.isfinite(v):
+                raise ParameterError(f"{name} = {v!r} must be a finite number")
+        if not self.re_max > self.re_min:
+            raise ParameterError(f"re_max = {self.re_max} must be > re_min = {self.re_min}")
+        if self.re_min <= -1.0:
+            raise ParameterError(
+                f"re_min = {self.re_min} is outside its allowed range -1 < re_min: the "
+                "polynomial FE form has a spurious root at Lambda = -1")
+        if self.c_max <= 0:
+            raise ParameterError(f"c_max = {self.c_max} is outside its allowed range c_max > 0")
+        if self.omega0 is not None and not (math.isfinite(self.omega0) and self.omega0 > 0):
+            raise ParameterError(f"omega0 = {self.omega0!r} must be a finite number > 0")
+
+    def omega_0(self, p: Params) -> float:
+        """The frequency allowance at ``k -> 0`` for parameters ``p``."""
+        return self.omega0 if self.omega0 is not None else 2.0 * math.pi / (p.beta * p.H)
+
+    def im_max(self, p: Params, k: float) -> float:
+        """``|Im Lambda|`` bound at wavenumber ``k``."""
+        return self.c_max * float(k) / p.beta + self.omega_0(p)
+
+    def box(self, p: Params, k: float) -> Box:
+        """The region at ``k`` as a rectangle ``(re_min, re_max, -W, W)``."""
+        w = self.im_max(p, k)
+        return (self.re_min, self.re_max, -w, w)
+
+    def as_dict(self, p: Params) -> dict:
+        """Description for summaries (with the resolved ``omega0``)."""
+        d = asdict(self)
+        d["omega0"] = self.omega_0(p)
+        d["definition"] = ("re_min <= Re Lambda <= re_max and |Im Lambda| <= c_max * k / beta"
+                           " + omega0 (phase velocities up to c_max c_d)")
+        return d
+
+
+def nudged_boxes(box: Box) -> list[Box]:
+    """The box and slightly moved copies (used when a root sits on an edge)."""
+    a, b, c, d = box
+    out = [box]
+    # moves of 3 % of re_min (at least 3e-4) and 1e-4 of the height: a root closer than that
+    # to an edge makes the contour too expensive to resolve (seen at k = 76.5, H = 0.5: a root
+    # 1.3e-4 from Re = -0.01); the rectangle actually used is always reported
+    # and 30 % for a row of roots along the edge (small k: the n+ branches all sit near
+    # Re = -0.01 for the PMMA example of the README)
+    for s in (1.0, -1.0, 2.0, -2.0, 10.0, -10.0):
+        da = 0.03 * s * (abs(a) if a != 0 else 1e-2)  # never across Re = 0 for re_min > 0
+        dw = 1e-4 * s * max(abs(c), abs(d))
+        out.append((a - da, b, c - dw, d + dw))
+    return out
+
+
+def on_usable_box(box: Box, k: float, fn: Callable[[Box], T]) -> tuple[T, Box]:
+    """``fn(bx)`` on the first of :func:`nudged_boxes` whose contour is usable, and that box.
+
+    Raises:
+        ContourError: If ``fn`` raises it on every nudged copy of the box.
+    """
+    err: ContourError | None = None
+    for bx in nudged_boxes(box):
+        try:
+            return fn(bx), bx
+        except ContourError as e:
+            err = e
+    raise ContourError(f"no usable contour near {box} at k = {k:g}: {err}")
+
+
+def exact_roots(p: Params, k: float, box: Box) -> tuple[list[Root], Box]:
+    """Every exact root in ``box`` at ``k`` (argument principle), and the box actually used.
+
+    Raises:
+        ContourError: If no nudged copy of the box gives a usable contour.
+    """
+    from analytic.numerics.branches import _n_initial, spectrum_function
+
+    fun = spectrum_function(p, float(k))
+    return on_usable_box(box, k, lambda bx: zeros_in_box(fun, bx, n_initial=_n_initial(p, bx)))
+
+
+def in_box(z: complex, box: Box) -> bool:
+    """``z`` inside the closed rectangle."""
+    return box[0] <= z.real <= box[1] and box[2] <= z.imag <= box[3]
+
+
+@dataclass
+class FamilyPlan:
+    """What to follow: waveguide branches and seeded families (cheap to compute, picklable).
+
+    Attributes:
+        waveguide: ``(n, sign)`` of the branches followed from their cut-offs.
+        seeds: ``(label, Lambda)`` of the other roots at ``k_seed``.
+        k_seed: Seed wavenumber.
+        seed_box: Rectangle searched at ``k_seed``.
+    """
+
+    waveguide: list[tuple[int, int]]
+    seeds: list[tuple[str, complex]]
+    k_seed: float
+    seed_box: Box
+
+
+def plan_families(p: Params, region: Region, k_max: float, re_floor: float = -3.0
+                  ) -> FamilyPlan:
+    """Which families can reach the region for ``k <= k_max``.
+
+    Waveguide branches: every cut-off with ``|Im| <= W(k_max)``. Seeds: every root at
+    ``k_seed`` in ``re_floor <= Re <= re_max``, ``|Im| <= W(k_max)`` that is not a waveguide
+    branch's (those start within ``1e-2`` of their cut-offs there).
+    """
+    w = region.im_max(p, k_max)
+    waveguide = []
+    n = 0
+    while True:
+        lam0 = branch_cutoff(n, 1, p)
+        if abs(lam0.imag) > w:
+            break
+        waveguide += [(n, 1), (n, -1)]
+        n += 1
+    k_seed = SEED_KH / p.H
+    box = (re_floor, region.re_max, -w, w)
+    roots, box = exact_roots(p, k_seed, box)
+    cut = [branch_cutoff(nn, s, p) for nn, s in waveguide]
+    spacing = math.pi / (p.beta * p.H)
+    others = [r.value for r in roots
+              if not cut or min(abs(r.value - c) for c in cut) > 0.05 * spacing]
+    real = sorted([z for z in others if abs(z.imag) <= 1e-3 * max(1.0, abs(z))],
+                  key=lambda z: -z.real)
+    seeds = [(f"r{i}", z) for i, z in enumerate(real)]
+    for sign, tag in ((1, "+"), (-1, "-")):
+        side = sorted([z for z in others if sign * z.imag > 1e-3 * max(1.0, abs(z))],
+                      key=lambda z: (abs(z.imag), z.real))
+        seeds += [(f"s{i}{tag}", z) for i, z in enumerate(side)]
+    return FamilyPlan(waveguide, seeds, k_seed, box)
+
+
+def region_skip(p: Params, region: Region, margin: float = 0.3):  # noqa: ANN201
+    """A ``skip`` rule for the continuation: the predicted root is far outside the region.
+
+    Far means farther than ``margin`` plus three times the predictor's own uncertainty; a root
+    skipped wrongly would show up as an unlabelled root in the region (flagged), never as a
+    silent gap.
+    """
+
+    def skip(k: float, lam: complex, unc: float) -> bool:
+        a, b, c, d = region.box(p, k)
+        dist = max(a - lam.real, lam.real - b, c - lam.imag, lam.imag - d, 0.0)
+        return dist > margin + 3.0 * unc
+
+    return skip
+
+
+def follow_family(p: Params, plan: FamilyPlan, item: tuple, ks: np.ndarray,
+                  region: Region | None = None) -> BranchResult:
+    """Follow one item of a plan (``("w", n, sign)`` or ``("s", label, Lambda)``) to ``ks``.
+
+    With a ``region``, requested ``k`` where the family is predicted far outside it are skipped
+    (see :func:`region_skip`).
+    """
+    skip = region_skip(p, region) if region is not None else None
+    if item[0] == "w":
+        return follow_branch(p, int(item[1]), int(item[2]), ks, skip=skip)
+    return follow_root(p, str(item[1]), plan.k_seed, complex(item[2]), ks, skip=skip)
+
+
+def plan_items(plan: FamilyPlan) -> list[tuple]:
+    """The plan as a flat list of items for :func:`follow_family` (waveguide first)."""
+    return [("w", n, s) for n, s in plan.waveguide] + [("s", lab, z) for lab, z in plan.seeds]
+
+
+def families(p: Params, region: Region, ks: np.ndarray) -> list[BranchResult]:
+    """Every family that can reach the region, followed to ``ks`` (serial; see the sweep)."""
+    ks = np.unique(np.asarray(ks, dtype=float))
+    plan = plan_families(p, region, float(ks[-1]))
+    return [follow_family(p, plan, it, ks, region) for it in plan_items(plan)]
+
+
+@dataclass
+class Labelled:
+    """An exact root in the region with its label.
+
+    Attributes:
+        value: The exact root.
+        label: Family label (``"?i"`` if no followed family reaches it).
+        certified: The family was followed to this ``k`` without doubt, and exactly one
+            family claims this root.
+        note: Why not certified ("" if certified).
+    """
+
+    value: complex
+    label: str
+    certified: bool
+    note: str
+
+
+def _index_at(f: BranchResult, k: float) -> int | None:
+    """Index of the requested ``k`` in ``f`` if the family has a value there, else ``None``."""
+    i = int(np.searchsorted(f.k, k))
+    return i if i < len(f.k) and f.k[i] == k and np.isfinite(f.Lambda[i]) else None
+
+
+def _labelled(f: BranchResult, i: int, value: complex | None = None) -> Labelled:
+    """The root of family ``f`` at its ``i``-th requested ``k`` (or ``value``), labelled."""
+    z = complex(f.Lambda[i]) if value is None else value
+    return Labelled(z, f.label, bool(f.ok[i]), "" if f.ok[i] else f.flag[i])
+
+
+def label_roots(roots: list[Root], fams: list[BranchResult], k: float) -> list[Labelled]:
+    """Give every exact root the label of the family whose continued value it is.
+
+    A root is claimed by a family when they agree to :data:`SAME_ROOT_RTOL`; a root claimed
+    by two families, or by none, is not certified (``"?"`` labels for the latter).
+    """
+    out = []
+    unl = 0
+    at_k = [(f, i) for f in fams for i in [_index_at(f, k)] if i is not None]
+    for r in roots:
+        z = r.value
+        claims = [(f, i) for f, i in at_k
+                  if abs(f.Lambda[i] - z) <= SAME_ROOT_RTOL * max(1.0, abs(z))]
+        if len(claims) == 1:
+            out.append(_labelled(*claims[0], value=z))
+        elif not claims:
+            out.append(Labelled(z, f"?{unl}", False, "no followed family reaches this root"))
+            unl += 1
+        else:
+            labs = "+".join(f.label for f, _ in claims)
+            out.append(Labelled(z, labs, False, f"claimed by {len(claims)} families"))
+    return out
+
+
+def certified_roots(p: Params, k: float, region: Region, fams: list[BranchResult]
+                    ) -> tuple[list[Labelled], Box, int]:
+    """Every exact root in the region at ``k``, labelled; the box used; the exact count.
+
+    The count is the argument principle on ``det_M``. When the followed families' values inside
+    the box are as many as the count (and distinct), they *are* the roots; otherwise the box is
+    searched (:func:`analytic.numerics.roots.zeros_in_box`) and the roots no family claims get
+    ``"?"``
+    labels.
+
+    Raises:
+        ContourError: If no nudged copy of the box gives a usable contour.
+    """
+    from analytic.numerics.branches import _n_initial, spectrum_function
+    from analytic.numerics.roots import count_zeros
+
+    fun = spectrum_function(p, float(k))
+    n, bx = on_usable_box(region.box(p, k), k,
+                          lambda b: count_zeros(fun, b, n_initial=_n_initial(p, b)))
+    cand = [(f, i) for f in fams for i in [_index_at(f, k)]
+            if i is not None and in_box(f.Lambda[i], bx)]
+    vals = np.array([f.Lambda[i] for f, i in cand], dtype=complex)
+    distinct = all(abs(vals[a] - vals[b]) > SAME_ROOT_RTOL * max(1.0, abs(vals[a]))
+                   for a in range(len(vals)) for b in range(a))
+    if len(cand) == n and distinct:
+        out = [_labelled(f, i) for f, i in cand]
+    else:
+        roots = zeros_in_box(fun, bx, n_initial=_n_initial(p, bx))
+        out = label_roots(roots, fams, k)
+    return sorted(out, key=lambda r: (-r.value.real, r.value.imag)), bx, n
+
+
+def fastest_root(p: Params, k: float, region: Region) -> tuple[complex | None, int, Box]:
+    """The fastest-growing exact root in the region at ``k`` (no labels): ``(root, count, box)``.
+
+    ``root`` is ``None`` when the region holds no root. The count is the argument principle's,
+    so the maximum is over *every* root in the region.
+    """
+    roots, bx = exact_roots(p, k, region.box(p, k))
+    # a nudged box may reach slightly below re_min: report the region's roots only
+    roots = [r for r in roots if r.value.real >= region.re_min]
+    if not roots:
+        return None, 0, bx
+    best = max(roots, key=lambda r: r.value.real)
+    return complex(best.value), len(roots), bx
+
+
+def family_peak(p: Params, k0: float, z0: complex, lo: float, hi: float, *, steps: int = 40,
+                dk: float = 0.05) -> tuple[float, complex]:
+    """Largest ``Re Lambda`` of the root family through ``(k0, z0)`` for ``k`` in ``[lo, hi]``.
+
+    Golden-section search on ``k``; the root at each ``k`` is reached from ``(k0, z0)`` by
+    polishing in steps of at most ``dk`` (the family's growth rate is smooth, unlike the
+    envelope, which jumps between families).
+
+    Returns:
+        ``(k, Lambda)`` at the maximum found.
+    """
+    from analytic.numerics.branches import polish_root
+
+    cache: dict[float, complex] = {}
+
+    def growth(k: float) -> float:
+        z = complex(z0)
+        n = max(1, int(math.ceil(abs(k - k0) / dk)))
+        for i in range(1, n + 1):
+            z = polish_root(p, k0 + (k - k0) * i / n, z).value
+        cache[k] = z
+        return z.real
+
+    g = (math.sqrt(5.0) - 1.0) / 2.0
+    a, b = lo, hi
+    c, d = b - g * (b - a), a + g * (b - a)
+    fc, fd = growth(c), growth(d)
+    for _ in range(steps):
+        if fc > fd:
+            b, d, fd = d, c, fc
+            c = b - g * (b - a)
+            fc = growth(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + g * (b - a)
+            fd = growth(d)
+    k = c if fc > fd else d
+    return k, cache[k]

@@ -1,0 +1,1 @@
+"""The exact physics: finite-H determinant, small k, half-space, large k, two bodies."""

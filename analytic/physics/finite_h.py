@@ -1,0 +1,318 @@
+"""Exact finite-H spectrum ``det M(Lambda, k, H) = 0`` (docs/design.md section 4).
+
+Units ``c_s = mu = rho = 1``, ``c_d = 1/beta``. Perturbations go as ``exp(Lambda t - i k x)``.
+
+**Fields.** With the shear potential ``psi(y)`` and the dilatational potential ``phi(y)``
+(``psi'' = k_s^2 psi``, ``phi'' = k_d^2 phi``, ``k_s = sqrt(Lambda^2 + k^2)``,
+``k_d = sqrt(beta^2 Lambda^2 + k^2)``) the displacement and the tractions on ``y = const`` are::
+
+    u_x = psi' - i k phi            u_y = i k psi + phi'
+    s_xy = P psi - 2 i k phi'       s_yy = P phi + 2 i k psi'        P = Lambda^2 + 2 k^2
+
+``psi = exp(-+ k_s y)`` and ``phi = i exp(-+ k_d y)`` are the four partial waves of the paper's
+Eq. (elastic fields) (columns ``A_1..A_4``).
+
+**Matrix.** Four columns (basis solutions), four rows: the two top conditions at ``y = H``
+(``bc = "velocity"``: ``u_x = 0, s_yy = 0``; ``bc = "stress"``: ``s_xy = 0, s_yy = 0``), then
+``u_y = 0`` and the friction law at ``y = 0`` (docs/design.md section 3), the latter multiplied by
+``Lambda + 1`` so that it is polynomial in ``Lambda``::
+
+    (Lambda+1)(1 + alpha_pc Lambda) s_xy + (f (Lambda+1) - alpha_ld Lambda) s_yy
+        - (1/gamma) Lambda (Lambda + Delta) u_x = 0
+
+(when ``alpha_ld = 0`` and ``Delta = 1`` the factor ``Lambda + 1`` cancels and is not applied,
+so no spurious root at ``Lambda = -1`` appears). Nothing here has a pole: ``Lambda = -1`` and
+``Lambda = -1/alpha_pc`` are ordinary points.
+
+Two bases are implemented (``basis=``):
+
+- ``"waves"``: the paper's partial waves, the growing ones scaled as ``exp(k (y - H))``
+  (docs/design.md section 4);
+  principal square roots, so this determinant is *not* single-valued in ``Lambda``: flipping the
+  sign of ``k_s`` swaps and rescales two columns. Its zeros are the spectrum, but the argument
+  principle fails on contours that cross the cuts (``Lambda`` on the imaginary axis with
+  ``|Im Lambda| > k`` or ``> k/beta``, exactly where the waveguide branches start).
+- ``"even"`` (default, used for all root finding): ``psi in {cosh(k_s (y-H)),
+  sinh(k_s (y-H))/k_s}`` and the same for ``phi``; every entry is an even function of ``k_s`` and
+  ``k_d``, hence entire and single-valued in ``Lambda``. Each column is multiplied by
+  ``exp(-H Re k_{s,d})`` (a positive number: no overflow at large ``kH``, phase unchanged).
+
+**The spectrum function.** The entire, single-valued function whose zeros are the spectrum is
+``R(Lambda) = det(M_even) / Lambda^4``: the potential representation degenerates at ``Lambda = 0``
+(``k_s = k_d``), where ``det(M_even)`` vanishes like ``Lambda^4`` for both top conditions
+(measured; ``Lambda = 0`` is not an eigenvalue). Evaluating ``det(M_even)`` directly is
+ill-conditioned at large ``H Re k`` (its top rows mix ``exp(-H Re k_s)`` and ``exp(-H Re k_d)``),
+while the partial-wave matrix is well conditioned there. Changing basis column pair by column pair
+gives ``det(M_even) = const * det(M_waves) exp(H (k_s + k_d)) / (k_s k_d)``, so :func:`det_M`
+returns::
+
+    det_M = det(M_waves) / prod_i ||row_i||  *  exp(i H Im(k_s + k_d)) (|k_s|/k_s) (|k_d|/k_d)
+            * (|Lambda|/Lambda)^4  /  w(Lambda)
+
+with the positive weight ``w = (h_s/(1+h_s)) (h_d/(1+h_d)) (|Lambda|/(|Lambda| + k + 1/H))^4``,
+``h_{s,d} = H |k_{s,d}|``, which removes the spurious vanishing of the modulus at ``k_s = 0``,
+``k_d = 0`` (two partial waves coincide) and ``Lambda = 0``. Its phase is the phase of ``R``, its
+modulus is the Hadamard-normalised determinant (about ``1e-16`` at a computed root: a relative
+residual) away from those points. So ``det_M`` is single-valued and continuous, has no poles,
+its zeros are exactly the spectrum, and its winding number on a contour counts the eigenvalues
+inside. It is not analytic (positive, smooth scale factors), which Newton's method and the
+argument principle do not need (see :mod:`analytic.numerics.roots`). Rounding: the value loses
+accuracy
+like ``1e-16 / |Lambda|^4`` near the origin and ``1e-16 / (H |k_{s,d}|)`` near
+``Lambda = +-i k, +-i k/beta``: keep contours off those points (``|Lambda| >~ 1e-3``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from analytic.params import ParameterError, Params, require_rigid
+
+SPURIOUS_ORDER_AT_ZERO = 4
+
+
+def _finite_h(p: Params) -> float:
+    if not math.isfinite(p.H):
+        raise ParameterError("H = inf: the finite-H functions need a finite H > 0 (half-space: "
+                             "analytic.physics.halfspace)")
+    return p.H
+
+
+def wavenumbers(Lambda: np.ndarray | complex, k: np.ndarray | float, beta: float
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """``k_s = sqrt(Lambda^2 + k^2)``, ``k_d = sqrt(beta^2 Lambda^2 + k^2)`` (principal roots)."""
+    L = np.asarray(Lambda, dtype=complex)
+    k = np.asarray(k, dtype=float)
+    return np.sqrt(L * L + k * k), np.sqrt(beta * beta * L * L + k * k)
+
+
+def _even_pair(kappa: np.ndarray, H: float) -> tuple[np.ndarray, np.ndarray]:
+    """``cosh(H kappa)`` and ``sinh(H kappa)/kappa``, both times ``exp(-H Re kappa)``.
+
+    Even in ``kappa``; ``Re kappa >= 0`` for principal roots, so nothing overflows.
+    """
+    x = H * kappa
+    phase = np.exp(1j * x.imag)
+    e2 = np.exp(-2.0 * x)
+    c = 0.5 * phase * (1.0 + e2)
+    small = np.abs(x) < 1e-6
+    xs = np.where(small, 1.0, x)
+    ratio = np.where(small, 1.0 - x + (2.0 / 3.0) * x * x, -np.expm1(-2.0 * xs) / (2.0 * xs))
+    s = H * phase * ratio  # sinh(x)/kappa * exp(-Re x) = H * exp(i Im x) * (1 - e^{-2x})/(2x)
+    return c, s
+
+
+def _columns_fields(P: np.ndarray, k: np.ndarray, vals: list[tuple[np.ndarray, np.ndarray]],
+                    kinds: tuple[str, ...]) -> np.ndarray:
+    """Fields (u_x, u_y, s_xy, s_yy) of each column from (value, derivative) of its potential."""
+    shape = np.broadcast(P, k).shape  # every column's fields broadcast to it on assignment
+    out = np.empty(shape + (4, 4), dtype=complex)  # (..., 4 fields, 4 columns)
+    for j, ((v, d), kind) in enumerate(zip(vals, kinds, strict=True)):
+        # filled in place (np.stack of small arrays dominated the cost of det_M)
+        if kind == "psi":
+            out[..., 0, j], out[..., 1, j] = d, 1j * k * v
+            out[..., 2, j], out[..., 3, j] = P * v, 2j * k * d
+        else:
+            out[..., 0, j], out[..., 1, j] = -1j * k * v, d
+            out[..., 2, j], out[..., 3, j] = -2j * k * d, P * v
+    return out
+
+
+def _boundary_fields(Lambda: np.ndarray, k: np.ndarray, p: Params, basis: str
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Fields of the four basis columns at the bottom (y = 0) and the top (y = H)."""
+    H = _finite_h(p)
+    ks, kd = wavenumbers(Lambda, k, p.beta)
+    P = Lambda * Lambda + 2.0 * k * k
+    one = np.ones_like(ks)
+    zero = np.zeros_like(ks)
+    kinds = ("psi", "psi", "phi", "phi")
+    if basis == "even":
+        cs, ss = _even_pair(ks, H)
+        cd, sd = _even_pair(kd, H)
+        rs, rd = np.exp(-H * ks.real), np.exp(-H * kd.real)
+        bottom = [(cs, -ks * ks * ss), (-ss, cs), (cd, -kd * kd * sd), (-sd, cd)]
+        top = [(rs * one, zero), (zero, rs * one), (rd * one, zero), (zero, rd * one)]
+    elif basis == "waves":
+        es, ed = np.exp(-H * ks), np.exp(-H * kd)
+        bottom = [(one, -ks), (1j * one, -1j * kd), (es, ks * es), (1j * ed, 1j * kd * ed)]
+        top = [(es, -ks * es), (1j * ed, -1j * kd * ed), (one, ks), (1j * one, 1j * kd)]
+        kinds = ("psi", "phi", "psi", "phi")
+    else:
+        raise ValueError(f"basis = {basis!r} is not 'even' or 'waves'")
+    return _columns_fields(P, k, bottom, kinds), _columns_fields(P, k, top, kinds)
+
+
+def friction_coefficients(Lambda: np.ndarray, p: Params
+                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Coefficients ``(a, b, c)`` of the friction row ``a s_xy + b s_yy + c u_x = 0`` at y = 0.
+
+    The rational law of docs/design.md section 3 multiplied by ``Lambda + 1`` (not multiplied when
+    ``alpha_ld = 0`` and ``Delta = 1``, where the factor cancels).
+    """
+    L = np.asarray(Lambda, dtype=complex)
+    if p.alpha_ld == 0 and p.Delta == 1.0:
+        a = (1.0 + p.alpha_pc * L) * np.ones_like(L)
+        b = p.f * np.ones_like(L)
+        c = -L / p.gamma
+    else:
+        a = (1.0 + p.alpha_pc * L) * (L + 1.0)
+        b = p.f * (L + 1.0) - p.alpha_ld * L
+        c = -L * (L + p.Delta) / p.gamma
+    return a, b, c
+
+
+def matrix_M(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params,
+             basis: str = "even") -> np.ndarray:
+    """The 4x4 matrix (rows: two top conditions, ``u_y(0) = 0``, friction law at y = 0).
+
+    Args:
+        Lambda: Complex growth rate(s); broadcast against ``k``.
+        k: Wavenumber(s) ``> 0`` (not checked here: see :func:`analytic.params.check_k`).
+        p: Parameters (``p.bc`` selects the top condition).
+        basis: ``"even"`` (single-valued, default) or ``"waves"`` (the paper's partial waves).
+
+    Returns:
+        Array of shape ``broadcast(Lambda, k).shape + (4, 4)``.
+    """
+    require_rigid(p, "analytic.physics.finite_h")
+    L, kk = np.broadcast_arrays(np.asarray(Lambda, dtype=complex), np.asarray(k, dtype=float))
+    bottom, top = _boundary_fields(L, kk, p, basis)
+    a, b, c = friction_coefficients(L, p)
+    friction = a[..., None] * bottom[..., 2, :] + b[..., None] * bottom[..., 3, :] \
+        + c[..., None] * bottom[..., 0, :]
+    rows = (0, 3) if p.bc == "velocity" else (2, 3)
+    return np.stack([top[..., rows[0], :], top[..., rows[1], :], bottom[..., 1, :], friction],
+                    axis=-2)
+
+
+def det_M(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -> np.ndarray:
+    """The spectrum function: zero exactly at the eigenvalues, single-valued, no poles.
+
+    See the module docstring: the modulus is the Hadamard-normalised partial-wave determinant
+    (a relative residual, ``<= 1`` up to the weight near the origin), the phase is that of the
+    entire function ``det(M_even) / Lambda^4``.
+
+    Args:
+        Lambda: Complex growth rate(s), any shape; broadcast against ``k``.
+        k: Wavenumber(s) ``> 0``.
+        p: Parameters (finite ``H``).
+
+    Returns:
+        Complex array of the broadcast shape (a 0-d array for scalar input).
+    """
+    H = _finite_h(p)
+    L, kk = np.broadcast_arrays(np.asarray(Lambda, dtype=complex), np.asarray(k, dtype=float))
+    # Exactly at k_s = 0, k_d = 0 or Lambda = 0 the formula is 0/0 (a removable point of a
+    # continuous function): evaluate a relative 1e-12 away instead.
+    ks, kd = wavenumbers(L, kk, p.beta)
+    degenerate = (np.abs(ks) < 1e-12 * (np.abs(L) + kk)) | (np.abs(kd) < 1e-12 * (np.abs(L) + kk)) \
+        | (L == 0)
+    if degenerate.any():
+        L = np.where(degenerate, L + 1e-12 * (np.abs(L) + kk) * (1 + 1j), L)
+    M = matrix_M(L, kk, p, "waves")
+    norms = np.prod(np.linalg.norm(M, axis=-1), axis=-1)
+    ks, kd = wavenumbers(L, kk, p.beta)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        hs, hd, aL = H * np.abs(ks), H * np.abs(kd), np.abs(L)
+        phase = np.exp(1j * H * (ks.imag + kd.imag))
+        phase = phase * np.where(hs > 0, np.abs(ks) / ks, 1.0)
+        phase = phase * np.where(hd > 0, np.abs(kd) / kd, 1.0)
+        phase = phase * np.where(aL > 0, aL / L, 1.0) ** SPURIOUS_ORDER_AT_ZERO
+        weight = (hs / (1.0 + hs)) * (hd / (1.0 + hd)) \
+            * (aL / (aL + kk + 1.0 / H)) ** SPURIOUS_ORDER_AT_ZERO
+        return np.linalg.det(M) / norms * phase / weight
+
+
+def det_M_even(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -> np.ndarray:
+    """``det(M_even) / Lambda^4`` up to a positive factor, from the even basis directly.
+
+    Same zeros and phase (up to a constant) as :func:`det_M`; accurate for moderate ``H Re k``
+    only (ill-conditioned when ``H |Re k_s - Re k_d|`` is large). A cross-check.
+    """
+    M = matrix_M(Lambda, k, p, "even")
+    norms = np.prod(np.linalg.norm(M, axis=-1), axis=-1)
+    L = np.broadcast_to(np.asarray(Lambda, dtype=complex), norms.shape)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        unit = np.where(L == 0, 1.0, np.abs(L) / np.where(L == 0, 1.0, L))
+    return np.linalg.det(M) / norms * unit**SPURIOUS_ORDER_AT_ZERO
+
+
+def det_M_waves(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -> np.ndarray:
+    """Row-normalised determinant in the paper's partial-wave basis (docs/design.md section 4).
+
+    Same zeros as :func:`det_M`, but multi-valued across the cuts of ``k_s``, ``k_d`` (the
+    imaginary axis beyond ``+-i k``): do not use it for argument-principle counts.
+    """
+    M = matrix_M(Lambda, k, p, "waves")
+    norms = np.prod(np.linalg.norm(M, axis=-1), axis=-1)
+    return np.linalg.det(M) / norms
+
+
+def _tanh(x: np.ndarray) -> np.ndarray:
+    """Tanh for Re x >= 0 without overflow."""
+    e2 = np.exp(-2.0 * x)
+    return (1.0 - e2) / (1.0 + e2)
+
+
+def G12(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params
+        ) -> tuple[np.ndarray, np.ndarray]:
+    """The paper's ``G_1``, ``G_2`` (Eq. pert_elastodynamics_auxiliary), velocity top.
+
+    ``s_xy = -k_d G_1 u_x`` and ``s_yy = i k G_2 u_x`` at ``y = 0`` (Eq. pert_elastodynamics).
+    """
+    H = _finite_h(p)
+    L = np.asarray(Lambda, dtype=complex)
+    k = np.asarray(k, dtype=float)
+    ks, kd = wavenumbers(L, k, p.beta)
+    coth_d = 1.0 / _tanh(H * kd)
+    tanh_s = _tanh(H * ks)
+    G1 = coth_d * L * L / (kd * ks * coth_d * tanh_s - k * k)
+    G2 = 2.0 - G1 / coth_d
+    return G1, G2
+
+
+def spectrum_S(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -> np.ndarray:
+    """The paper's closed form ``S(Lambda, k, H)`` (Eq. Hspectrum_dimensionless), ``mu = 1``.
+
+    ``S = k_d G_1 - i k f G_2 + Lambda (Lambda + Delta) / (gamma (Lambda + 1))`` for the
+    velocity top. The generalized friction law (docs/design.md section 3) is included:
+    ``(1 + alpha_pc Lambda) k_d G_1 - i k (f - alpha_ld Lambda/(Lambda+1)) G_2 + ...``.
+    Meromorphic: poles at ``Lambda = -1`` and where the denominator of ``G_1`` vanishes.
+
+    Raises:
+        ParameterError: If ``p.bc`` is not ``"velocity"`` (no closed form is given for
+            ``"stress"``; use :func:`det_M`).
+    """
+    if p.bc != "velocity":
+        raise ParameterError(f"bc = {p.bc!r}: the closed form S is for bc = 'velocity' only")
+    L = np.asarray(Lambda, dtype=complex)
+    k = np.asarray(k, dtype=float)
+    _, kd = wavenumbers(L, k, p.beta)
+    G1, G2 = G12(L, k, p)
+    return ((1.0 + p.alpha_pc * L) * kd * G1
+            - 1j * k * (p.f - p.alpha_ld * L / (L + 1.0)) * G2
+            + L * (L + p.Delta) / (p.gamma * (L + 1.0)))
+
+
+def cutoff(n: int, sign: int, p: Params) -> complex:
+    """Waveguide cut-off ``Lambda_0 = sign * i (2n+1) pi / (2 beta H)`` (Eq. waveguide_cutoff).
+
+    The limit ``k -> 0`` of the branch ``n`` (``sign = +1`` or ``-1``). It is the same for both
+    top conditions: at ``k = 0`` the dilatational part decouples (``u_y(0) = 0``,
+    ``s_yy(H) = 0``: a quarter-wave resonance, ``cosh(beta Lambda H) = 0``) whether ``u_x`` or
+    ``s_xy`` is imposed on top; ``det M(k=0)`` factorises as ``cosh(beta Lambda H)`` times a
+    shear/friction factor (see tests).
+
+    Raises:
+        ParameterError: On ``n < 0`` or ``sign`` not +-1.
+    """
+    if int(n) != n or n < 0:
+        raise ParameterError(f"n = {n!r} is outside its allowed range n >= 0 (integer)")
+    if sign not in (1, -1):
+        raise ParameterError(f"sign = {sign!r} must be +1 or -1")
+    H = _finite_h(p)
+    require_rigid(p, "analytic.physics.finite_h.cutoff")
+    return complex(0.0, sign * (2 * n + 1) * math.pi / (2.0 * p.beta * H))

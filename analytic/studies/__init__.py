@@ -1,0 +1,1 @@
+"""Computations of particular scenes on the exact spectrum."""

@@ -1,0 +1,1 @@
+"""Solvers of the discrete eigenproblems: SLEPc, banded, certified spectra, continuation."""

@@ -1,0 +1,261 @@
+"""The certified complete spectrum at one ``k``: FE eigenvalues, exact roots, and the checks.
+
+docs/design.md section 8. For every requested ``k`` and the
+:class:`analytic.numerics.spectrum.Region`
+``R``:
+
+1. exact: the argument-principle count ``N_exact`` of ``det_M`` in ``R`` and every root in ``R``
+   with the label of the family it was continued on
+   (:func:`analytic.numerics.spectrum.certified_roots`);
+2. FE: every exact root is the predictor of a Newton iteration on the discrete nonlinear
+   eigenproblem (:meth:`forms.solvers.banded.BandedOperator.newton`: a few banded factorisations);
+   the
+   *FE* count ``N_FE`` of discrete eigenvalues in ``R`` comes from the argument principle on
+   ``det T_h`` (:meth:`forms.solvers.banded.BandedOperator.count`), independently of the exact
+   roots;
+3. the count closes when ``N_FE == N_exact`` and the FE values are matched to *distinct* exact
+   roots (each FE value's nearest exact root is the one it started from). Then no FE eigenvalue
+   in ``R`` is missing or extra, and each carries its exact root's label;
+4. error estimate: one Newton solve on the degree ``p + 1`` discretisation started from the
+   FE value gives ``|Lambda_p - Lambda_{p+1}| / |Lambda_{p+1}|``, valid where no exact root
+   exists.
+
+A row's ``status`` is ``ok`` only if its label is certified (continuation without doubt), the
+count closes, the Newton iteration converged, and both the estimate and the error against the
+exact root are within ``rtol``. Otherwise the status says which check failed.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mpi4py import MPI
+
+from analytic.numerics.branches import BranchResult
+from analytic.numerics.roots import ContourError
+from analytic.numerics.spectrum import Region, certified_roots
+from analytic.params import Params
+from forms.models.cross_section import CrossSectionModel
+from forms.solvers.banded import BandedModel
+
+#: Columns of one spectrum row, in CSV order.
+ROW_FIELDS = ("k", "label", "re_lambda", "im_lambda", "re_lambda_exact", "im_lambda_exact",
+              "rel_error", "error_estimate", "residual", "status")
+
+
+def default_discretisation(p: Params, region: Region, k_max: float, rtol: float = 1e-8
+                           ) -> tuple[int, int, float]:
+    """``(degree, cells, grading ratio)`` meeting ``rtol`` on every root of the region.
+
+    The fastest-oscillating mode of the region has a transverse wavenumber of at most
+    ``W = |Im Lambda|_max`` (shear part, ``c_s = 1``). P4 with 7 cells per wavelength
+    ``2 pi / W`` gave a relative error of ``2e-10`` on the top root of the region (paper
+    defaults, ``H = 0.5``, ``k = 6``: 41 cells, error estimate 2.1e-10, error 2.1e-10) and the
+    errors go as ``h^8``; graded meshes (large ``k H``) lose a factor of about 3 (stress top,
+    ``k = 13``: 3.6e-8 with 7 per wavelength) and few cells lose some more (stress top,
+    ``k = 1``: 13 cells, 4.9 per wavelength, gave 2.4e-8 where 1e-8 was aimed at), so
+    ``11 (2e-10 / rtol)^(1/8)`` cells per wavelength (``alpha_pc = 2``, ``k = 4``: 10 gave
+    1.006e-8 on a shear-family root); at least 6 cells.
+
+    The mesh is uniform: the region holds modes that oscillate through the whole strip (up to
+    ``W``) as well as modes that decay over ``1/k >= 1/W`` above the interface, and both need
+    the same cell size (a graded mesh, ``k H = 25``, ratio 6.4, left the top roots at 2e-6).
+    """
+    return 4, _cells(region.im_max(p, k_max), p.H, 1.0, rtol), 1.0
+
+
+def _cells(w: float, height: float, c_s: float, rtol: float) -> int:
+    """P4 cells of a layer: ``11 (2e-10/rtol)^(1/8)`` per shear wavelength ``2 pi c_s / w``."""
+    waves = w * height / (2.0 * math.pi * c_s)
+    per_wave = 11.0 * (2e-10 / rtol) ** 0.125
+    return int(max(6, math.ceil(per_wave * waves)))
+
+
+def substrate_cells(p: Params, region: Region, k_max: float, rtol: float = 1e-8) -> int:
+    """Cells of a deformable substrate (finite ``H2``).
+
+    The rule of :func:`default_discretisation` with the substrate's shear-wave speed ``c_s2``.
+    """
+    return _cells(region.im_max(p, k_max), p.H2, math.sqrt(p.mu2 / p.rho2), rtol)
+
+
+@dataclass
+class KResult:
+    """Everything computed at one ``k`` (JSON-able through :meth:`as_dict`).
+
+    Attributes:
+        k: Wavenumber.
+        rows: One dict per eigenvalue (keys :data:`ROW_FIELDS`).
+        n_exact: Argument-principle count of exact roots in the region (``None``: failed).
+        n_fe: Argument-principle count of FE eigenvalues in the region (``None``: failed).
+        box: The rectangle actually used.
+        closed: The count closes (see module docstring).
+        note: Why not, or other remarks.
+        seconds: Wall time of this ``k``.
+        factorizations: Banded LU factorisations spent (Newton + counts).
+    """
+
+    k: float
+    rows: list[dict] = field(default_factory=list)
+    n_exact: int | None = None
+    n_fe: int | None = None
+    box: tuple = ()
+    closed: bool = False
+    note: str = ""
+    seconds: float = 0.0
+    factorizations: int = 0
+
+    def as_dict(self) -> dict:
+        """Plain-JSON form."""
+        return {"k": self.k, "rows": self.rows, "n_exact": self.n_exact, "n_fe": self.n_fe,
+                "box": list(self.box), "closed": self.closed, "note": self.note,
+                "seconds": self.seconds, "factorizations": self.factorizations}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> KResult:
+        """Inverse of :meth:`as_dict`."""
+        return cls(d["k"], d["rows"], d["n_exact"], d["n_fe"], tuple(d["box"]), d["closed"],
+                   d["note"], d["seconds"], d.get("factorizations", 0))
+
+
+class CertifiedSolver:
+    """FE models of degree ``p`` and ``p + 1`` on one mesh, on one process.
+
+    Args:
+        params: Parameters (finite ``H``).
+        region: The region ``R``.
+        degree: Lagrange degree ``p`` of the reported values.
+        cells: Cells of the interval mesh.
+        ratio: Grading ratio of the mesh.
+        k_max: Largest ``k`` of the sweep.
+        rtol: Relative accuracy a row must reach to be ``ok``.
+    """
+
+    def __init__(self, params: Params, region: Region, degree: int, cells: int, ratio: float,
+                 k_max: float, rtol: float) -> None:
+        self.params, self.region, self.rtol = params, region, rtol
+        if params.two_body:
+            # two deformable bodies: the layered model (identical to CrossSectionModel for a
+            # rigid substrate), the substrate meshed by the same rule (its own wave speed)
+            from forms.models.layered import LayeredModel, stack_from_params
+
+            self.cells2 = substrate_cells(params, region, k_max, rtol)
+            stack = stack_from_params(params, degree=degree, cells=cells, cells2=self.cells2,
+                                      k_max=k_max, ratio=ratio, ratio2=1.0)
+            self.models = [LayeredModel(MPI.COMM_SELF, stack, params, degree=d)
+                           for d in (degree, degree + 1)]
+        else:
+            self.cells2 = 0
+            kw = {"cells": cells, "k_max": k_max, "ratio": ratio, "form": "polynomial"}
+            self.models = [CrossSectionModel(MPI.COMM_SELF, params, degree=degree, **kw),
+                           CrossSectionModel(MPI.COMM_SELF, params, degree=degree + 1, **kw)]
+        self.banded = [BandedModel(m) for m in self.models]
+        self.degree, self.cells, self.ratio = degree, cells, ratio
+
+    @property
+    def unknowns(self) -> int:
+        """Unknowns of the degree-``p`` model."""
+        return self.models[0].size
+
+    def solve(self, k: float, fams: list[BranchResult]) -> KResult:
+        """The certified spectrum at ``k`` (see the module docstring)."""
+        t0 = time.perf_counter()
+        p, rtol = self.params, self.rtol
+        out = KResult(float(k))
+        try:
+            labelled, box, n_exact = certified_roots(p, k, self.region, fams)
+        except ContourError as err:
+            out.note = f"exact count failed: {err}"
+            out.seconds = time.perf_counter() - t0
+            return out
+        out.box, out.n_exact = tuple(float(v) for v in box), n_exact
+        fe, fine = (b.operator(k) for b in self.banded)
+        exact = np.array([r.value for r in labelled], dtype=complex)
+        values = []
+        for j, r in enumerate(labelled):
+            e = fe.newton(r.value)
+            est = math.nan
+            if e.converged:
+                g = fine.newton(e.value, maxit=6)
+                if g.converged:
+                    est = abs(e.value - g.value) / abs(g.value)
+            rel = abs(e.value - r.value) / max(abs(r.value), 1e-300)
+            near = int(np.argmin(np.abs(exact - e.value))) if len(exact) else -1
+            problems = []
+            if not r.certified:
+                problems.append(f"label not certified ({r.note})")
+            if not e.converged:
+                problems.append(f"Newton did not converge (residual {e.residual:.1e})")
+            elif near != j:
+                problems.append("FE value nearer another exact root")
+            if not rel <= rtol:
+                problems.append(f"error {rel:.1e} > rtol")
+            if not est <= rtol:
+                problems.append(f"estimate {est:.1e} > rtol")
+            values.append(e.value)
+            out.rows.append({
+                "k": float(k), "label": r.label,
+                "re_lambda": float(e.value.real), "im_lambda": float(e.value.imag),
+                "re_lambda_exact": float(r.value.real), "im_lambda_exact": float(r.value.imag),
+                "rel_error": float(rel), "error_estimate": float(est),
+                "residual": float(e.residual), "status": "; ".join(problems) or "ok",
+            })
+        try:
+            out.n_fe = fe.count(box)
+        except ContourError as err:
+            out.note = f"FE count failed: {err}"
+        vals = np.array(values, dtype=complex)
+        distinct = all(abs(vals[a] - vals[b]) > 1e-9 * max(1.0, abs(vals[a]))
+                       for a in range(len(vals)) for b in range(a))
+        out.closed = (out.n_fe is not None and out.n_fe == n_exact == len(labelled)
+                      and distinct)
+        if not out.closed:
+            why = (f"count not closed: FE {out.n_fe}, exact {n_exact}, reported {len(labelled)}"
+                   + ("" if distinct else ", two FE values coincide"))
+            out.note = "; ".join(x for x in (out.note, why) if x)
+            for row in out.rows:
+                row["status"] = ("" if row["status"] == "ok" else row["status"] + "; ") + why
+        out.factorizations = fe.factorizations + fine.factorizations
+        out.seconds = time.perf_counter() - t0
+        return out
+
+    def destroy(self) -> None:
+        """Destroy the PETSc objects of both models."""
+        for m in self.models:
+            m.destroy()
+
+
+def continue_fe(banded: BandedModel, ks: np.ndarray, z0: complex) -> tuple[np.ndarray, int]:
+    """FE continuation of one eigenpair over the sorted ``ks`` (Newton on the discrete NEP).
+
+    The previous eigenvector and a linear predictor from the previous two eigenvalues start a
+    Newton iteration (:meth:`forms.solvers.banded.BandedOperator.newton`) at every ``k``: a few
+    banded
+    factorisations per point, no eigensolver. No root count: this is the fast inner loop, the
+    certificate comes from :class:`CertifiedSolver`.
+
+    Returns:
+        ``(eigenvalues, factorisations)``; NaN where Newton did not converge.
+    """
+    out = np.full(len(ks), complex(np.nan, np.nan))
+    hist: list[tuple[float, complex]] = []
+    x = None
+    total = 0
+    for i, k in enumerate(ks):
+        if len(hist) >= 2:
+            (k1, z1), (k2, z2) = hist[-2:]
+            guess = z2 + (z2 - z1) / (k2 - k1) * (k - k2)
+        else:
+            guess = hist[-1][1] if hist else z0
+        op = banded.operator(float(k))
+        e = op.newton(guess, x)
+        total += op.factorizations
+        if not e.converged:
+            continue
+        out[i], x = e.value, e.vector
+        hist.append((float(k), e.value))
+    return out, total

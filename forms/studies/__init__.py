@@ -1,0 +1,1 @@
+"""The computations of particular scenes (no file I/O; the scenes write)."""

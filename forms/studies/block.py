@@ -1,0 +1,242 @@
+"""Finite block of length ``L`` on the substrate against the infinite strip: the computation.
+
+Used by ``workflows/finite_block.py``:
+
+- :func:`infinite_strip_reference`: per branch the infinite strip's most unstable ``k`` and
+  ``Lambda`` (cross-section model, continuation in ``k``), the reference (most unstable branch)
+  and the shift targets for the block solves;
+- :func:`most_unstable_block_mode`: the block of one length solved near every target, the
+  distinct eigenvalues kept, the most unstable one returned (:class:`BlockMode`, with the CSV
+  row of :data:`ROW_COLUMNS`);
+- :func:`converged_rows`: lengths and eigenvalues of the rows that converged;
+- :func:`extrapolate`: the limit ``L -> infinity`` (Richardson, observed order);
+- :func:`long_block_limit`: the cross-section model's long-block limit at the largest ``L``
+  (:func:`forms.solvers.spatial_stability.kulikovskii_limit`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+import dolfinx.fem
+from mpi4py import MPI
+
+from analytic.numerics.tracking import Branch, waveguide_lambda
+from analytic.params import Params
+from forms.mode_postprocessing import normalise
+from forms.models.strip import build_strip_problem, solve_modes
+from forms.solvers.continuation import follow_branch, most_unstable_k
+from forms.solvers.spatial_stability import kulikovskii_limit
+from meshes.strip import strip_mesh
+
+#: Columns of :meth:`BlockMode.row` (the CSV of ``finite_block.py``).
+ROW_COLUMNS = ("L", "re_lambda", "im_lambda", "residual", "candidates", "re_lambda_inf",
+               "im_lambda_inf", "k_inf")
+
+
+@dataclass
+class StripReference:
+    """The infinite strip's most unstable growth per branch, and the block's shift targets.
+
+    Attributes:
+        per_branch: ``(label, k, Lambda)`` of each branch at its most unstable ``k``.
+        label: Label of the most unstable branch (the reference).
+        k_inf: Its most unstable ``k``.
+        lam_inf: Its ``Lambda`` there.
+        targets: Distinct shift targets (``Im <= 0``) for the block solves.
+    """
+
+    per_branch: list[tuple[str, float, complex]]
+    label: str
+    k_inf: float
+    lam_inf: complex
+    targets: list[complex]
+
+    def record(self) -> dict:
+        """JSON-ready entries: branches, reference branch, per-branch maxima, targets."""
+        return {"branches": [t[0] for t in self.per_branch], "reference_branch": self.label,
+                "per_branch": [[t[0], t[1], t[2].real, t[2].imag] for t in self.per_branch],
+                "k_inf": self.k_inf, "lambda_inf": [self.lam_inf.real, self.lam_inf.imag],
+                "targets": [[t.real, t.imag] for t in self.targets]}
+
+
+@dataclass
+class BlockMode:
+    """The most unstable mode found for one block length.
+
+    Attributes:
+        length: ``L``.
+        eigenvalue: ``Lambda`` (``None`` if no target gave a converged mode).
+        residual: Its relative residual (``nan`` if none).
+        candidates: Number of distinct converged eigenvalues.
+        u: The normalised mode (if asked for), else ``None``.
+    """
+
+    length: float
+    eigenvalue: complex | None
+    residual: float
+    candidates: int
+    u: dolfinx.fem.Function | None = None
+
+    def row(self, ref: StripReference) -> list[float | int]:
+        """The values of :data:`ROW_COLUMNS` (``nan`` for a length without a mode)."""
+        nan = float("nan")
+        lam = (nan, nan) if self.eigenvalue is None else (self.eigenvalue.real,
+                                                           self.eigenvalue.imag)
+        residual = nan if self.eigenvalue is None else self.residual
+        return [self.length, *lam, residual, self.candidates, ref.lam_inf.real,
+                ref.lam_inf.imag, ref.k_inf]
+
+
+def _distinct(values: Sequence[complex], rel: float) -> list[complex]:
+    """``values`` without near repeats (``|z - w| <= rel |z|``), first occurrences kept."""
+    out: list[complex] = []
+    for z in values:
+        if all(abs(z - w) > rel * abs(z) for w in out):
+            out.append(z)
+    return out
+
+
+def infinite_strip_reference(comm: MPI.Comm, params: Params, branches: Sequence[tuple[int, int]],
+                             k_scan: np.ndarray, n_targets: int) -> StripReference:
+    """The infinite strip per branch, and shift targets on both sides of the most unstable k.
+
+    Per branch: the most unstable ``k`` on ``k_scan`` (:func:`most_unstable_k`, from the
+    waveguide estimate), refined on 11 points over one grid step on each side. Targets: the
+    branch followed from there to ``1.5 k`` and to ``0.5 k`` (``n_targets`` points each), mapped
+    to ``Im Lambda <= 0`` (the block's operators are real, its spectrum symmetric under
+    conjugation); a stable branch seeds no targets when there are several. Every rank computes
+    (``MPI.COMM_SELF`` solves); the reference and targets are rank 0's.
+
+    Args:
+        comm: Communicator of the ranks that need the result.
+        params: Parameters.
+        branches: ``(n, sign)`` of the waveguide branches.
+        k_scan: Grid of ``k`` (increasing).
+        n_targets: Points of each half of the target path.
+    """
+    dk = (k_scan[-1] - k_scan[0]) / max(len(k_scan) - 1, 1)
+    per_branch = []
+    targets = []
+    for nb in branches:
+        b = Branch(*nb)
+
+        def wg(k: float, b: Branch = b) -> complex:
+            return waveguide_lambda(params, b, k)
+
+        k0, lam0 = most_unstable_k(params, wg, k_scan)
+        kb, lb = most_unstable_k(params, lambda k, z=lam0: z, np.linspace(k0, k0 + dk, 11))
+        kb2, lb2 = most_unstable_k(params, lambda k, z=lam0: z,
+                                   np.linspace(k0, max(k0 - dk, 1e-3), 11))
+        if lb2.real > lb.real:
+            kb, lb = kb2, lb2
+        per_branch.append((b.label, kb, lb))
+        if lb.real <= 0 and len(branches) > 1:
+            continue  # a stable branch seeds no targets
+        for ks in (np.linspace(kb, 1.5 * kb, n_targets), np.linspace(kb, 0.5 * kb, n_targets)):
+            for z in follow_branch(params, lambda k, z=lb: z, ks):
+                if np.isfinite(z):
+                    targets.append(z if z.imag <= 0 else z.conjugate())
+    label, k_inf, lam_inf = max(per_branch, key=lambda t: t[2].real)
+    label, k_inf, lam_inf, targets = comm.bcast(
+        (label, k_inf, lam_inf, _distinct(targets, 1e-6)), root=0)
+    return StripReference(per_branch, label, k_inf, lam_inf, targets)
+
+
+def most_unstable_block_mode(comm: MPI.Comm, params: Params, length: float, *,
+                             cells_per_unit: int, ny: int, degree: int, lateral: str,
+                             targets: Sequence[complex], nev: int, keep_mode: bool = False
+                             ) -> BlockMode:
+    """The block ``0 < x < length`` solved near every target; its most unstable mode.
+
+    Eigenvalues within ``1e-8`` relative of one found before are dropped. Collective (mesh on
+    ``comm``); SLEPc options prefix ``block_``; every PETSc object destroyed before returning.
+
+    Args:
+        comm: Mesh communicator.
+        params: Parameters.
+        length: ``L``.
+        cells_per_unit: Cells per unit length in ``x`` (at least 2 cells).
+        ny: Cells along ``y``.
+        degree: Lagrange degree.
+        lateral: Lateral ends, ``free``, ``roller`` or ``clamped``.
+        targets: Shift targets (:attr:`StripReference.targets`).
+        nev: Eigenpairs per target.
+        keep_mode: Also return the normalised mode as a function.
+    """
+    nx = max(2, int(round(cells_per_unit * length)))
+    strip = strip_mesh(comm, float(length), params.H, nx, ny)
+    problem = build_strip_problem(strip, params, k=None, degree=degree, lateral=lateral)
+    found = []
+    try:
+        for tgt in targets:
+            for m in solve_modes(problem, tgt, nev=nev, prefix="block_"):
+                if all(abs(m.eigenvalue - f.eigenvalue) > 1e-8 * abs(m.eigenvalue)
+                       for f in found):
+                    found.append(m)
+                else:
+                    m.vector.destroy()
+        if not found:
+            return BlockMode(float(length), None, float("nan"), 0)
+        best = max(found, key=lambda m: m.eigenvalue.real)
+        u = None
+        if keep_mode:
+            u = problem.to_function(best.vector)
+            normalise(u)
+        return BlockMode(float(length), best.eigenvalue, best.residual, len(found), u)
+    finally:
+        for m in found:
+            m.vector.destroy()
+        problem.destroy()
+
+
+def converged_rows(rows: Sequence[dict[str, str]]) -> tuple[np.ndarray, np.ndarray]:
+    """Lengths and eigenvalues of the CSV rows (:data:`ROW_COLUMNS`) that have a mode.
+
+    Returns:
+        ``(L, Lambda)`` sorted by ``L`` (rows whose ``re_lambda`` is ``nan`` or empty left out).
+    """
+    ok = [r for r in rows if r["re_lambda"] not in ("nan", "")]
+    L = np.array([float(r["L"]) for r in ok])
+    lam = np.array([complex(float(r["re_lambda"]), float(r["im_lambda"])) for r in ok])
+    order = np.argsort(L)
+    return L[order], lam[order]
+
+
+def extrapolate(L: np.ndarray, values: np.ndarray) -> tuple[float, float]:
+    """Limit ``L -> infinity`` from the three largest lengths (Richardson, observed order).
+
+    With ``L`` in a geometric ratio ``r`` and monotone differences, the order ``p`` comes from
+    ``(v2 - v1)/(v3 - v2) = r^p`` and the limit is ``v3 + (v3 - v2)/(r^p - 1)``; otherwise a
+    least-squares ``a + b/L``. Returns ``(limit, p)`` (``nan`` from fewer than three lengths).
+    """
+    order = np.argsort(L)
+    L, v = np.asarray(L)[order], np.asarray(values)[order]
+    if len(L) < 3:
+        return float("nan"), float("nan")
+    (l1, l2, l3), (v1, v2, v3) = L[-3:], v[-3:]
+    r = l2 / l1
+    d1, d2 = v2 - v1, v3 - v2
+    if abs(l3 / l2 - r) < 1e-9 * r and d1 * d2 > 0 and abs(d1) > abs(d2):
+        p = float(np.log(d1 / d2) / np.log(r))
+        return float(v3 + d2 / (r**p - 1.0)), p
+    b, a = np.polyfit(1.0 / L[-3:], v[-3:], 1)
+    return float(a), 1.0
+
+
+def long_block_limit(params: Params, L: np.ndarray, lam: np.ndarray) -> dict | None:
+    """:func:`forms.solvers.spatial_stability.kulikovskii_limit` at the block of the largest ``L``.
+
+    Runs on the calling rank alone. Raises ``RuntimeError`` as that function does.
+
+    Returns:
+        Its dict plus ``from_block_length``, or ``None`` if it found fewer than two roots.
+    """
+    i = int(np.argmax(L))
+    kul = kulikovskii_limit(params, complex(lam[i]))
+    if kul is not None:
+        kul["from_block_length"] = float(L[i])
+    return kul

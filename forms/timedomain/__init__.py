@@ -1,0 +1,1 @@
+"""The time-domain simulation with the nonlinear friction law."""

@@ -6,6 +6,13 @@ The mesh is a structured (transfinite) gmsh mesh, built on one rank and distribu
 matching nodes (gmsh's periodic mesh constraint), so a periodic or Bloch map can pair their
 degrees of freedom by ``y`` alone. Facet tags: :data:`INTERFACE` (``y = 0``), :data:`TOP`
 (``y = H``), :data:`LEFT` (``x = 0``), :data:`RIGHT` (``x = L``).
+
+Two bodies (:func:`two_body_strip_mesh`): the slider ``0 < y < H`` on a substrate
+``-H2 < y < 0``, each a structured grid of triangles graded towards ``y = 0``, with *separate*
+nodes for the two bodies at ``y = 0`` (the slider may slip on the substrate) and matching nodes
+on ``x = 0`` and ``x = L``. Extra facet tags :data:`BOTTOM` (``y = -H2``) and :data:`INTERFACE2`
+(the substrate's side of ``y = 0``; :data:`INTERFACE` is the slider's); cell tags
+:data:`SLIDER` and :data:`SUBSTRATE`.
 """
 
 from __future__ import annotations
@@ -23,8 +30,11 @@ from mpi4py import MPI
 
 from analytic.params import ParameterError
 
-INTERFACE, TOP, LEFT, RIGHT = 1, 2, 3, 4
-FACET_NAMES = {INTERFACE: "interface", TOP: "top", LEFT: "left", RIGHT: "right"}
+INTERFACE, TOP, LEFT, RIGHT, BOTTOM, INTERFACE2 = 1, 2, 3, 4, 5, 6
+FACET_NAMES = {INTERFACE: "interface", TOP: "top", LEFT: "left", RIGHT: "right",
+               BOTTOM: "bottom", INTERFACE2: "interface2"}
+#: Cell tags of the two bodies (:func:`two_body_strip_mesh`).
+SLIDER, SUBSTRATE = 1, 2
 CELL_TYPES = ("triangle", "quadrilateral")
 
 
@@ -40,6 +50,9 @@ class StripMesh:
         nx: Cells along x.
         ny: Cells along y.
         grading: Ratio of the top cell height to the bottom cell height.
+        depth: Substrate height ``H2`` (0: no substrate mesh, a rigid substrate).
+        ny2: Cells along y in the substrate.
+        cell_tags: :data:`SLIDER` / :data:`SUBSTRATE` cell markers (two bodies), else ``None``.
     """
 
     mesh: dolfinx.mesh.Mesh
@@ -49,11 +62,19 @@ class StripMesh:
     nx: int
     ny: int
     grading: float
+    depth: float = 0.0
+    ny2: int = 0
+    cell_tags: dolfinx.mesh.MeshTags | None = None
 
     @property
     def comm(self) -> MPI.Comm:
         """The mesh communicator."""
         return self.mesh.comm
+
+    @property
+    def two_body(self) -> bool:
+        """True if the mesh holds a substrate below ``y = 0``."""
+        return self.depth > 0
 
 
 def wavelength(k: float) -> float:
@@ -153,59 +174,110 @@ def edge_dofs(mesh: StripMesh, x_coordinates: np.ndarray, which: int) -> np.ndar
     Args:
         mesh: The strip.
         x_coordinates: ``(n, 3)`` dof coordinates (``V.tabulate_dof_coordinates()``).
-        which: :data:`INTERFACE`, :data:`TOP`, :data:`LEFT` or :data:`RIGHT`.
+        which: :data:`INTERFACE`, :data:`TOP`, :data:`LEFT`, :data:`RIGHT` or :data:`BOTTOM`
+            (on a two-body mesh, :data:`INTERFACE` finds the nodes of both bodies at ``y = 0``).
 
     Returns:
         Sorted local block indices on that edge (owned and ghosts).
     """
-    tol = 1e-10 * max(mesh.length, mesh.height)
+    tol = 1e-10 * max(mesh.length, mesh.height + mesh.depth)
     axis, value = {INTERFACE: (1, 0.0), TOP: (1, mesh.height), LEFT: (0, 0.0),
-                   RIGHT: (0, mesh.length)}[which]
+                   RIGHT: (0, mesh.length), BOTTOM: (1, -mesh.depth)}[which]
     return np.flatnonzero(np.abs(x_coordinates[:, axis] - value) < tol).astype(np.int32)
 
 
-def layered_strip_mesh(comm: MPI.Comm, length: float, pieces: list[np.ndarray], nx: int
-                       ) -> dolfinx.mesh.Mesh:
-    """Triangles on ``0 < x < length`` times the bodies of a layered stack (two-body strip).
+def graded_levels(height: float, cells: int, grading: float) -> np.ndarray:
+    """``cells + 1`` levels ``0 .. height``, cell heights in a geometric progression.
 
-    Each piece (increasing ``y`` vertices of one body, e.g.
-    :meth:`forms.models.layered.Stack.pieces`)
-    becomes a structured grid of ``nx`` columns, every quadrilateral cut into two triangles;
-    the bodies get *separate* nodes where they touch (``y = 0``), as in
-    :func:`meshes.layered.interval_from_pieces`, so the slider may slip on the substrate. The
-    left and right edges carry matching nodes (same ``y``). Built on rank 0 of ``comm``.
+    The last cell is ``grading`` times the first (the one at ``y = 0``), as on the gmsh strip.
+    """
+    ratio = grading ** (1.0 / (cells - 1)) if cells > 1 else 1.0
+    h = ratio ** np.arange(cells)
+    return height * np.concatenate([[0.0], np.cumsum(h) / h.sum()])
+
+
+def _two_body_grid(length: float, pieces: list[np.ndarray], nx: int
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and triangles of structured grids ``[0, L] x piece`` with their own nodes each."""
+    coords, cells, start = [], [], 0
+    xs = np.linspace(0.0, length, int(nx) + 1)
+    for ys in pieces:
+        ny = len(ys) - 1
+        X, Y = np.meshgrid(xs, ys, indexing="ij")  # noqa: N806 - node (i, j) -> i (ny+1) + j
+        coords.append(np.column_stack([X.ravel(), Y.ravel()]))
+        i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+        n00 = start + i.ravel() * (ny + 1) + j.ravel()
+        n10, n01 = n00 + ny + 1, n00 + 1
+        cells += [np.column_stack([n00, n10, n10 + 1]), np.column_stack([n00, n10 + 1, n01])]
+        start += (nx + 1) * (ny + 1)
+    return np.vstack(coords), np.vstack(cells).astype(np.int64)
+
+
+def _two_body_tags(msh: dolfinx.mesh.Mesh, length: float, height: float, depth: float
+                   ) -> tuple[dolfinx.mesh.MeshTags, dolfinx.mesh.MeshTags]:
+    """Facet tags (:data:`FACET_NAMES`) and cell tags (:data:`SLIDER`, :data:`SUBSTRATE`)."""
+    tdim = msh.topology.dim
+    cmap = msh.topology.index_map(tdim)
+    n_cells = cmap.size_local + cmap.num_ghosts
+    mid = dolfinx.mesh.compute_midpoints(msh, tdim, np.arange(n_cells, dtype=np.int32))
+    body = np.where(mid[:, 1] > 0, SLIDER, SUBSTRATE).astype(np.int32)
+    cell_tags = dolfinx.mesh.meshtags(msh, tdim, np.arange(n_cells, dtype=np.int32), body)
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    f2c = msh.topology.connectivity(tdim - 1, tdim)
+    tol = 1e-10 * max(length, height + depth)
+    entities, values = [], []
+    for tag, axis, value in ((TOP, 1, height), (LEFT, 0, 0.0), (RIGHT, 0, length),
+                             (BOTTOM, 1, -depth), (INTERFACE, 1, 0.0)):
+        found = dolfinx.mesh.locate_entities(
+            msh, tdim - 1, lambda x, a=axis, v=value: np.abs(x[a] - v) < tol)
+        tags = np.full(len(found), tag, dtype=np.int32)
+        if tag == INTERFACE:  # the side is the body of the facet's (only) cell
+            side = np.array([body[f2c.links(f)[0]] for f in found], dtype=np.int32)
+            tags = np.where(side == SLIDER, INTERFACE, INTERFACE2).astype(np.int32)
+        entities.append(found)
+        values.append(tags)
+    entities, values = np.concatenate(entities), np.concatenate(values)
+    order = np.argsort(entities, kind="stable")
+    # A corner facet is never on two edges (every facet lies on one side of the rectangle).
+    return dolfinx.mesh.meshtags(msh, tdim - 1, entities[order], values[order]), cell_tags
+
+
+def two_body_strip_mesh(comm: MPI.Comm, length: float, height: float, depth: float, nx: int,
+                        ny: int, ny2: int, grading: float = 1.0, grading2: float = 1.0
+                        ) -> StripMesh:
+    """The slider ``[0, L] x [0, H]`` on the substrate ``[0, L] x [-H2, 0]`` (two bodies).
+
+    Each body is a structured grid of ``nx`` columns, every quadrilateral cut into two
+    triangles, graded towards ``y = 0`` (``grading``: the far cell over the cell at the
+    interface, as :func:`strip_mesh`); the bodies get separate nodes at ``y = 0``. Built on
+    rank 0 and distributed over ``comm`` (collective).
 
     Args:
-        comm: Communicator of the mesh (collective).
-        length: ``L`` (extent in x).
-        pieces: Vertex ``y`` arrays of the bodies (only rank 0's are used).
-        nx: Columns of cells along x.
+        comm: Communicator of the mesh.
+        length: ``L``.
+        height: ``H`` (slider).
+        depth: ``H2`` (substrate), finite.
+        nx: Cells along x.
+        ny: Cells along y in the slider.
+        ny2: Cells along y in the substrate.
+        grading: Slider's top/bottom cell-height ratio, ``>= 1``.
+        grading2: Substrate's bottom/top cell-height ratio, ``>= 1``.
 
     Returns:
-        The dolfinx mesh (geometric dimension 2, triangles, no facet tags: locate by
-        coordinates and by the body of the adjacent cell).
+        The :class:`StripMesh` with ``depth = H2``, facet and cell tags.
     """
-    if not (math.isfinite(length) and length > 0) or int(nx) != nx or nx < 1:
-        raise ParameterError(f"bad strip: length = {length!r}, nx = {nx!r}")
+    check_strip_arguments(length, height, nx, ny, grading, "triangle")
+    check_strip_arguments(length, depth, nx, ny2, grading2, "triangle")
     if comm.rank == 0:
-        coords, cells, start = [], [], 0
-        xs = np.linspace(0.0, length, int(nx) + 1)
-        for piece in pieces:
-            ys = np.asarray(piece, dtype=float)
-            ny = len(ys) - 1
-            X, Y = np.meshgrid(xs, ys, indexing="ij")  # node (i, j) -> i * (ny + 1) + j
-            coords.append(np.column_stack([X.ravel(), Y.ravel()]))
-            i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
-            n00 = start + i.ravel() * (ny + 1) + j.ravel()
-            n10, n01 = n00 + ny + 1, n00 + 1
-            n11 = n10 + 1
-            cells.append(np.column_stack([n00, n10, n11]))
-            cells.append(np.column_stack([n00, n11, n01]))
-            start += (nx + 1) * (ny + 1)
-        cell_arr = np.vstack(cells).astype(np.int64)
-        coord_arr = np.vstack(coords)
+        pieces = [-graded_levels(depth, ny2, grading2)[::-1], graded_levels(height, ny, grading)]
+        coord_arr, cell_arr = _two_body_grid(length, pieces, nx)
     else:
         cell_arr = np.empty((0, 3), dtype=np.int64)
         coord_arr = np.empty((0, 2), dtype=np.float64)
     domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.triangle, 1, dim=2))
-    return dolfinx.mesh.create_mesh(comm, cell_arr, coord_arr, domain)
+    msh = dolfinx.mesh.create_mesh(comm, cell_arr, coord_arr, domain)
+    msh.name = "strip"
+    facet_tags, cell_tags = _two_body_tags(msh, float(length), float(height), float(depth))
+    facet_tags.name = "facets"
+    return StripMesh(msh, facet_tags, float(length), float(height), int(nx), int(ny),
+                     float(grading), float(depth), int(ny2), cell_tags)

@@ -13,7 +13,7 @@ slepc4py.init(sys.argv[:1])
 from mpi4py import MPI  # noqa: E402
 
 from analytic.params import ParameterError, Params  # noqa: E402
-from forms.models.periodic import bloch_map  # noqa: E402
+from forms.models.periodic import reduction_map  # noqa: E402
 from forms.models.strip import build_strip_problem, solve_modes  # noqa: E402
 from meshes.strip import LEFT, RIGHT, edge_dofs, strip_mesh, wavelength  # noqa: E402
 
@@ -33,7 +33,7 @@ def test_bloch_map_pairs_edges(length, cell):
     V = dolfinx.fem.FunctionSpace(strip.mesh, ufl.VectorElement("Lagrange",
                                                                 strip.mesh.ufl_cell(), 2))
     k = 1.0
-    bm = bloch_map(V, strip, k)
+    bm = reduction_map(V, strip, k, np.ones(V.dofmap.index_map.size_local, dtype=int))
     x = bm.P.createVecRight()
     rng = np.random.default_rng(COMM.rank)
     x.setArray(rng.standard_normal(x.getLocalSize()) + 1j * rng.standard_normal(x.getLocalSize()))

@@ -1,22 +1,26 @@
-"""Bloch-periodic reduction of a strip as a PETSc matrix ``P`` (docs/design.md section 5.6).
+"""The reduction ``u_full = P u_red`` of the 2D model: Bloch condition and the two-body tie.
 
-Fields go as ``exp(Lambda t - i k x)``, so a mode on a cell of length ``L`` satisfies
-``u(L, y) = exp(-i k L) u(0, y)``. The reduced unknowns are all degrees of freedom except those on
-the right edge ``x = L``; ``P`` maps them to the full vector::
+docs/design.md section 5.6. Fields go as ``exp(Lambda t - i k x)``, so a mode on a cell of
+length ``L`` satisfies ``u(L, y) = exp(-i k L) u(0, y)``. One map ``P`` carries
 
-    u_full = P u_red,   P[i, i'] = 1 (i not on the right edge, i' its reduced index),
-                        P[j, l'] = exp(-i k L) (j on the right edge, l' its left partner).
+- the Bloch condition (``k`` set): the right-edge nodes ``x = L`` are not unknowns; such a node
+  is ``exp(-i k L)`` times its left partner (same ``y``, same body);
+- the interface of two bodies (:attr:`meshes.strip.StripMesh.two_body`): the substrate's
+  ``u_y2`` at ``y = 0`` is the slider's ``u_y1`` at the same ``x`` (not an unknown), and the
+  slider's ``u_x1 = s + u_x2``: the reduced unknown in the slot of ``u_x1`` is the slip ``s``.
 
-A weak form ``w^H A u`` restricted to Bloch fields ``u = P u_red``, ``w = P w_red`` becomes
-``w_red^H (P^H A P) u_red``: the reduced operator is ``P^H A P`` (conjugate transpose, since the
-complex forms conjugate the test side). Every row of ``P^H A P`` belonging to a left-edge node
-sums the contributions of that node and of its right-edge image, so boundary "reactions" at
-the corners of the interface come out right without special cases.
+A weak form ``w^H A u`` restricted to ``u = P u_red``, ``w = P w_red`` becomes
+``w_red^H (P^H A P) u_red`` (conjugate transpose, since the complex forms conjugate the test
+side). Every reduced row of a left-edge node sums the contributions of the node and of its
+right-edge image, and with two bodies the row of ``u_y`` sums both sides' normal reactions
+(continuity of ``s_yy``), the row of ``u_x2`` both shear reactions (continuity of ``s_xy``), the
+row of ``s`` the slider's: the friction row operation replaces it. :attr:`ReductionMap.Q` is ``P``
+without the ``u_x2`` term in ``u_x1`` (for the interface mass of ``s``).
 
-Pairing across ranks: the owner of a right-edge dof may not own (or even see) its left partner.
-Every rank contributes the ``(y, reduced block index)`` list of its owned left-edge nodes to an
-``allgather``; each rank then pairs its owned right-edge nodes by ``y``. The mesh carries
-matching nodes on both edges (:mod:`meshes.strip` uses gmsh's periodic constraint).
+The reduced numbering keeps the owned nodes in order, ``(x, y)`` of each kept node; pairing
+across ranks: every rank contributes the reduced indices of its owned left-edge and interface
+nodes, keyed by ``(x, y, body)``, to an ``allgather``. The mesh carries matching nodes on both
+edges (:mod:`meshes.strip`).
 """
 
 from __future__ import annotations
@@ -30,105 +34,137 @@ import dolfinx.fem
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from meshes.strip import LEFT, RIGHT, StripMesh, edge_dofs
+from meshes.strip import StripMesh
 
 
 @dataclass
-class BlochMap:
-    """The periodic map ``P`` and the reduced numbering.
+class ReductionMap:
+    """The map ``P`` (and ``Q``), and the reduced numbering.
 
     Attributes:
         P: ``(N_full, N_red)`` PETSc matrix, rows distributed like the assembled matrices.
-        phase: ``exp(-i k L)``.
-        reduced_block: For every owned block (node) of ``V``, its global reduced block index,
-            or ``-1`` for a right-edge node (eliminated).
-        bs: Block size (2 for a 2D displacement).
-        num_owned_reduced: Number of owned reduced blocks on this rank.
+        Q: ``P`` without the ``u_x2`` term of ``u_x1 = s + u_x2`` (two bodies), else ``None``.
+        phase: ``exp(-i k L)`` (1 on a finite block).
+        reduced: ``(n_owned, 2)``: per owned node of ``V`` the global reduced index of its
+            ``u_x`` (or slip) and ``u_y``; ``-1`` where it is not an unknown.
     """
 
     P: PETSc.Mat
+    Q: PETSc.Mat | None
     phase: complex
-    reduced_block: np.ndarray
-    bs: int
-    num_owned_reduced: int
-
-    def reduced_dofs(self, owned_blocks: np.ndarray, component: int) -> np.ndarray:
-        """Global reduced dof indices of owned blocks (right-edge blocks are dropped)."""
-        rb = self.reduced_block[owned_blocks]
-        rb = rb[rb >= 0]
-        return (self.bs * rb + component).astype(PETSc.IntType)
+    reduced: np.ndarray
 
     def destroy(self) -> None:
-        """Free the PETSc matrix."""
+        """Free the PETSc matrices."""
         self.P.destroy()
+        if self.Q is not None:
+            self.Q.destroy()
 
 
-def bloch_map(V: dolfinx.fem.FunctionSpace, strip: StripMesh, k: float) -> BlochMap:
-    """Assemble ``P`` for Bloch wavenumber ``k`` on ``strip`` (collective on ``strip.comm``).
+def _numbering(comm: MPI.Comm, keep: np.ndarray) -> tuple[np.ndarray, int, int]:
+    """Global reduced indices of the kept ``(node, component)`` slots, ``-1`` elsewhere."""
+    n_red = int(keep.sum())
+    offset = comm.exscan(n_red, op=MPI.SUM) or 0  # None on rank 0
+    red = np.full(keep.shape, -1, dtype=np.int64)
+    red[keep] = offset + np.arange(n_red)
+    return red, n_red, comm.allreduce(n_red, op=MPI.SUM)
+
+
+def _columns(comm: MPI.Comm, xy: np.ndarray, body: np.ndarray, red: np.ndarray,
+             right: np.ndarray, listed: np.ndarray, two_body: bool, tol: float
+             ) -> np.ndarray:
+    """Per owned node the reduced columns ``[x, x2, y]`` of its full ``u_x, u_y`` (-1: none).
+
+    ``x2`` is the substrate's ``u_x2`` in the slider's ``u_x1 = s + u_x2``; a right-edge node
+    takes its left partner's columns (the caller multiplies its row by the Bloch phase).
+    """
+    def key(x: float, y: float, b: int) -> tuple[int, int, int]:
+        return (int(round(x / tol)), int(round(y / tol)), int(b))
+
+    mine = [(key(*xy[i], body[i]), int(red[i, 0]), int(red[i, 1]))
+            for i in np.flatnonzero(listed)]
+    table = {kk: (rx, ry) for part in comm.allgather(mine) for kk, rx, ry in part}
+    cols = np.column_stack([red[:, 0], np.full(len(red), -1, np.int64), red[:, 1]])
+    failed = 0
+    at_interface = np.abs(xy[:, 1]) < tol
+    for i in np.flatnonzero(right | (at_interface & two_body)):
+        src = key(0.0 if right[i] else xy[i, 0], xy[i, 1], body[i])
+        partner = (src[0], src[1], 3 - src[2])
+        tied = two_body and at_interface[i]
+        if src not in table or (tied and partner not in table):
+            failed += 1
+            continue
+        rx, ry = table[src]
+        cols[i] = (rx, -1, ry)
+        if tied and body[i] == 1:
+            cols[i, 1] = table[partner][0]
+        elif tied:
+            cols[i, 2] = table[partner][1]
+    if comm.allreduce(failed, op=MPI.SUM):
+        raise RuntimeError("reduction map: a right-edge or interface node has no partner (the"
+                           " mesh must have matching nodes on x = 0, x = L and both sides of"
+                           " y = 0)")
+    return cols
+
+
+def _matrix(comm: MPI.Comm, cols: np.ndarray, value: np.ndarray, n_full: tuple[int, int],
+            n_red: tuple[int, int], slip: bool) -> PETSc.Mat:
+    """CSR ``P``: rows ``u_x`` (1 or 2 entries) and ``u_y`` (1 entry) of every owned node."""
+    mask = cols >= 0
+    if not slip:
+        mask[:, 1] = False
+    counts = np.column_stack([mask[:, 0].astype(int) + mask[:, 1], mask[:, 2]]).ravel()
+    indptr = np.concatenate([[0], np.cumsum(counts)]).astype(PETSc.IntType)
+    vals = np.repeat(value[:, None], 3, axis=1)
+    P = PETSc.Mat().createAIJ((n_full, n_red), csr=(indptr, cols[mask].astype(PETSc.IntType),
+                                                    vals[mask].astype(PETSc.ScalarType)),
+                              comm=comm)
+    P.assemble()
+    return P
+
+
+def reduction_map(V: dolfinx.fem.FunctionSpace, strip: StripMesh, k: float | None,
+                  body: np.ndarray) -> ReductionMap | None:
+    """``P`` for Bloch wavenumber ``k`` (``None``: finite block) on ``strip`` (collective).
 
     Args:
-        V: A blocked Lagrange space (vector displacement) on ``strip.mesh``.
-        strip: The strip (its length ``L`` sets the phase ``exp(-i k L)``).
-        k: Wavenumber; ``k L`` a multiple of ``2 pi`` makes ``P`` plainly periodic.
+        V: A blocked (2-component) Lagrange space on ``strip.mesh``.
+        strip: The strip (one or two bodies; its length ``L`` sets ``exp(-i k L)``).
+        k: Wavenumber; ``None`` for a finite block (no Bloch condition).
+        body: Per owned node of ``V``: 1 (slider) or 2 (substrate).
 
     Returns:
-        The :class:`BlochMap`.
+        The :class:`ReductionMap`, or ``None`` when ``P`` would be the identity (one body, finite
+        block).
 
     Raises:
-        RuntimeError: (on every rank) if some right-edge node has no left partner at equal y.
+        RuntimeError: (on every rank) if some node has no partner.
     """
+    if k is None and not strip.two_body:
+        return None
     comm = strip.comm
     imap = V.dofmap.index_map
-    bs = V.dofmap.index_map_bs
     n_owned = imap.size_local
-    x = V.tabulate_dof_coordinates()
-    right = edge_dofs(strip, x, RIGHT)
-    right = right[right < n_owned]
-    left = edge_dofs(strip, x, LEFT)
-    left = left[left < n_owned]
-
-    keep = np.ones(n_owned, dtype=bool)
-    keep[right] = False
-    num_red = int(keep.sum())
-    offset = comm.exscan(num_red, op=MPI.SUM) or 0  # None on rank 0
-    reduced_block = np.full(n_owned, -1, dtype=np.int64)
-    reduced_block[keep] = offset + np.arange(num_red)
-
-    # Pair right-edge nodes with left-edge nodes of equal y, across ranks.
-    mine = np.column_stack([x[left, 1], reduced_block[left].astype(float)])
-    everyone = np.vstack(comm.allgather(mine))
-    order = np.argsort(everyone[:, 0])
-    ys, partners = everyone[order, 0], everyone[order, 1].astype(np.int64)
-    yr = x[right, 1]
-    pos = np.clip(np.searchsorted(ys, yr), 0, max(len(ys) - 1, 0))
-    cand = np.stack([np.clip(pos - 1, 0, None), pos]) if len(ys) else np.zeros((2, 0), int)
-    tol = 1e-9 * strip.height
-    if len(yr):
-        best = np.where(np.abs(ys[cand[0]] - yr) <= np.abs(ys[cand[1]] - yr), cand[0], cand[1])
-        ok = np.abs(ys[best] - yr) < tol
-        partner_block = partners[best]
-    else:
-        ok = np.ones(0, dtype=bool)
-        partner_block = np.zeros(0, dtype=np.int64)
-    failed = comm.allreduce(int((~ok).sum()), op=MPI.SUM)
-    if failed:
-        raise RuntimeError(f"Bloch map: {failed} right-edge node(s) have no left partner at equal y"
-                           " (the mesh must have matching nodes on x = 0 and x = L)")
-
-    phase = cmath.exp(-1j * k * strip.length)
-    num_red_global = comm.allreduce(num_red, op=MPI.SUM)
-    # One entry per owned row: its reduced column (own index, or the left partner's) and value.
-    col_block = reduced_block.copy()
-    col_block[right] = partner_block
-    value = np.ones(n_owned, dtype=PETSc.ScalarType)
-    value[right] = phase
-    cols = (bs * np.repeat(col_block, bs) + np.tile(np.arange(bs), n_owned)).astype(PETSc.IntType)
-    indptr = np.arange(bs * n_owned + 1, dtype=PETSc.IntType)
-    P = PETSc.Mat().createAIJ(((bs * n_owned, bs * imap.size_global),
-                               (bs * num_red, bs * num_red_global)),
-                              csr=(indptr, cols, np.repeat(value, bs)), comm=comm)
-    P.assemble()
-    return BlochMap(P, phase, reduced_block, bs, num_red)
+    xy = V.tabulate_dof_coordinates()[:n_owned, :2]
+    tol = 1e-9 * max(strip.length, strip.height + strip.depth)
+    bloch = k is not None
+    right = bloch & (np.abs(xy[:, 0] - strip.length) < tol)
+    left = bloch & (np.abs(xy[:, 0]) < tol)
+    interface = strip.two_body & (np.abs(xy[:, 1]) < tol)
+    if (left & right).any():
+        raise RuntimeError("reduction map: the cell is too short")
+    keep = np.ones((n_owned, 2), dtype=bool)
+    keep[right, :] = False
+    keep[interface & (body == 2), 1] = False
+    red, n_red, n_red_global = _numbering(comm, keep)
+    cols = _columns(comm, xy, body, red, right, (left | interface) & ~right, strip.two_body,
+                    tol)
+    phase = cmath.exp(-1j * k * strip.length) if bloch else 1.0 + 0j
+    value = np.where(right, phase, 1.0 + 0j)
+    sizes = ((2 * n_owned, 2 * imap.size_global), (n_red, n_red_global))
+    P = _matrix(comm, cols, value, *sizes, slip=True)
+    Q = _matrix(comm, cols, value, *sizes, slip=False) if strip.two_body else None
+    return ReductionMap(P, Q, phase, red)
 
 
 def reduce_matrix(A: PETSc.Mat, P: PETSc.Mat) -> PETSc.Mat:

@@ -1,19 +1,28 @@
-"""The periodic (Bloch) strip and the finite block: 2D assembly and the eigen-solve.
+"""The one 2D eigen-model: Bloch cell or finite block, one or two bodies, friction along x.
 
 Physics: :mod:`forms.elasticity` (the one definition of stress and strain), assembled on a 2D
-mesh from :mod:`meshes.strip`:
+mesh from :mod:`meshes.strip` (:func:`strip_mesh_for` picks it):
 
-- ``stiffness``: ``inner(sigma(u), eps(w)) dx``; ``mass``: ``inner(u, w) dx``;
-- ``interface_mass``: ``inner(u_x, w_x) ds(INTERFACE)``, the consistent boundary mass that turns
-  the friction law's pointwise ``u_x`` term into a nodal one matching the consistent reaction
-  ``R = (K + Lambda^2 M) u`` (docs/design.md section 5).
+- one body (rigid substrate, ``params.mu2 = inf``): the slider ``0 < y < H``, ``u_y = 0`` at
+  ``y = 0`` (a Dirichlet row);
+- two bodies (``params.two_body``, finite ``H2``): the slider on the substrate ``-H2 < y < 0``
+  (``mu2, rho2, beta2``, bottom condition ``bc2``), separate nodes at ``y = 0`` tied by the map
+  of :mod:`forms.models.periodic` (``u_y`` continuous, ``u_x1 = s + u_x2``).
 
-On a Bloch cell (wavenumber ``k``), the three matrices are reduced by ``P^H A P``
-(:mod:`forms.models.periodic`) *before* any row operation, so every reduced row is the row of a
-node of
-the periodic strip (a left-edge node carries its right-edge image). The interface rows and the
-Dirichlet rows are then those of the reduced nodes on ``y = 0`` / ``y = H``, corners included.
-On a finite block there is no ``P``; the lateral ends are free, rollers (``u_x = 0``) or clamped.
+Matrices: ``stiffness`` ``inner(sigma(u), eps(w)) dx``, ``mass`` ``rho inner(u, w) dx``,
+``interface_mass`` ``inner(u_x, w_x) ds(INTERFACE)`` (the consistent boundary mass that turns the
+law's pointwise ``u_x`` term into a nodal one, docs/design.md section 5), and with two bodies the
+slider's own ``K_1, M_1`` whose rows are the slider's reactions in the friction law.
+
+On a Bloch cell (wavenumber ``k``) or with two bodies, the matrices are reduced by ``P^H A P``
+(:func:`forms.models.periodic.reduction_map`) *before* any row operation, so every reduced row is
+the row of a node of the periodic strip (a left-edge node carries its right-edge image). On a
+one-body finite block there is no ``P``; the lateral ends are free, rollers (``u_x = 0``) or
+clamped, except the interface nodes, which keep their rows.
+
+The friction parameters may vary along the interface (:class:`FrictionProfile`: ``Delta``,
+``f``, ``gamma`` as functions of ``x``, taken at the interface nodes): the law of each node's
+row is that of its values (:func:`friction_operator_for`).
 
 Related modules: :mod:`forms.mode_postprocessing` (what to do with a computed mode: harmonic
 content, normalisation, interface stresses), :mod:`forms.solvers.continuation` (the 1D
@@ -23,6 +32,7 @@ model's branch followed in ``k``, and its mode evaluated on this mesh) and
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -43,11 +53,45 @@ from forms.friction import (
     friction_operator,
 )
 from forms.mode_postprocessing import harmonic_content
-from forms.models.periodic import BlochMap, bloch_map, reduce_matrix
+from forms.models.periodic import ReductionMap, reduce_matrix, reduction_map
 from forms.solvers.slepc import PolynomialSolver
-from meshes.strip import INTERFACE, LEFT, RIGHT, TOP, StripMesh, edge_dofs
+from meshes.strip import (
+    INTERFACE,
+    SLIDER,
+    SUBSTRATE,
+    StripMesh,
+    strip_mesh,
+    two_body_strip_mesh,
+)
 
 LATERAL_CONDITIONS = ("free", "roller", "clamped")
+
+#: A friction parameter along the interface: values at the points ``x`` (a 1D array).
+Profile = Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True)
+class FrictionProfile:
+    """Friction parameters as functions of ``x`` along the interface (``None``: uniform).
+
+    Each function takes the node abscissae (1D array) and returns the values there; a
+    velocity-weakening patch is e.g. ``Delta=lambda x: np.where(abs(x - c) < Lp / 2, -0.3,
+    0.2)``. The other parameters (``alpha_pc``, ``alpha_ld``) stay uniform.
+    """
+
+    Delta: Profile | None = None  # noqa: N815 - the paper's name
+    f: Profile | None = None
+    gamma: Profile | None = None
+
+    def values(self, params: Params, x: np.ndarray) -> np.ndarray:
+        """``(n, 3)`` columns ``Delta, f, gamma`` at the points ``x``."""
+        out = []
+        for name in ("Delta", "f", "gamma"):
+            fn = getattr(self, name)
+            base = np.full(len(x), float(getattr(params, name)))
+            out.append(base if fn is None else np.broadcast_to(
+                np.asarray(fn(np.asarray(x)), dtype=float), base.shape))
+        return np.column_stack(out) if out else np.zeros((0, 3))
 
 
 @dataclass
@@ -55,17 +99,22 @@ class StripProblem:
     """Assembled operators of a strip (Bloch cell if ``k`` is set, else a finite block).
 
     Attributes:
-        strip: The mesh.
+        strip: The mesh (one or two bodies).
         params: Physical parameters.
         k: Bloch wavenumber, or ``None`` for a finite block.
-        V: The displacement space (vector Lagrange).
-        bloch: The periodic map, or ``None`` for a finite block.
-        stiffness: ``K`` (reduced by ``P`` on a Bloch cell).
+        V: The displacement space (vector Lagrange, both bodies).
+        map: The reduction ``u = P x``, or ``None`` (one-body finite block: ``u = x``).
+        stiffness: ``K`` (reduced by ``P``).
         mass: ``M`` (reduced).
-        interface_mass: ``M_Gamma`` for the ``u_x`` term of the friction law (reduced).
-        interface_x: Owned global rows (operator numbering) of ``u_x`` at interface nodes.
+        interface_mass: ``M_Gamma`` for the ``u_x`` (slip) term of the friction law (reduced).
+        reactions: Two bodies: the slider's reduced ``(K_1, M_1)``; ``None``: ``(K, M)``.
+        interface_x: Owned global rows (operator numbering) of ``u_x`` (the slip) at the
+            slider's interface nodes.
         interface_y: Owned global rows of ``u_y`` at the same nodes, in the same order.
-        dirichlet: Owned global rows of the other constrained dofs (top, lateral ends).
+        interface_coordinate: ``x`` of those nodes.
+        dirichlet: Owned global rows of the other constrained dofs (top, bottom, lateral ends;
+            one body: also ``u_y`` at the interface).
+        friction: Friction parameters along ``x`` (``None``: uniform, from ``params``).
         timings: Wall times of the set-up steps (s).
         last_solve: SLEPc outcome and settings of the last :func:`solve_modes`.
     """
@@ -74,13 +123,16 @@ class StripProblem:
     params: Params
     k: float | None
     V: dolfinx.fem.FunctionSpace
-    bloch: BlochMap | None
+    map: ReductionMap | None
     stiffness: PETSc.Mat
     mass: PETSc.Mat
     interface_mass: PETSc.Mat
+    reactions: tuple[PETSc.Mat, PETSc.Mat] | None
     interface_x: np.ndarray
     interface_y: np.ndarray
+    interface_coordinate: np.ndarray
     dirichlet: np.ndarray
+    friction: FrictionProfile | None = None
     timings: dict[str, float] = field(default_factory=dict)
     last_solve: dict[str, object] = field(default_factory=dict)
 
@@ -89,122 +141,242 @@ class StripProblem:
         """Communicator of the mesh and of every matrix."""
         return self.strip.comm
 
+    @property
+    def size(self) -> int:
+        """Global number of unknowns of ``T(Lambda)``."""
+        return self.stiffness.getSize()[0]
+
     def to_function(self, x: PETSc.Vec, name: str = "u") -> dolfinx.fem.Function:
-        """Full displacement field ``u = P x`` (or ``x`` on a finite block), ghosts updated."""
+        """Full displacement field ``u = P x`` (or ``x``), both bodies, ghosts updated."""
         u = dolfinx.fem.Function(self.V, name=name)
-        if self.bloch is None:
+        if self.map is None:
             x.copy(u.vector)
         else:
-            self.bloch.P.mult(x, u.vector)
+            self.map.P.mult(x, u.vector)
         u.x.scatter_forward()
         return u
 
     def destroy(self) -> None:
         """Free the PETSc objects."""
-        for A in (self.stiffness, self.mass, self.interface_mass):
+        for A in (self.stiffness, self.mass, self.interface_mass, *(self.reactions or ())):
             A.destroy()
-        if self.bloch is not None:
-            self.bloch.destroy()
+        if self.map is not None:
+            self.map.destroy()
 
 
-def _owned_blocks_on(strip: StripMesh, V: dolfinx.fem.FunctionSpace, which: int) -> np.ndarray:
-    n_owned = V.dofmap.index_map.size_local
-    blocks = edge_dofs(strip, V.tabulate_dof_coordinates(), which)
-    return blocks[blocks < n_owned]
-
-
-def build_strip_problem(strip: StripMesh, params: Params, k: float | None = None,
-                        degree: int = 2, lateral: str = "free") -> StripProblem:
-    """Assemble ``K``, ``M``, ``M_Gamma`` on the strip and locate the constrained rows.
+def strip_mesh_for(comm: MPI.Comm, params: Params, length: float, nx: int, ny: int,
+                   grading: float = 1.0, ny2: int | None = None) -> StripMesh:
+    """The mesh of ``params``: the gmsh slider alone (rigid substrate) or both bodies.
 
     Args:
-        strip: Mesh from :func:`meshes.strip.strip_mesh`.
-        params: Physical parameters (``bc`` chooses the top condition).
-        k: Bloch wavenumber (``u(L) = exp(-i k L) u(0)``); ``None`` for a finite block.
-        degree: Lagrange degree.
-        lateral: Finite block only: lateral ends ``free``, ``roller`` (``u_x = 0``) or
-            ``clamped`` (``u = 0``).
-
-    Returns:
-        The assembled :class:`StripProblem` (collective; destroy it when done).
+        comm: Mesh communicator.
+        params: Parameters (``H``; with two bodies ``H2``, which must be finite).
+        length: ``L``.
+        nx: Cells along x.
+        ny: Cells along y in the slider.
+        grading: Cell-height ratio far/near the interface, both bodies.
+        ny2: Cells along y in the substrate (default ``ny``).
     """
+    if not params.two_body:
+        return strip_mesh(comm, length, params.H, nx, ny, grading=grading)
+    if not np.isfinite(params.H2):
+        raise ParameterError(f"H2 = {params.H2!r} is outside its allowed range here"
+                             " (finite: the substrate is meshed)")
+    return two_body_strip_mesh(comm, length, params.H, params.H2, nx, ny,
+                               ny if ny2 is None else ny2, grading, grading)
+
+
+def node_bodies(strip: StripMesh, V: dolfinx.fem.FunctionSpace) -> np.ndarray:
+    """Per owned node of ``V``: 1 (slider) or 2 (substrate); the two ``y = 0`` nodes differ."""
+    n_owned = V.dofmap.index_map.size_local
+    if not strip.two_body:
+        return np.ones(n_owned, dtype=int)
+    ind = dolfinx.fem.Function(V)
+    slider = strip.cell_tags.indices[strip.cell_tags.values == SLIDER]
+    ind.interpolate(lambda x: np.ones((2, x.shape[1])), cells=slider)
+    return np.where(ind.x.array.reshape(-1, 2)[:n_owned, 0].real > 0.5, 1, 2)
+
+
+def materials(strip: StripMesh, params: Params) -> tuple:
+    """``(mu, lambda, rho)`` as UFL coefficients: numbers (one body) or cell-wise (DG0)."""
+    if not strip.two_body:
+        return 1.0, params.lame_lambda, 1.0
+    Q = dolfinx.fem.FunctionSpace(strip.mesh, ("DG", 0))
+    sub = strip.cell_tags.indices[strip.cell_tags.values == SUBSTRATE]
+    out = []
+    for one, two in ((1.0, params.mu2), (params.lame_lambda, params.substrate.lame_lambda),
+                     (1.0, params.rho2)):
+        c = dolfinx.fem.Function(Q)
+        c.x.array[:] = one
+        c.interpolate(lambda x, v=two: np.full(x.shape[1], v), cells=sub)
+        out.append(c)
+    return tuple(out)
+
+
+def _assemble(strip: StripMesh, params: Params, V: dolfinx.fem.FunctionSpace
+              ) -> dict[str, PETSc.Mat]:
+    """``K, M, B`` (and with two bodies the slider's ``K1, M1``), unreduced."""
+    msh = strip.mesh
+    u, w = ufl.TrialFunction(V), ufl.TestFunction(V)
+    ds = ufl.Measure("ds", domain=msh, subdomain_data=strip.facet_tags)
+    mu, lmbda, rho = materials(strip, params)
+    forms = {
+        "stiffness": stiffness_density(ufl.grad(u), ufl.grad(w), lmbda, mu) * ufl.dx,
+        "mass": mass_density(u, w, rho) * ufl.dx,
+        "interface_mass": ufl.inner(u[0], w[0]) * ds(INTERFACE),
+    }
+    if strip.two_body:
+        dx = ufl.Measure("dx", domain=msh, subdomain_data=strip.cell_tags)
+        forms["K1"] = stiffness_density(ufl.grad(u), ufl.grad(w), lmbda, mu) * dx(SLIDER)
+        forms["M1"] = mass_density(u, w) * dx(SLIDER)
+    mats = {}
+    for name, a in forms.items():
+        A = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(a))
+        A.assemble()
+        mats[name] = A
+    return mats
+
+
+def _reduce(mats: dict[str, PETSc.Mat], rmap: ReductionMap | None) -> dict[str, PETSc.Mat]:
+    """``P^H A P`` of every matrix (``Q`` for the interface mass of the slip); frees ``A``."""
+    if rmap is None:
+        return mats
+    out = {}
+    for name, full in mats.items():
+        out[name] = reduce_matrix(full, rmap.Q if (name == "interface_mass"
+                                                   and rmap.Q is not None) else rmap.P)
+        full.destroy()
+    return out
+
+
+def _constrained_rows(strip: StripMesh, params: Params, V: dolfinx.fem.FunctionSpace,
+                      red: np.ndarray, body: np.ndarray, finite_block: bool, lateral: str
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Interface rows ``(x, y)``, their abscissae and the Dirichlet rows (owned, global)."""
+    n_owned = V.dofmap.index_map.size_local
+    xy = V.tabulate_dof_coordinates()[:n_owned, :2]
+    tol = 1e-10 * max(strip.length, strip.height + strip.depth)
+    ok = red[:, 0] >= 0  # not an eliminated right-edge node
+    at = {"interface": np.abs(xy[:, 1]) < tol, "top": np.abs(xy[:, 1] - strip.height) < tol,
+          "bottom": strip.two_body & (np.abs(xy[:, 1] + strip.depth) < tol),
+          "ends": finite_block & ((np.abs(xy[:, 0]) < tol)
+                                  | (np.abs(xy[:, 0] - strip.length) < tol))}
+    iface = np.flatnonzero(at["interface"] & (body == 1) & ok)
+    ix, iy = red[iface, 0], red[iface, 1]
+    dirichlet = []
+    if params.bc == "velocity":
+        dirichlet.append(red[at["top"] & ok, 0])
+    if strip.two_body and params.bc2 == "velocity":
+        dirichlet.append(red[at["bottom"] & ok, 0])
+    if finite_block and lateral != "free":
+        ends = at["ends"] & ~at["interface"]  # interface nodes keep their rows
+        dirichlet.append(red[ends, 0])
+        if lateral == "clamped":
+            dirichlet.append(red[ends, 1])
+    if not strip.two_body:
+        dirichlet.append(iy)  # the rigid substrate: u_y = 0
+    rows = np.unique(np.concatenate(dirichlet)) if dirichlet else np.zeros(0, np.int64)
+    # A node on the interface and on a Dirichlet edge keeps its friction row.
+    rows = np.setdiff1d(rows, ix).astype(PETSc.IntType)
+    return (ix.astype(PETSc.IntType), iy.astype(PETSc.IntType), xy[iface, 0].copy(), rows)
+
+
+def _check_arguments(degree: int, lateral: str, k: float | None) -> None:
     if degree < 1:
         raise ParameterError(f"degree = {degree} is outside its allowed range >= 1")
     if lateral not in LATERAL_CONDITIONS:
         raise ParameterError(f"lateral = {lateral!r} is not one of {', '.join(LATERAL_CONDITIONS)}")
     if k is not None and not (np.isfinite(k) and k > 0):
         raise ParameterError(f"k = {k!r} is outside its allowed range k > 0 (finite)")
+
+
+def build_strip_problem(strip: StripMesh, params: Params, k: float | None = None,
+                        degree: int = 2, lateral: str = "free",
+                        friction: FrictionProfile | None = None) -> StripProblem:
+    """Assemble ``K``, ``M``, ``M_Gamma`` (reduced) and locate the constrained rows.
+
+    Args:
+        strip: Mesh from :func:`strip_mesh_for` (two bodies if ``params.two_body``).
+        params: Physical parameters (``bc``, ``bc2`` choose the outer conditions).
+        k: Bloch wavenumber (``u(L) = exp(-i k L) u(0)``); ``None`` for a finite block.
+        degree: Lagrange degree.
+        lateral: Finite block only: lateral ends ``free``, ``roller`` (``u_x = 0``) or
+            ``clamped`` (``u = 0``).
+        friction: Friction parameters along ``x`` (default: uniform, from ``params``).
+
+    Returns:
+        The assembled :class:`StripProblem` (collective; destroy it when done).
+    """
+    _check_arguments(degree, lateral, k)
+    if strip.two_body != params.two_body:
+        raise ParameterError(f"mu2 = {params.mu2!r} does not match the mesh (two bodies:"
+                             f" {strip.two_body}); build it with strip_mesh_for")
     timings: dict[str, float] = {}
     t0 = MPI.Wtime()
     msh = strip.mesh
     V = dolfinx.fem.FunctionSpace(msh, ufl.VectorElement("Lagrange", msh.ufl_cell(), degree))
-    u, w = ufl.TrialFunction(V), ufl.TestFunction(V)
-    ds = ufl.Measure("ds", domain=msh, subdomain_data=strip.facet_tags)
-    lmbda = params.lame_lambda
-    forms = {
-        "stiffness": stiffness_density(ufl.grad(u), ufl.grad(w), lmbda, 1.0) * ufl.dx,
-        "mass": mass_density(u, w) * ufl.dx,
-        "interface_mass": ufl.inner(u[0], w[0]) * ds(INTERFACE),
-    }
-    mats = {}
-    for name, a in forms.items():
-        A = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(a))
-        A.assemble()
-        mats[name] = A
+    mats = _assemble(strip, params, V)
     timings["assemble"] = MPI.Wtime() - t0
-
-    bloch = None
-    if k is not None:
-        t0 = MPI.Wtime()
-        bloch = bloch_map(V, strip, k)
-        timings["bloch_map"] = MPI.Wtime() - t0
-        t0 = MPI.Wtime()
-        for name in mats:
-            full = mats[name]
-            mats[name] = reduce_matrix(full, bloch.P)
-            full.destroy()
-        timings["reduce"] = MPI.Wtime() - t0
-
-        def rows(blocks: np.ndarray, c: int) -> np.ndarray:
-            return bloch.reduced_dofs(blocks, c)
+    t0 = MPI.Wtime()
+    body = node_bodies(strip, V)
+    rmap = reduction_map(V, strip, k, body)
+    timings["bloch_map"] = MPI.Wtime() - t0
+    t0 = MPI.Wtime()
+    mats = _reduce(mats, rmap)
+    timings["reduce"] = MPI.Wtime() - t0
+    if rmap is not None:
+        red = rmap.reduced
     else:
+        n_owned = V.dofmap.index_map.size_local
         start = V.dofmap.index_map.local_range[0]
-        bs = V.dofmap.index_map_bs
+        red = 2 * (start + np.arange(n_owned, dtype=np.int64))[:, None] + np.array([0, 1])
+    ix, iy, xi, rows = _constrained_rows(strip, params, V, red, body, k is None, lateral)
+    reactions = (mats["K1"], mats["M1"]) if strip.two_body else None
+    return StripProblem(strip, params, k, V, rmap, mats["stiffness"], mats["mass"],
+                        mats["interface_mass"], reactions, ix, iy, xi, rows, friction,
+                        timings)
 
-        def rows(blocks: np.ndarray, c: int) -> np.ndarray:
-            return (bs * (start + blocks) + c).astype(PETSc.IntType)
 
-    interface = _owned_blocks_on(strip, V, INTERFACE)
-    dirichlet = []
-    if params.bc == "velocity":
-        dirichlet.append(rows(_owned_blocks_on(strip, V, TOP), 0))
-    if k is None and lateral != "free":
-        ends = np.union1d(_owned_blocks_on(strip, V, LEFT), _owned_blocks_on(strip, V, RIGHT))
-        ends = np.setdiff1d(ends, interface)  # interface nodes keep the friction row
-        dirichlet.append(rows(ends, 0))
-        if lateral == "clamped":
-            dirichlet.append(rows(ends, 1))
-    dirichlet_rows = np.unique(np.concatenate(dirichlet)) if dirichlet else np.zeros(0, int)
-    ix, iy = rows(interface, 0), rows(interface, 1)
-    # A node on the interface and on a Dirichlet edge keeps its friction row.
-    dirichlet_rows = np.setdiff1d(dirichlet_rows, ix).astype(PETSc.IntType)
-    return StripProblem(strip, params, k, V, bloch, mats["stiffness"], mats["mass"],
-                        mats["interface_mass"], ix, iy, dirichlet_rows, timings)
+def _law_groups(problem: StripProblem) -> list[tuple[tuple[float, float, float], np.ndarray]]:
+    """Distinct ``(Delta, f, gamma)`` along the interface, each with this rank's rows of it.
+
+    Every rank gets the same sorted list of values (each is one collective operator build).
+    """
+    p = problem.params
+    if problem.friction is None:
+        return [((p.Delta, p.f, p.gamma), np.arange(len(problem.interface_x)))]
+    vals = problem.friction.values(p, problem.interface_coordinate)
+    mine = {tuple(map(float, v)) for v in vals}
+    groups = sorted(set().union(*problem.comm.allgather(mine)))
+    return [(g, np.flatnonzero(np.all(vals == np.array(g), axis=1))) for g in groups]
 
 
 def friction_operator_for(problem: StripProblem, form: str = "polynomial") -> FrictionOperator:
     """``T(Lambda)`` of the strip: :mod:`forms.friction` rows on the (reduced) ``K, M, M_Gamma``.
 
-    Interface ``x``-rows carry the friction law (consistent reactions of the reduced nodes);
-    interface ``y``-rows, the top ``x``-rows (``bc = "velocity"``) and the lateral rows of a
-    finite block read ``u_d = 0`` through :func:`forms.friction.apply_dirichlet` (diagonal 1 in
-    the constant term only: their eigenvalues sit at infinity, far from every finite target).
+    Interface ``x``-rows (the slip with two bodies) carry the friction law with the slider's
+    reactions; the Dirichlet rows read ``u_d = 0`` through
+    :func:`forms.friction.apply_dirichlet` (diagonal 1 in the constant term only: their
+    eigenvalues sit at infinity, far from every finite target). With a
+    :class:`FrictionProfile`, every distinct ``(Delta, f, gamma)`` gives the law of its rows:
+    one operator per distinct value set, its rows copied into the first (collective).
     """
-    law = FrictionLaw.from_params(problem.params)
-    op = friction_operator(law, problem.stiffness, problem.mass, problem.interface_mass,
-                           problem.interface_x, problem.interface_y, form=form)
-    rows = np.concatenate([problem.interface_y, problem.dirichlet]).astype(np.int64)
-    apply_dirichlet(op.matrices, rows, op.constant_term, DIRICHLET_DIAGONAL)
+    ops = []
+    for (delta, f, gamma), sel in _law_groups(problem):
+        law = FrictionLaw.from_params(problem.params.replace(Delta=delta, f=f, gamma=gamma))
+        ops.append((friction_operator(law, problem.stiffness, problem.mass,
+                                      problem.interface_mass, problem.interface_x[sel],
+                                      problem.interface_y[sel], form=form,
+                                      reactions=problem.reactions), sel))
+    op = ops[0][0]
+    for other, sel in ops[1:]:
+        for a, b in zip(op.matrices, other.matrices, strict=True):
+            for row in problem.interface_x[sel].tolist():
+                cols, vals = b.getRow(row)
+                a.setValues([row], cols, vals, addv=PETSc.InsertMode.INSERT_VALUES)
+            a.assemble()
+        other.destroy()
+    apply_dirichlet(op.matrices, problem.dirichlet, op.constant_term, DIRICHLET_DIAGONAL)
     return op
 
 

@@ -1,6 +1,8 @@
 """Mode shape of the sliding strip in real space: files for ParaView and pictures.
 
-Solves the Bloch-periodic strip (:mod:`forms.models.strip`) at one wavenumber ``k`` near a target,
+Solves the Bloch-periodic strip (:mod:`forms.models.strip`) at one wavenumber ``k`` near a target
+(on a rigid substrate, or on a deformable one of finite height: ``--mu2 --rho2 --beta2 --H2
+--bc2``, both bodies meshed and drawn),
 keeps the eigenvalue whose mode really carries ``exp(-i k x)`` (a one-wavelength cell also holds
 ``0, -k, 2k, ...``: see :func:`forms.mode_postprocessing.harmonic_content`), and writes to
 ``--out``:
@@ -46,10 +48,8 @@ import _plots  # noqa: E402
 import dolfinx.io  # noqa: E402
 
 from analytic.numerics.branches import parse_branch_label  # noqa: E402
-from analytic.params import require_rigid  # noqa: E402
 from analytic.numerics.tracking import Branch  # noqa: E402
 from forms.studies import strip_mode  # noqa: E402
-from forms.mode_postprocessing import interface_stresses  # noqa: E402
 
 DEFAULT_K = 1.0
 #: Options prefixes of the SLEPc objects: the strip solve and the cross-section model.
@@ -97,9 +97,14 @@ def build_parser() -> argparse.ArgumentParser:
 def validate(args: argparse.Namespace):
     """Check every option before anything collective or any file is created."""
     params = _cli.params_from_args(args)
-    require_rigid(params, "mode_shape.py (2D strip, rigid substrate)")
     if math.isinf(params.H):
         raise _cli.ParameterError("H = inf is outside its allowed range here (a finite strip)")
+    if params.two_body and math.isinf(params.H2):
+        raise _cli.ParameterError("H2 = inf is outside its allowed range here (a finite"
+                                  " substrate: both bodies are meshed)")
+    if params.two_body and args.source == "cross-section":
+        raise _cli.ParameterError("--source = cross-section is for the rigid substrate (mu2 ="
+                                  " inf); use --source strip")
     _cli.check_k(args.k, name="k")
     branch = parse_branch_label(args.branch, name="--branch")
     k_scan = _cli.parse_k(args.k_scan, name="--k-scan") if args.most_unstable else None
@@ -118,14 +123,15 @@ def validate(args: argparse.Namespace):
 
 def plot_mode(gathered: dict, frames: list[tuple[np.ndarray, np.ndarray]], out_png: str,
               title: str, color: str, lam: complex, k: float, height: float, length: float,
-              fractions: tuple[float, ...] = (0.0,)) -> None:
+              fractions: tuple[float, ...] = (0.0,), depth: float = 0.0) -> None:
     """Deformed strip coloured by ``|u|`` or ``sigma_yy``, with direction arrows (rank 0).
 
     ``gathered`` is :func:`forms.studies.strip_mode.gather_mode`'s grid and ``frames`` its fields at
     ``t = fraction * period`` (:func:`forms.studies.strip_mode.phase_frames`, growth factored out):
     each
     row of the picture is one frame, so successive rows step forward in time and the pattern
-    moves with the phase velocity ``Im(Lambda) / k``.
+    moves with the phase velocity ``Im(Lambda) / k``. ``depth``: the substrate's height ``H2``
+    when it is part of the grid (two bodies; else a grey band stands for the rigid one).
     """
     import pyvista as pv
 
@@ -136,7 +142,7 @@ def plot_mode(gathered: dict, frames: list[tuple[np.ndarray, np.ndarray]], out_p
     # direction arrows under the substrate, room on top for the title and the colour bar.
     m = 0.06 * max(height, length / 6)
     amp = 0.2 * min(height, length / 4)
-    y_arrow = -3.2 * m
+    y_arrow = -depth - 3.2 * m
     y_lo = y_arrow - 1.6 * m
     y_hi = height + amp + 0.25 * (height + amp - y_lo)  # title band
     row_px = int(np.clip(1600 * (y_hi - y_lo) / (length + 2 * amp), 220, 760))
@@ -165,10 +171,11 @@ def plot_mode(gathered: dict, frames: list[tuple[np.ndarray, np.ndarray]], out_p
                                           "position_y": 0.03, "width": 0.22, "height": 0.15,
                                           "title_font_size": 14, "label_font_size": 11,
                                           "n_labels": 3, "fmt": "%.2g"})
-        outline = pv.Rectangle([[0, 0, 0], [length, 0, 0], [length, height, 0]])
+        outline = pv.Rectangle([[0, -depth, 0], [length, -depth, 0], [length, height, 0]])
         plotter.add_mesh(outline.extract_feature_edges(), color="grey", line_width=1)
-        plotter.add_mesh(pv.Rectangle([[0, -m, 0], [length, -m, 0], [length, 0, 0]]),
-                         color="#b0b0b0")
+        if depth == 0:
+            plotter.add_mesh(pv.Rectangle([[0, -m, 0], [length, -m, 0], [length, 0, 0]]),
+                             color="#b0b0b0")
         # sliding direction (+x: the body moves at v0 > 0) and phase velocity direction
         alen = min(0.1 * length, 0.4 * max(height, length / 6))
         arrow = dict(scale=alen, shaft_radius=0.05, tip_radius=0.14, tip_length=0.3)
@@ -212,8 +219,9 @@ def _write_outputs(args: argparse.Namespace, meta: dict, title: str, mode: strip
             f.write_function(u_phase, t=t)
     with dolfinx.io.VTKFile(comm, os.path.join(args.out, "mode_p2.pvd"), "w") as f:
         f.write_function(u, 0.0)
-    data = interface_stresses(u, params.lame_lambda, params.H)
-    gathered = None if args.no_render else strip_mode.gather_mode(u, params.lame_lambda)
+    data = strip_mode.interface_of(u, params)
+    gathered = None if args.no_render else strip_mode.gather_mode(
+        u, *strip_mode.stress_coefficients(u, params))
     if comm.rank != 0:
         return
     np.savetxt(os.path.join(args.out, "interface.csv"), strip_mode.interface_table(data),
@@ -227,7 +235,7 @@ def _write_outputs(args: argparse.Namespace, meta: dict, title: str, mode: strip
             path = os.path.join(args.out, name)
             frames = strip_mode.phase_frames(gathered["point_data"], lam.imag, fractions)
             plot_mode(gathered, frames, path, title, args.color, lam, meta["k"], params.H,
-                      strip.length, fractions)
+                      strip.length, fractions, strip.depth)
             _cli.add_png_metadata(path, meta, title)
 
 
@@ -259,9 +267,9 @@ def _run(comm, args: argparse.Namespace, params, branch: tuple[int, int], k_scan
         _cli.say(f"most unstable on the k grid (branch {label}): k = {k:.6g},"
                  f" Lambda = {lam_branch:.6g}")
     xs = strip_mode.cross_section_near(params, k, lam_branch, args.target)
-    if xs is None and (args.source == "cross-section" or args.target is None):
-        _cli.say(f"error: branch {label} not followed to k = {k:.6g} by the cross-section"
-                 " model; give --target", err=True)
+    start = xs.eigenvalue if xs is not None else lam_branch  # two bodies: the exact root
+    if not np.isfinite(start) and (args.source == "cross-section" or args.target is None):
+        _cli.say(f"error: branch {label} not followed to k = {k:.6g}; give --target", err=True)
         return 1
     strip = strip_mode.bloch_strip(comm, params, k, args.wavelengths, args.cells_per_wavelength,
                                    args.ny, args.grading)
@@ -269,7 +277,7 @@ def _run(comm, args: argparse.Namespace, params, branch: tuple[int, int], k_scan
                                     wavelengths=args.wavelengths, degree=args.degree, xs=xs,
                                     versions=_cli.versions(), command=_cli.command())
     if args.source == "strip":
-        target = args.target if args.target is not None else xs.eigenvalue
+        target = args.target if args.target is not None else start
         solved = strip_mode.solve_bloch_mode(strip, params, k, args.degree, target, args.nev)
         _cli.say(f"k = {k:.6g}, target = {target:.6g}: {len(solved.eigenvalues)} converged"
                  f" ({solved.reason}); harmonics m = {solved.harmonics}")

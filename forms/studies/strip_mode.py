@@ -14,7 +14,13 @@ The computation behind ``workflows/mode_shape.py``:
 - :func:`phase_snapshots`: ``Re(u exp(i Im(Lambda) t))`` over one period (for XDMF);
 - :func:`gather_mode`: the Lagrange VTK grid with nodal ``u`` and ``sigma_yy``, gathered on
   rank 0 as plain arrays; :func:`phase_frames`: those fields at fractions of the period;
-- :func:`interface_table`: interface stresses and slip as the columns of ``interface.csv``.
+- :func:`interface_table`: interface stresses and slip as the columns of ``interface.csv``;
+- :func:`interface_of`: those stresses and the slip for one body or two
+  (:func:`forms.mode_postprocessing.interface_stresses` on the slider's side).
+
+Two bodies (``params.two_body``, finite ``H2``): the branch comes from the exact two-body roots
+(:func:`analytic.numerics.branches.follow_branch`), the strip holds both bodies
+(:func:`forms.models.strip.strip_mesh_for`) and the mode shows both.
 """
 
 from __future__ import annotations
@@ -27,15 +33,17 @@ from dataclasses import dataclass
 import numpy as np
 
 import dolfinx.fem
+import dolfinx.mesh
 import dolfinx.plot
 import ufl
 from mpi4py import MPI
 
+from analytic.numerics import branches as exact_branches
 from analytic.numerics.tracking import Branch, waveguide_lambda
 from analytic.params import Params
 from forms.elasticity import sigma
-from forms.mode_postprocessing import normalise
-from forms.models.strip import build_strip_problem, solve_modes
+from forms.mode_postprocessing import interface_stresses, normalise
+from forms.models.strip import build_strip_problem, solve_modes, strip_mesh_for
 from forms.solvers.continuation import (
     CrossSectionMode,
     cross_section_mode,
@@ -43,7 +51,7 @@ from forms.solvers.continuation import (
     most_unstable_k,
 )
 from meshes.interval import grading_ratio
-from meshes.strip import StripMesh, strip_mesh, wavelength
+from meshes.strip import StripMesh, wavelength
 
 #: Columns of :func:`interface_table`.
 INTERFACE_COLUMNS = ("x", "re_sxy", "im_sxy", "re_syy", "im_syy", "re_ux", "im_ux")
@@ -104,6 +112,8 @@ def branch_eigenvalue(comm: MPI.Comm, params: Params, branch: tuple[int, int], k
     Returns:
         ``(k, Lambda)``; ``Lambda`` is ``nan`` if the branch was not followed up to ``k``.
     """
+    if params.two_body:
+        return _exact_branch_eigenvalue(comm, params, branch, k, k_scan)
     b = Branch(*branch)
 
     def wg(kk: float) -> complex:
@@ -115,13 +125,34 @@ def branch_eigenvalue(comm: MPI.Comm, params: Params, branch: tuple[int, int], k
     return float(k), comm.bcast(complex(follow_branch(params, wg, ks)[-1]), root=0)
 
 
+def _exact_branch_eigenvalue(comm: MPI.Comm, params: Params, branch: tuple[int, int], k: float,
+                             k_scan: np.ndarray | None) -> tuple[float, complex]:
+    """:func:`branch_eigenvalue` of two bodies: the exact branch, followed on rank 0."""
+    out = None
+    if comm.rank == 0:
+        ks = np.asarray(k_scan if k_scan is not None else [k], dtype=float)
+        res = exact_branches.follow_branch(params, branch[0], branch[1], ks)
+        lam = np.where(res.ok, res.Lambda, complex("nan"))
+        if k_scan is None:
+            out = (float(k), complex(lam[0]))
+        elif np.isfinite(lam).any():
+            i = int(np.nanargmax(np.where(np.isfinite(lam), lam.real, np.nan)))
+            out = (float(res.k[i]), complex(lam[i]))
+        else:
+            out = (float(res.k[0]), complex("nan"))
+    return comm.bcast(out, root=0)
+
+
 def cross_section_near(params: Params, k: float, lam_branch: complex,
                        target: complex | None = None) -> CrossSectionMode | None:
     """The cross-section mode at ``k`` near ``target`` (default: ``lam_branch``).
 
     Returns:
-        The mode, or ``None`` if there is no finite target or nothing converged.
+        The mode, or ``None`` if there is no finite target, nothing converged, or two bodies
+        (the cross-section model is the rigid substrate's).
     """
+    if params.two_body:
+        return None
     if target is None and not np.isfinite(lam_branch):
         return None
     return cross_section_mode(params, k, target if target is not None else lam_branch)
@@ -129,7 +160,7 @@ def cross_section_near(params: Params, k: float, lam_branch: complex,
 
 def bloch_strip(comm: MPI.Comm, params: Params, k: float, wavelengths: int,
                 cells_per_wavelength: int, ny: int, grading: float | None = None) -> StripMesh:
-    """Strip mesh of ``wavelengths`` wavelengths ``2 pi / k`` and height ``params.H``.
+    """Strip mesh of ``wavelengths`` wavelengths ``2 pi / k``: the slider, or both bodies.
 
     Args:
         comm: Mesh communicator.
@@ -137,13 +168,13 @@ def bloch_strip(comm: MPI.Comm, params: Params, k: float, wavelengths: int,
         k: Wavenumber.
         wavelengths: Length of the cell in wavelengths.
         cells_per_wavelength: Cells along ``x`` per wavelength.
-        ny: Cells along ``y``.
-        grading: Top/bottom cell height ratio; default
+        ny: Cells along ``y`` (in each body).
+        grading: Far/near-interface cell height ratio; default
             :func:`meshes.interval.grading_ratio` of ``k H`` (as for the cross-section mesh).
     """
     grading = grading if grading is not None else grading_ratio(k, params.H)
-    return strip_mesh(comm, wavelengths * wavelength(k), params.H,
-                      wavelengths * cells_per_wavelength, ny, grading=grading)
+    return strip_mesh_for(comm, params, wavelengths * wavelength(k),
+                          wavelengths * cells_per_wavelength, ny, grading=grading)
 
 
 def solve_bloch_mode(strip: StripMesh, params: Params, k: float, degree: int, target: complex,
@@ -168,7 +199,8 @@ def solve_bloch_mode(strip: StripMesh, params: Params, k: float, degree: int, ta
             u = problem.to_function(best.vector, name="u")
             normalise(u)
             meta = {
-                "source": "Bloch-periodic 2D strip (forms.models.strip), route (a): P^H A P",
+                "source": "Bloch-periodic 2D strip (forms.models.strip), route (a): P^H A P"
+                          + (", two bodies" if params.two_body else ""),
                 "target": [target.real, target.imag], "eigenvalue": [lam.real, lam.imag],
                 "residual": best.residual, "harmonic_content_m0": best.harmonics.get(0, 0.0),
                 "solver": problem.last_solve,
@@ -254,10 +286,90 @@ def phase_snapshots(u: dolfinx.fem.Function, lam: complex, phases: int
         yield t, u_phase
 
 
-def gather_mode(u: dolfinx.fem.Function, lame_lambda: float) -> dict | None:
+def stress_coefficients(u: dolfinx.fem.Function, params: Params) -> tuple:
+    """``(lambda, mu)`` for :func:`forms.elasticity.sigma` on ``u``'s mesh.
+
+    Numbers (one body) or cell-wise values (two bodies: the substrate is the cells below
+    ``y = 0``).
+    """
+    if not params.two_body:
+        return params.lame_lambda, 1.0
+    msh = u.function_space.mesh
+    Q = dolfinx.fem.FunctionSpace(msh, ("DG", 0))
+    cmap = msh.topology.index_map(msh.topology.dim)
+    cells = np.arange(cmap.size_local + cmap.num_ghosts, dtype=np.int32)
+    mid = dolfinx.mesh.compute_midpoints(msh, msh.topology.dim, cells)
+    sub = cells[mid[:, 1] < 0]
+    out = []
+    for one, two in ((params.lame_lambda, params.substrate.lame_lambda), (1.0, params.mu2)):
+        c = dolfinx.fem.Function(Q)
+        c.x.array[:] = one
+        c.interpolate(lambda x, v=two: np.full(x.shape[1], v), cells=sub)
+        out.append(c)
+    return tuple(out)
+
+
+def interface_of(u: dolfinx.fem.Function, params: Params) -> dict[str, np.ndarray]:
+    """Interface stresses and slip (:func:`forms.mode_postprocessing.interface_stresses` keys).
+
+    Two bodies: the stresses of the slider's side (``sxy``, ``syy`` are continuous across
+    ``y = 0``; the model ties them weakly) and the slip ``u_x1 - u_x2`` in ``ux``. Collective.
+    """
+    if not params.two_body:
+        return interface_stresses(u, params.lame_lambda, params.H)
+    msh = u.function_space.mesh
+    lmbda, mu = stress_coefficients(u, params)
+    degree = u.function_space.ufl_element().degree()
+    W = dolfinx.fem.FunctionSpace(msh, ufl.VectorElement("DG", msh.ufl_cell(), degree - 1))
+    s = sigma(u, lmbda, mu)
+    t = dolfinx.fem.Function(W)
+    t.interpolate(dolfinx.fem.Expression(ufl.as_vector([s[0, 1], s[1, 1]]),
+                                         W.element.interpolation_points()))
+    tol = 1e-10 * max(params.H, params.H2)
+    st = _side_values(t, tol)
+    sl = _side_values(u, tol)
+    return {"x": st[1][:, 0].real, "sxy": st[1][:, 1], "syy": st[1][:, 2],
+            "x_slip": sl[1][:, 0].real, "ux": sl[1][:, 1] - sl[2][:, 1],
+            "uy": sl[1][:, 2]}
+
+
+def _side_values(f: dolfinx.fem.Function, tol: float) -> dict[int, np.ndarray]:
+    """Per body (1: cells above ``y = 0``, 2: below) ``f``'s dofs on ``y = 0``.
+
+    Rows ``(x, values...)`` gathered on every rank, averaged per ``x``, sorted by ``x``.
+    """
+    W = f.function_space
+    msh = W.mesh
+    n = W.dofmap.index_map.size_local
+    bs = W.dofmap.index_map_bs
+    side = dolfinx.fem.Function(W)
+    cmap = msh.topology.index_map(msh.topology.dim)
+    cells = np.arange(cmap.size_local + cmap.num_ghosts, dtype=np.int32)
+    mid = dolfinx.mesh.compute_midpoints(msh, msh.topology.dim, cells)
+    side.interpolate(lambda x: np.ones((bs, x.shape[1])), cells=cells[mid[:, 1] > 0])
+    above = side.x.array.reshape(-1, bs)[:n, 0].real > 0.5
+    xw = W.tabulate_dof_coordinates()[:n]
+    vals = f.x.array[: bs * n].reshape(n, bs)
+    out = {}
+    for body, sel in ((1, above), (2, ~above)):
+        on = np.flatnonzero((np.abs(xw[:, 1]) < tol) & sel)
+        rows = np.vstack(msh.comm.allgather(np.column_stack([xw[on, 0], vals[on]])
+                                            .astype(complex)))
+        xs, inverse = np.unique(np.round(rows[:, 0].real, 12), return_inverse=True)
+        counts = np.bincount(inverse, minlength=len(xs))
+        cols = [xs.astype(complex)] + [
+            (np.bincount(inverse, rows[:, c].real, len(xs))
+             + 1j * np.bincount(inverse, rows[:, c].imag, len(xs))) / counts
+            for c in range(1, rows.shape[1])]
+        out[body] = np.column_stack(cols)
+    return out
+
+
+def gather_mode(u: dolfinx.fem.Function, lame_lambda: float, mu: float = 1.0) -> dict | None:
     """The Lagrange VTK grid of ``u``'s space with nodal ``u`` and ``sigma_yy``, on rank 0.
 
-    ``sigma_yy`` is interpolated into Lagrange of the degree of ``u``. Collective.
+    ``sigma_yy`` is interpolated into Lagrange of the degree of ``u``; ``lame_lambda`` and ``mu``
+    may be cell-wise (:func:`stress_coefficients`). Collective.
 
     Returns:
         On rank 0 ``{"cells": VTK connectivity (counts and point ids, flat), "cell_types",
@@ -268,7 +380,7 @@ def gather_mode(u: dolfinx.fem.Function, lame_lambda: float) -> dict | None:
     msh = V.mesh
     S = dolfinx.fem.FunctionSpace(msh, ("Lagrange", V.ufl_element().degree()))
     syy = dolfinx.fem.Function(S)
-    syy.interpolate(dolfinx.fem.Expression(sigma(u, lame_lambda, 1.0)[1, 1],
+    syy.interpolate(dolfinx.fem.Expression(sigma(u, lame_lambda, mu)[1, 1],
                                            S.element.interpolation_points()))
     nodal = u.x.array.reshape(-1, 2)
     zeros = np.zeros((nodal.shape[0], 1))

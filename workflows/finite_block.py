@@ -2,7 +2,9 @@
 
 The block ``0 < x < L``, ``0 < y < H`` has the same physics as the strip (:mod:`forms.models.strip`,
 ``k = None``: no Bloch map), with lateral ends ``--lateral free`` (traction-free, default),
-``roller`` (``u_x = 0``) or ``clamped`` (``u = 0``). For every ``L`` of ``--lengths`` the
+``roller`` (``u_x = 0``) or ``clamped`` (``u = 0``); on a rigid substrate, or on a deformable one
+of finite height (``--mu2 --rho2 --beta2 --H2 --bc2``: a substrate block of the same length, the
+reference from the exact two-body roots, no Kulikovskii limit). For every ``L`` of ``--lengths`` the
 eigenvalues near the infinite strip's branches (``--branches``, cross-section model at several
 ``k`` around each one's most unstable wavenumber) are computed and the most unstable one is
 kept. Written to ``--out``:
@@ -41,9 +43,8 @@ import numpy as np
 from tqdm import tqdm
 
 from analytic.numerics.branches import parse_branch_label
-from analytic.params import require_rigid  # noqa: E402
-from forms.mode_postprocessing import interface_stresses
 from forms.studies import block
+from forms.studies.strip_mode import interface_of
 
 #: Options prefixes of the SLEPc objects: block solves, cross-section model, spatial roots.
 PETSC_PREFIXES = ("block_", "xs_", "kroots_")
@@ -82,9 +83,11 @@ def build_parser() -> argparse.ArgumentParser:
 def validate(args: argparse.Namespace):
     """Check every option before anything collective or any file is created."""
     params = _cli.params_from_args(args)
-    require_rigid(params, "finite_block.py (rigid substrate)")
     if math.isinf(params.H):
         raise _cli.ParameterError("H = inf is outside its allowed range here (a finite block)")
+    if params.two_body and math.isinf(params.H2):
+        raise _cli.ParameterError("H2 = inf is outside its allowed range here (a finite"
+                                  " substrate block)")
     lengths = _cli.parse_k(args.lengths, name="--lengths")
     branches = [parse_branch_label(b, name="--branches") for b in args.branches.split(",")
                 if b.strip()]
@@ -224,11 +227,12 @@ def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, b
             "degree": args.degree,
             "ranks": comm.size, "timings": timings, "versions": _cli.versions(),
             "command": _cli.command()}
-    title = (f"finite block ({args.lateral} ends, bc = {params.bc}, H = {params.H:g}),"
-             f" P{args.degree} strip FE")
+    title = (f"finite block ({args.lateral} ends, bc = {params.bc}, H = {params.H:g}"
+             + (f"; substrate mu2 = {params.mu2:g}, H2 = {params.H2:g}" if params.two_body
+                else "") + f"), P{args.degree} strip FE")
     interface = None
     if last is not None:
-        interface = interface_stresses(last.u, params.lame_lambda, params.H)
+        interface = interface_of(last.u, params)
     if comm.rank == 0:
         L_all, lam_all = block.converged_rows(list(_read_done(csv_path).values()))
         kul = None

@@ -17,8 +17,8 @@ slider's own ``K_1, M_1`` whose rows are the slider's reactions in the friction 
 On a Bloch cell (wavenumber ``k``) or with two bodies, the matrices are reduced by ``P^H A P``
 (:func:`forms.models.periodic.reduction_map`) *before* any row operation, so every reduced row is
 the row of a node of the periodic strip (a left-edge node carries its right-edge image). On a
-one-body finite block there is no ``P``; the lateral ends are free, rollers (``u_x = 0``) or
-clamped, except the interface nodes, which keep their rows.
+one-body finite block there is no ``P``. The lateral ends of a block are free, rollers
+(``u_x = 0``) or clamped, except the slider's interface nodes, which keep their rows.
 
 The friction parameters may vary along the interface (:class:`FrictionProfile`: ``Delta``,
 ``f``, ``gamma`` as functions of ``x``, taken at the interface nodes): the law of each node's
@@ -269,13 +269,16 @@ def _constrained_rows(strip: StripMesh, params: Params, V: dolfinx.fem.FunctionS
     if strip.two_body and params.bc2 == "velocity":
         dirichlet.append(red[at["bottom"] & ok, 0])
     if finite_block and lateral != "free":
-        ends = at["ends"] & ~at["interface"]  # interface nodes keep their rows
+        # The slider's interface nodes keep their rows (the friction law); the substrate's
+        # take the lateral condition (its u_y there is the slider's: not an unknown).
+        ends = at["ends"] & ~(at["interface"] & (body == 1))
         dirichlet.append(red[ends, 0])
         if lateral == "clamped":
             dirichlet.append(red[ends, 1])
     if not strip.two_body:
         dirichlet.append(iy)  # the rigid substrate: u_y = 0
     rows = np.unique(np.concatenate(dirichlet)) if dirichlet else np.zeros(0, np.int64)
+    rows = rows[rows >= 0]  # slots that are not unknowns (right edge, the substrate's u_y2)
     # A node on the interface and on a Dirichlet edge keeps its friction row.
     rows = np.setdiff1d(rows, ix).astype(PETSc.IntType)
     return (ix.astype(PETSc.IntType), iy.astype(PETSc.IntType), xy[iface, 0].copy(), rows)

@@ -11,7 +11,11 @@ Used by ``workflows/finite_block.py``:
 - :func:`converged_rows`: lengths and eigenvalues of the rows that converged;
 - :func:`extrapolate`: the limit ``L -> infinity`` (Richardson, observed order);
 - :func:`long_block_limit`: the cross-section model's long-block limit at the largest ``L``
-  (:func:`forms.solvers.spatial_stability.kulikovskii_limit`).
+  (:func:`forms.solvers.spatial_stability.kulikovskii_limit`; rigid substrate only).
+
+Two bodies (``params.two_body``, finite ``H2``): the block is the slider on a substrate block of
+the same length (:func:`forms.models.strip.strip_mesh_for`), and the infinite strip's reference
+comes from the exact two-body roots (:func:`analytic.numerics.branches.follow_branch`).
 """
 
 from __future__ import annotations
@@ -24,13 +28,13 @@ import numpy as np
 import dolfinx.fem
 from mpi4py import MPI
 
+from analytic.numerics import branches as exact_branches
 from analytic.numerics.tracking import Branch, waveguide_lambda
 from analytic.params import Params
 from forms.mode_postprocessing import normalise
-from forms.models.strip import build_strip_problem, solve_modes
+from forms.models.strip import build_strip_problem, solve_modes, strip_mesh_for
 from forms.solvers.continuation import follow_branch, most_unstable_k
 from forms.solvers.spatial_stability import kulikovskii_limit
-from meshes.strip import strip_mesh
 
 #: Columns of :meth:`BlockMode.row` (the CSV of ``finite_block.py``).
 ROW_COLUMNS = ("L", "re_lambda", "im_lambda", "residual", "candidates", "re_lambda_inf",
@@ -118,6 +122,8 @@ def infinite_strip_reference(comm: MPI.Comm, params: Params, branches: Sequence[
         k_scan: Grid of ``k`` (increasing).
         n_targets: Points of each half of the target path.
     """
+    if params.two_body:
+        return _exact_reference(comm, params, branches, k_scan, n_targets)
     dk = (k_scan[-1] - k_scan[0]) / max(len(k_scan) - 1, 1)
     per_branch = []
     targets = []
@@ -146,6 +152,42 @@ def infinite_strip_reference(comm: MPI.Comm, params: Params, branches: Sequence[
     return StripReference(per_branch, label, k_inf, lam_inf, targets)
 
 
+def _exact_max(params: Params, nb: tuple[int, int], ks: np.ndarray) -> tuple[float, complex]:
+    """Largest ``Re Lambda`` of the exact branch ``nb`` on ``ks`` (``nan`` if it was lost)."""
+    res = exact_branches.follow_branch(params, nb[0], nb[1], ks)
+    lam = np.where(res.ok, res.Lambda, complex("nan"))
+    if not np.isfinite(lam).any():
+        return float(ks[0]), complex("nan")
+    i = int(np.nanargmax(np.where(np.isfinite(lam), lam.real, np.nan)))
+    return float(res.k[i]), complex(lam[i])
+
+
+def _exact_reference(comm: MPI.Comm, params: Params, branches: Sequence[tuple[int, int]],
+                     k_scan: np.ndarray, n_targets: int) -> StripReference:
+    """:func:`infinite_strip_reference` from the exact roots (two bodies), rank 0's values.
+
+    The same steps: the most unstable ``k`` of each branch on ``k_scan``, refined on 21 points
+    over one grid step on each side; targets on ``[0.5 k, 1.5 k]``, mapped to ``Im <= 0``.
+    """
+    out = None
+    if comm.rank == 0:
+        dk = (k_scan[-1] - k_scan[0]) / max(len(k_scan) - 1, 1)
+        per_branch, targets = [], []
+        for nb in branches:
+            k0, _ = _exact_max(params, nb, np.asarray(k_scan, dtype=float))
+            kb, lb = _exact_max(params, nb, np.linspace(max(k0 - dk, 1e-3), k0 + dk, 21))
+            per_branch.append((Branch(*nb).label, kb, lb))
+            if not np.isfinite(lb) or (lb.real <= 0 and len(branches) > 1):
+                continue  # a stable (or lost) branch seeds no targets
+            path = exact_branches.follow_branch(params, nb[0], nb[1],
+                                                np.linspace(0.5 * kb, 1.5 * kb, 2 * n_targets))
+            targets += [z if z.imag <= 0 else z.conjugate()
+                        for z, ok in zip(path.Lambda, path.ok, strict=True) if ok]
+        label, k_inf, lam_inf = max(per_branch, key=lambda t: np.nan_to_num(t[2].real, nan=-1e300))
+        out = StripReference(per_branch, label, k_inf, lam_inf, _distinct(targets, 1e-6))
+    return comm.bcast(out, root=0)
+
+
 def most_unstable_block_mode(comm: MPI.Comm, params: Params, length: float, *,
                              cells_per_unit: int, ny: int, degree: int, lateral: str,
                              targets: Sequence[complex], nev: int, keep_mode: bool = False
@@ -168,7 +210,7 @@ def most_unstable_block_mode(comm: MPI.Comm, params: Params, length: float, *,
         keep_mode: Also return the normalised mode as a function.
     """
     nx = max(2, int(round(cells_per_unit * length)))
-    strip = strip_mesh(comm, float(length), params.H, nx, ny)
+    strip = strip_mesh_for(comm, params, float(length), nx, ny)
     problem = build_strip_problem(strip, params, k=None, degree=degree, lateral=lateral)
     found = []
     try:
@@ -233,8 +275,11 @@ def long_block_limit(params: Params, L: np.ndarray, lam: np.ndarray) -> dict | N
     Runs on the calling rank alone. Raises ``RuntimeError`` as that function does.
 
     Returns:
-        Its dict plus ``from_block_length``, or ``None`` if it found fewer than two roots.
+        Its dict plus ``from_block_length``, or ``None`` if it found fewer than two roots or
+        the substrate is deformable (the cross-section model behind it is the rigid one's).
     """
+    if params.two_body:
+        return None
     i = int(np.argmax(L))
     kul = kulikovskii_limit(params, complex(lam[i]))
     if kul is not None:

@@ -84,7 +84,8 @@ def test_mode_shape_files(tmp_path, ranks):
 
 @pytest.mark.serial
 @pytest.mark.parametrize("bad", [["--beta", "0.9"], ["--k", "-1"], ["--branch", "x"],
-                                 ["--ny", "0"], ["--grading", "0.5"]])
+                                 ["--ny", "0"], ["--grading", "0.5"], ["--mu2", "2"],
+                                 ["--mu2", "2", "--H2", "0.5", "--source", "cross-section"]])
 def test_mode_shape_bad_input(tmp_path, bad):
     out = tmp_path / "never"
     res = _run([sys.executable, SCRIPT, "--out", str(out), *bad])

@@ -190,6 +190,7 @@ def test_patch_rows_carry_their_own_law(two_body):
     problem.destroy()
 
 
+@pytest.mark.slow  # measured 20 .. 30 s per case (2026-11-24)
 @pytest.mark.serial
 @pytest.mark.parametrize("ranks", [1, 2])
 def test_mode_shape_scene_two_bodies(tmp_path, ranks):
@@ -202,13 +203,15 @@ def test_mode_shape_scene_two_bodies(tmp_path, ranks):
     meta = json.loads((out / "mode.json").read_text())
     exact = _exact(CASES["vel-stress"], 1.0)
     lam = complex(*meta["eigenvalue"])
-    # measured MEASURE_MS (P2, 8 x 4 cells per body, grading 1 at k H = 0.5), 1 and 2 ranks
-    assert abs(lam - exact) / abs(exact) < 1.0
+    # measured 6.97e-4 (P2, 8 x 4 cells per body, grading 1 at k H = 0.5), 1 and 2 ranks: the
+    # error of test_bloch_cell_converges_to_the_exact_two_body_root's coarse mesh
+    assert abs(lam - exact) / abs(exact) < 1.05 * 6.97e-4
     assert "two bodies" in meta["source"]
     rows = np.loadtxt(out / "interface.csv", delimiter=",", skiprows=1)
     assert rows.shape == (8 + 1, 7)
 
 
+@pytest.mark.slow  # measured 20 .. 30 s per case (2026-11-24)
 @pytest.mark.serial
 @pytest.mark.parametrize("ranks", [1, 2])
 def test_finite_block_scene_two_bodies(tmp_path, ranks):
@@ -227,3 +230,15 @@ def test_finite_block_scene_two_bodies(tmp_path, ranks):
     with open(out / "finite_block.csv") as f:
         rows = f.read().splitlines()
     assert len(rows) == 3 and "nan" not in rows[2]
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_finite_block_refuses_a_half_space_substrate(tmp_path, ranks):
+    """--mu2 without a finite --H2: one line naming H2, exit code 2, nothing written."""
+    out = tmp_path / "never"
+    res = run_workflow("finite_block.py", ["--out", str(out), "--mu2", "2"], nproc=ranks)
+    assert res.returncode == 2
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "H2" in lines[0]
+    assert not out.exists()

@@ -12,10 +12,11 @@ import slepc4py
 
 slepc4py.init(sys.argv[:1])
 
+from _workflows import run_workflow  # noqa: E402
+
 from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 
-from _workflows import run_workflow  # noqa: E402
 from analytic.numerics.branches import follow_branch, polish_root  # noqa: E402
 from analytic.params import Params  # noqa: E402
 from forms.models.strip import (  # noqa: E402

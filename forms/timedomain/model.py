@@ -102,7 +102,7 @@ from petsc4py import PETSc
 from analytic.params import ParameterError, Params
 from forms.elasticity import stiffness_density
 from forms.friction import FrictionLaw, apply_dirichlet, friction_operator
-from forms.models.periodic import bloch_map, reduce_matrix
+from forms.models.periodic import reduce_matrix, reduction_map
 from forms.solvers.slepc import PolynomialSolver
 from meshes.strip import INTERFACE, TOP, StripMesh, edge_dofs
 
@@ -807,7 +807,9 @@ def build_time_domain(strip: StripMesh, law: NonlinearLaw, k: float, cfl: float 
         dolfinx.fem.form(ufl.inner(ufl.as_vector((1.0, 0.0)), w) * ds(INTERFACE)))
     for v in (lump, bvec):
         v.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    bloch = bloch_map(V, strip, 0.0)  # phase exactly 1: plain periodicity
+    n_owned = V.dofmap.index_map.size_local
+    # The eigen-model's map (forms.models.strip), phase exactly 1: plain periodicity.
+    bloch = reduction_map(V, strip, 0.0, np.ones(n_owned, dtype=int))
     Kr = reduce_matrix(K, bloch.P)
     K.destroy()
     m_r, b_r = Kr.createVecRight(), Kr.createVecRight()
@@ -819,15 +821,14 @@ def build_time_domain(strip: StripMesh, law: NonlinearLaw, k: float, cfl: float 
         v.destroy()
 
     rstart = Kr.getOwnershipRange()[0]
-    n_owned = V.dofmap.index_map.size_local
     coords = V.tabulate_dof_coordinates()
 
     def local_rows(which: int, comp: int) -> tuple[np.ndarray, np.ndarray]:
         blocks = edge_dofs(strip, coords, which)
         blocks = blocks[blocks < n_owned]
-        rb = bloch.reduced_block[blocks]
-        keep = rb >= 0
-        return (2 * rb[keep] + comp - rstart).astype(np.int64), blocks[keep]
+        red = bloch.reduced[blocks, comp]
+        keep = red >= 0
+        return (red[keep] - rstart).astype(np.int64), blocks[keep]
 
     ix, blocks = local_rows(INTERFACE, 0)
     iy, _ = local_rows(INTERFACE, 1)

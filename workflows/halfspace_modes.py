@@ -18,6 +18,11 @@ more than ``--silent-rtol``), which must be zero. The rows and the checks are co
 :mod:`forms.studies.halfspace_modes`. Ranks share the ``k`` values (one mesh per
 rank). Writes ``DIR/halfspace_modes.csv``, ``DIR/summary.json``, ``DIR/halfspace_modes.png``.
 
+A deformable substrate of finite height (``--mu2 --rho2 --beta2 --H2 --bc2``): a half-space
+slider on it; the references are every exact two-body root under the slider's shear cut
+(``--family``, ``--branch`` ignored) and the FE rows are PML rows of the layered 1D model
+(:func:`forms.studies.halfspace_modes.solve_two_body_k`); no truncated strips.
+
 Exit codes: 0 fine; 1 some silent failure; 2 bad input (nothing written).
 """
 
@@ -35,7 +40,7 @@ import numpy as np
 
 from mpi4py import MPI
 
-from analytic.params import Params, require_rigid
+from analytic.params import Params
 from analytic.physics.halfspace import follow
 from forms.studies import halfspace_modes
 from forms.studies.halfspace_modes import COLUMNS
@@ -79,9 +84,12 @@ def build_parser() -> argparse.ArgumentParser:
 def _check(args: argparse.Namespace) -> tuple:
     """Validate everything before any output or collective call."""
     base = _cli.params_from_args(args)
-    require_rigid(base, "halfspace_modes.py (PML, rigid substrate)")
-    p = Params(f=base.f, gamma=base.gamma, beta=base.beta, Delta=base.Delta, H=math.inf,
-               alpha_pc=base.alpha_pc, alpha_ld=base.alpha_ld)
+    if base.two_body and math.isinf(base.H2):
+        raise _cli.ParameterError("H2 = inf is outside its allowed range here (the slider is"
+                                  " the half-space; the substrate must be finite)")
+    p = base.replace(H=math.inf) if base.two_body else Params(
+        f=base.f, gamma=base.gamma, beta=base.beta, Delta=base.Delta, H=math.inf,
+        alpha_pc=base.alpha_pc, alpha_ld=base.alpha_ld)
     ks = np.unique(_cli.parse_k(args.k))  # sorted, duplicates merged
     _cli.positive_int("--degree", args.degree, 1, 6)
     if not (math.isfinite(args.attenuation) and args.attenuation > 0):
@@ -172,14 +180,19 @@ def main(comm=None, argv: list[str] | None = None) -> int:
 
 
 def _run(comm, args: argparse.Namespace, p: Params, ks, hs, bcs, branches) -> int:
-    roots = [r for b in branches for r in follow(args.family, ks, p, branch=b)]
+    if p.two_body:
+        roots = comm.bcast(halfspace_modes.two_body_roots(p, ks) if comm.rank == 0 else None)
+        hs, bcs = np.array([]), []
+    else:
+        roots = [r for b in branches for r in follow(args.family, ks, p, branch=b)]
     # cost of one k: the PML solve (two layer settings) plus one solve per truncated strip
     costs = [2.0 + len(hs) * len(bcs) for _ in roots]
     mine = []
     for i in _cli.my_share(comm, costs):
-        mine.extend(halfspace_modes.solve_k(
+        extra = {} if p.two_body else {"heights": hs, "bcs": bcs}
+        mine.extend((halfspace_modes.solve_two_body_k if p.two_body else halfspace_modes.solve_k)(
             MPI.COMM_SELF, p, roots[i], args.family, degree=args.degree,
-            attenuation=args.attenuation, tol=args.tol, heights=hs, bcs=bcs))
+            attenuation=args.attenuation, tol=args.tol, **extra))
     parts = comm.gather(mine, root=0)
     code = 0
     if comm.rank == 0:
@@ -207,7 +220,8 @@ def _run(comm, args: argparse.Namespace, p: Params, ks, hs, bcs, branches) -> in
         summary = {**meta, **halfspace_modes.failure_summary(rows, silent)}
         with open(os.path.join(args.out, OUTPUT_FILES[1]), "w") as fh:
             json.dump(summary, fh, indent=1, default=str)
-        title = (f"{args.family} family, f={p.f}, gamma={p.gamma}, beta={p.beta}, "
+        what = f"half-space on mu2={p.mu2:g}, H2={p.H2:g}" if p.two_body else args.family
+        title = (f"{what} family, f={p.f}, gamma={p.gamma}, beta={p.beta}, "
                  f"Delta={p.Delta}, P{args.degree}")
         plot(rows, roots, os.path.join(args.out, OUTPUT_FILES[2]), title, meta)
         print(f"{len(rows)} rows, {summary['flagged']} flagged, "

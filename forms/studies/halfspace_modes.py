@@ -8,6 +8,12 @@ and with plain strips of given heights and top conditions (:func:`forms.models.p
 flagged by the reflection estimate), one row each with the errors against the exact root.
 :func:`silent_failures` picks the rows the code trusted although they are wrong, and
 :func:`failure_summary` counts them.
+
+Two bodies (a half-space slider on a deformable substrate of finite ``H2``): the exact roots
+are every root of :func:`analytic.physics.twobody.det_twobody` in boxes under the slider's shear
+cut (:func:`two_body_roots`), and :func:`solve_two_body_k` computes each with the one 1D model
+of layers (:class:`forms.models.layered.LayeredModel` on :func:`forms.models.layered.pml_stack`,
+PML on top of the slider) at two layer settings; no truncated strips.
 """
 
 from __future__ import annotations
@@ -15,14 +21,18 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
 from mpi4py import MPI
 
+from analytic.numerics.branches import roots_in_box
 from analytic.params import Params
 from analytic.physics.halfspace import HalfSpaceRoot
+from forms.models.layered import LayeredModel, pml_stack
 from forms.models.pml import solve_halfspace, solve_truncated
+from forms.solvers.slepc import PolynomialSolver
 
 #: Keys of a row of :func:`solve_k` (the CSV columns, in order).
 COLUMNS = ("k", "family", "branch", "method", "bc", "H", "re_lambda", "im_lambda",
@@ -92,6 +102,91 @@ def solve_k(comm: MPI.Comm, p: Params, root: HalfSpaceRoot, family: str, *, degr
                          "seconds": time.perf_counter() - t0, "trusted": not t.flags,
                          "flags": ";".join(t.flags)})
     return rows
+
+
+@dataclass(frozen=True)
+class TwoBodyRoot:
+    """An exact root of the half-space slider on a finite substrate (the fields the rows use).
+
+    Attributes:
+        q: Wavenumber.
+        Lambda: The root (physical sheet).
+        branch: ``"+"`` or ``"-"``: the sign of ``Im Lambda``.
+        decay_length_s: ``1 / Re k_s`` of the slider's shear wave, ``k_s = sqrt(q^2 + L^2)``.
+        decay_length_d: ``1 / Re k_d``, ``k_d = sqrt(q^2 + beta^2 L^2)``.
+    """
+
+    q: float
+    Lambda: complex
+    branch: str
+    decay_length_s: float
+    decay_length_d: float
+    sheet: str = "physical"
+
+
+def two_body_roots(p: Params, ks: Sequence[float], re_max: float = 2.0,
+                   margin: float = 0.05) -> list[TwoBodyRoot]:
+    """Every exact root with ``|Re| < re_max`` and ``margin < |Im Lambda|/k < 1 - margin``.
+
+    Below the slider's shear cut ``|Im Lambda| = k`` (``c_s = 1``) every root is an eigenvalue
+    on the physical sheet; counted by the argument principle
+    (:func:`analytic.numerics.branches.roots_in_box`) in one box on each side of the real axis.
+    """
+    out = []
+    for k in ks:
+        lo, hi = margin * k, (1.0 - margin) * k
+        for sign, box in (("+", (-re_max, re_max, lo, hi)), ("-", (-re_max, re_max, -hi, -lo))):
+            for r in roots_in_box(p, float(k), box):
+                lam = complex(r.value)
+                k_s = np.sqrt(k * k + lam * lam)
+                k_d = np.sqrt(k * k + (p.beta * lam) ** 2)
+                out.append(TwoBodyRoot(float(k), lam, sign, 1.0 / abs(k_s.real),
+                                       1.0 / abs(k_d.real)))
+    return out
+
+
+def _pml_solve(comm: MPI.Comm, p: Params, k: float, target: complex, degree: int,
+               attenuation: float) -> tuple[complex, float, int]:
+    """``(Lambda, residual, unknowns)`` of the layered model with a PML, nearest ``target``."""
+    model = LayeredModel(comm, pml_stack(p, k, target, degree=degree, attenuation=attenuation),
+                         p, degree=degree)
+    solver = PolynomialSolver(comm, nev=1, prefix="pml_")
+    try:
+        res = solver.solve(model.operator(k), target)
+        lam, resid = ((res.pairs[0].value, res.pairs[0].residual) if res.pairs
+                      else (complex("nan"), math.nan))
+        res.destroy()
+        return complex(lam), float(resid), model.size
+    finally:
+        solver.destroy()
+        model.destroy()
+
+
+def solve_two_body_k(comm: MPI.Comm, p: Params, root: TwoBodyRoot, family: str, *,
+                     degree: int, attenuation: float, tol: float) -> list[dict]:
+    """The PML row of one exact root (two bodies): settings ``attenuation`` and ``1.25x``.
+
+    Trusted when the two settings agree within ``tol`` (relative, and in ``Re Lambda``).
+    ``family`` is not used: the row's family is ``"two-body"``.
+    """
+    t0 = time.perf_counter()
+    lam1, _, n1 = _pml_solve(comm, p, root.q, root.Lambda, degree, attenuation)
+    lam, resid, n2 = _pml_solve(comm, p, root.q, root.Lambda, degree, 1.25 * attenuation)
+    dis = rel_error(lam1, lam)
+    gdis = growth_rel_error(lam1, lam) if lam.real else abs(lam1.real)
+    flags = [f for f, bad in (("no_root", not np.isfinite(lam)), ("disagreement", not dis <= tol),
+                              ("growth_disagreement", not gdis <= 1e-3)) if bad]
+    exact = root.Lambda
+    return [{"k": root.q, "family": "two-body", "branch": root.branch, "method": "pml", "bc": "",
+             "H": math.inf, "re_lambda": lam.real, "im_lambda": lam.imag,
+             "re_lambda_exact": exact.real, "im_lambda_exact": exact.imag,
+             "sheet_exact": root.sheet, "sheet": root.sheet,
+             "rel_error": rel_error(lam, exact), "growth_rel_error": growth_rel_error(lam, exact),
+             "disagreement": dis, "growth_disagreement": gdis, "residual": resid,
+             "attenuation": 1.25 * attenuation, "reflection": math.nan,
+             "decay_length_s": root.decay_length_s, "decay_length_d": root.decay_length_d,
+             "dofs": n1 + n2, "seconds": time.perf_counter() - t0, "trusted": not flags,
+             "flags": ";".join(flags)}]
 
 
 def merge_rows(parts: Iterable[list[dict]]) -> list[dict]:

@@ -43,6 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from analytic.law import FrictionLaw
 from analytic.numerics.roots import Root, count_zeros, polish
 from analytic.params import ParameterError, Params, require_rigid
 
@@ -117,9 +118,12 @@ def spectrum(z: complex | np.ndarray, q: float, p: Params, A: complex | np.ndarr
     z = _c(z)
     gg1 = g1(z, p.beta, A, B)
     gg2 = 2.0 - gg1
-    iqz = 1j * q * z
-    return (p.gamma * (1.0 - iqz) * (B * gg1 * (1.0 - p.alpha_pc * iqz) - 1j * p.f * gg2)
-            + p.gamma * q * p.alpha_ld * gg2 * z - 1j * z * (p.Delta - iqz))
+    # the friction law cleared of L + 1 at L = -i q z: gamma (a B g1 - i b g2) - gamma c / q,
+    # with -gamma c / q = L (L + Delta) / q = -i z (L + Delta) (finite at q = 0)
+    law = FrictionLaw.from_params(p)
+    L = -1j * q * z  # noqa: N806
+    a, b, _ = law.cleared(L)
+    return p.gamma * (a * B * gg1 - 1j * b * gg2) - 1j * z * (L + law.Delta)
 
 
 def s(z: complex | np.ndarray, q: float, p: Params) -> complex | np.ndarray:

@@ -23,7 +23,7 @@ two outer rows). Columns: body 1 then body 2, each ``psi, phi`` partial waves. R
 - at ``y = 0``: ``u_y``, ``s_xy``, ``s_yy`` continuous, and the friction law on the slip
   ``(Lambda+1)(1 + alpha_pc Lambda) s_xy + (f (Lambda+1) - alpha_ld Lambda) s_yy
   - (1/gamma) Lambda (Lambda + Delta) (u_x^(1) - u_x^(2)) = 0`` (the coefficients of
-  :func:`analytic.physics.finite_h.friction_coefficients`, the same polynomial form as the rigid
+  :meth:`analytic.law.FrictionLaw.row`, the same polynomial form as the rigid
   case).
 
 **Single-valued spectrum function** (finite ``H`` and ``H2``). Exactly as
@@ -71,8 +71,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from analytic.law import FrictionLaw
 from analytic.params import Material, ParameterError, Params
-from analytic.physics.finite_h import _even_pair, friction_coefficients
+from analytic.physics.finite_h import _even_pair
 
 SPURIOUS_ORDER_FINITE_LAYER = 4
 SPURIOUS_ORDER_HALF_SPACE = 2
@@ -265,7 +266,7 @@ def matrix_twobody(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Param
             rows.append(np.concatenate([z1, out2[..., r, :]], axis=-1))
     for r in (1, 2, 3):  # u_y, s_xy, s_yy continuous
         rows.append(np.concatenate([in1[..., r, :], -in2[..., r, :]], axis=-1))
-    a, b, c = friction_coefficients(L, p)
+    a, b, c = FrictionLaw.from_params(p).row(L)
     a, b, c = a[..., None], b[..., None], c[..., None]
     fr1 = a * in1[..., 2, :] + b * in1[..., 3, :] + c * in1[..., 0, :]
     fr2 = -c * in2[..., 0, :]
@@ -380,7 +381,7 @@ def det_twobody_propagator(Lambda: complex, k: float, p: Params) -> complex:
     L = complex(Lambda)
     T1 = scipy.linalg.expm(-_state_matrix(L, k, p.slider) * p.H)[:, _FREE[p.bc]]
     T2 = scipy.linalg.expm(_state_matrix(L, k, p.substrate) * p.H2)[:, _FREE[p.bc2]]
-    a, b, c = (complex(v) for v in friction_coefficients(np.array(L), p))
+    a, b, c = (complex(v) for v in FrictionLaw.from_params(p).row(np.array(L)))
     rows = np.array([
         np.concatenate([T1[1], -T2[1]]),
         np.concatenate([T1[2], -T2[2]]),

@@ -44,6 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from analytic.law import FrictionLaw
+from analytic.numerics.continuation import Path, Trial, march
 from analytic.numerics.roots import Root, count_zeros, polish
 from analytic.params import ParameterError, Params, require_rigid
 
@@ -383,30 +384,43 @@ def follow(family: str, qs: Sequence[float] | np.ndarray, p: Params, *,
         One :class:`HalfSpaceRoot` per ``q``.
     """
     qs = np.asarray(qs, dtype=float)
-    out: list[HalfSpaceRoot] = []
-    root = find_root(family, float(qs[0]), p, branch=branch, guess=guess)
-    out.append(root)
-    for q_next in qs[1:]:
-        q_prev, x_prev = out[-1].q, out[-1].kappa
-        target = float(q_next)
-        depth = 0
-        q_cur, x_cur = q_prev, x_prev
-        while True:
-            trial = find_root(family, target, p, branch=branch, guess=x_cur)
-            ok = trial.converged and abs(trial.kappa - x_cur) <= max_jump * (1 + abs(x_cur))
-            if ok and target == float(q_next):
-                out.append(trial)
-                break
-            if ok:
-                q_cur, x_cur = target, trial.kappa
-                target = float(q_next)
-                continue
-            depth += 1
-            if depth > max_halvings:
-                out.append(trial)
-                break
-            target = 0.5 * (q_cur + target)
-    return out
+    first = find_root(family, float(qs[0]), p, branch=branch, guess=guess)
+    stepper = _HalfSpaceStepper(family, p, branch, max_jump)
+    run = march(stepper, Path([first.q], [first.kappa]), qs[1:], max_halvings=max_halvings)
+    return [first] + [t.result for t in run.trials if t is not None]
+
+
+@dataclass
+class _HalfSpaceStepper:
+    """:func:`follow` on the continuation engine: natural continuation, bounded jumps.
+
+    Each step starts Newton from the previous unknown (order-0 predictor) and is accepted when
+    it converged and moved by at most ``max_jump (1 + |unknown|)``; the engine halves a
+    refused step, and a root still refused after the last halving is kept as it is.
+    """
+
+    family: str
+    p: Params
+    branch: str
+    max_jump: float
+
+    def attempt(self, path: Path, k_new: float) -> Trial[HalfSpaceRoot]:
+        """Newton from the previous unknown, jump bounded."""
+        x_cur = path.predict(k_new, order=0)
+        r = find_root(self.family, k_new, self.p, branch=self.branch, guess=x_cur)
+        ok = r.converged and abs(r.kappa - x_cur) <= self.max_jump * (1 + abs(x_cur))
+        return Trial(k_new, r.kappa, ok, r)
+
+    def rescue(self, path: Path, trial: Trial[HalfSpaceRoot], k_target: float
+               ) -> Trial[HalfSpaceRoot]:
+        """No further halving: the refused root stands for the target (``converged`` says)."""
+        trial.closes_target = True
+        return trial
+
+    def next_step(self, path: Path, h: float, trial: Trial[HalfSpaceRoot], clamped: bool,
+                  dk: float) -> float:
+        """After any accepted step, straight on to the target."""
+        return math.inf
 
 
 def dilatational_tracks(qs: np.ndarray, p: Params) -> dict[str, list[HalfSpaceRoot]]:

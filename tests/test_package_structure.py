@@ -8,6 +8,7 @@ size today, until they are split: the allow-list may only shrink.
 
 import ast
 import os
+import re
 
 import pytest
 
@@ -90,3 +91,21 @@ def test_the_measure_can_fail():
 def test_at_most_eight_modules_at_the_top_of_a_package(pkg):
     top = [f for f in os.listdir(os.path.join(ROOT, pkg)) if f.endswith(".py")]
     assert len(top) <= 8, sorted(top)
+
+
+def tracker_references(source: str) -> list[str]:
+    """Lines citing an issue number (of a tracker that is not in the repository)."""
+    return [line.strip() for line in source.splitlines()
+            if re.search(r"\bissues? \d+|\bissue #\d+", line, flags=re.IGNORECASE)]
+
+
+def test_no_issue_numbers_in_analytic():
+    """Comments explain, they do not narrate history."""
+    found = []
+    for folder, _, files in os.walk(os.path.join(ROOT, "analytic")):
+        for f in files:
+            if f.endswith(".py"):
+                with open(os.path.join(folder, f)) as fh:
+                    found += [f"{f}: {s}" for s in tracker_references(fh.read())]
+    assert not found, found
+    assert tracker_references('"""Two bodies (issue 9): the substrate."""') != []

@@ -1,4 +1,4 @@
-"""Exact two-body spectrum: a slider on a deformable substrate (issue 9, finite contrast).
+"""Exact two-body spectrum: a slider on a deformable substrate (finite contrast).
 
 Geometry and units: body 1 (the slider) ``0 < y < H`` with ``mu = rho = c_s = 1`` and ``beta``;
 body 2 (the substrate) ``-H2 < y < 0`` with ``mu2, rho2`` relative to body 1,

@@ -45,6 +45,7 @@ import numpy as np
 
 from analytic.law import FrictionLaw
 from analytic.numerics.continuation import Path, Trial, march
+from analytic.numerics.maximise import maximise
 from analytic.numerics.roots import Root, count_zeros, polish
 from analytic.params import ParameterError, Params, require_rigid
 
@@ -603,19 +604,12 @@ class MaxGrowth:
 
 def _refine_max(fun: Callable[[float], float], qs: np.ndarray, i: int) -> tuple[float, float]:
     """Maximise ``fun`` in ``log q`` between the grid neighbours of index ``i`` (bounded Brent)."""
-    from scipy.optimize import minimize_scalar
-
     lo = math.log(qs[max(i - 1, 0)])
     hi = math.log(qs[min(i + 1, len(qs) - 1)])
     if hi <= lo:
         return float(qs[i]), fun(float(qs[i]))
-    def neg(t: float) -> float:
-        v = fun(math.exp(t))
-        return -v if math.isfinite(v) else 1e300
-
-    res = minimize_scalar(neg, bounds=(lo, hi), method="bounded",
-                          options={"xatol": 1e-10 * (1.0 + abs(lo))})
-    q_best, v_best = math.exp(res.x), -res.fun
+    t_best, v_best = maximise(lambda t: fun(math.exp(t)), lo, hi, xatol=1e-10 * (1.0 + abs(lo)))
+    q_best = math.exp(t_best)
     v_i = fun(float(qs[i]))
     return (q_best, v_best) if v_best >= v_i else (float(qs[i]), v_i)
 

@@ -191,7 +191,6 @@ def det_M(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -> np.
     if degenerate.any():
         L = np.where(degenerate, L + 1e-12 * (np.abs(L) + kk) * (1 + 1j), L)
     M = matrix_M(L, kk, p, "waves")
-    norms = np.prod(np.linalg.norm(M, axis=-1), axis=-1)
     ks, kd = wavenumbers(L, kk, p.beta)
     with np.errstate(invalid="ignore", divide="ignore"):
         hs, hd, aL = H * np.abs(ks), H * np.abs(kd), np.abs(L)
@@ -201,7 +200,23 @@ def det_M(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -> np.
         phase = phase * np.where(aL > 0, aL / L, 1.0) ** SPURIOUS_ORDER_AT_ZERO
         weight = (hs / (1.0 + hs)) * (hd / (1.0 + hd)) \
             * (aL / (aL + kk + 1.0 / H)) ** SPURIOUS_ORDER_AT_ZERO
-        return np.linalg.det(M) / norms * phase / weight
+        return row_normalised_det(M) * phase / weight
+
+
+def row_normalised_det(M: np.ndarray, Lambda: np.ndarray | complex | None = None,  # noqa: N803
+                       order: int = 0) -> np.ndarray:
+    """``det(M)`` over the product of its row norms (a relative residual, ``<= 1``).
+
+    With ``Lambda``: times ``(|Lambda|/Lambda)^order``, the phase of ``det(M) / Lambda^order``
+    (the even bases vanish like ``Lambda^order`` at 0; 1 there).
+    """
+    out = np.linalg.det(M) / np.prod(np.linalg.norm(M, axis=-1), axis=-1)
+    if Lambda is None:
+        return out
+    L = np.broadcast_to(np.asarray(Lambda, dtype=complex), out.shape)  # noqa: N806
+    with np.errstate(invalid="ignore", divide="ignore"):
+        unit = np.where(L == 0, 1.0, np.abs(L) / np.where(L == 0, 1.0, L))
+    return out * unit**order
 
 
 def det_M_even(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -> np.ndarray:
@@ -210,12 +225,7 @@ def det_M_even(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -
     Same zeros and phase (up to a constant) as :func:`det_M`; accurate for moderate ``H Re k``
     only (ill-conditioned when ``H |Re k_s - Re k_d|`` is large). A cross-check.
     """
-    M = matrix_M(Lambda, k, p, "even")
-    norms = np.prod(np.linalg.norm(M, axis=-1), axis=-1)
-    L = np.broadcast_to(np.asarray(Lambda, dtype=complex), norms.shape)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        unit = np.where(L == 0, 1.0, np.abs(L) / np.where(L == 0, 1.0, L))
-    return np.linalg.det(M) / norms * unit**SPURIOUS_ORDER_AT_ZERO
+    return row_normalised_det(matrix_M(Lambda, k, p, "even"), Lambda, SPURIOUS_ORDER_AT_ZERO)
 
 
 def det_M_waves(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -> np.ndarray:
@@ -224,9 +234,7 @@ def det_M_waves(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) 
     Same zeros as :func:`det_M`, but multi-valued across the cuts of ``k_s``, ``k_d`` (the
     imaginary axis beyond ``+-i k``): do not use it for argument-principle counts.
     """
-    M = matrix_M(Lambda, k, p, "waves")
-    norms = np.prod(np.linalg.norm(M, axis=-1), axis=-1)
-    return np.linalg.det(M) / norms
+    return row_normalised_det(matrix_M(Lambda, k, p, "waves"))
 
 
 def _tanh(x: np.ndarray) -> np.ndarray:

@@ -73,7 +73,7 @@ import scipy.linalg
 
 from analytic.law import FrictionLaw
 from analytic.params import Material, ParameterError, Params
-from analytic.physics.finite_h import _even_pair
+from analytic.physics.finite_h import _even_pair, row_normalised_det
 
 SPURIOUS_ORDER_FINITE_LAYER = 4
 SPURIOUS_ORDER_HALF_SPACE = 2
@@ -314,7 +314,6 @@ def det_twobody(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params,
     if degenerate.any():  # removable 0/0 points of a continuous function: step off them
         L = np.where(degenerate, L + 1e-12 * scale * (1 + 1j), L)
     M = matrix_twobody(L, kk, p, "regular", sheet)
-    norms = np.prod(np.linalg.norm(M, axis=-1), axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
         phase = np.ones(L.shape, dtype=complex)
         weight = np.ones(L.shape)
@@ -330,7 +329,7 @@ def det_twobody(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params,
             phase = phase * np.where(hd > 0, np.abs(kd) / kd, 1.0)
             phase = phase * (np.abs(ks + kd) / (ks + kd)) ** 2
             weight = weight * (hs / (1.0 + hs)) * (hd / (1.0 + hd))
-        return np.linalg.det(M) / norms * phase / weight
+        return row_normalised_det(M) * phase / weight
 
 
 def det_twobody_even(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params
@@ -340,12 +339,7 @@ def det_twobody_even(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Par
     Finite ``H`` and ``H2`` only; accurate for moderate ``H Re k`` (ill-conditioned for large).
     """
     _finite_layers(p)
-    M = matrix_twobody(Lambda, k, p, "even")
-    norms = np.prod(np.linalg.norm(M, axis=-1), axis=-1)
-    L = np.broadcast_to(np.asarray(Lambda, dtype=complex), norms.shape)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        unit = np.where(L == 0, 1.0, np.abs(L) / np.where(L == 0, 1.0, L))
-    return np.linalg.det(M) / norms * unit ** spurious_order(p)
+    return row_normalised_det(matrix_twobody(Lambda, k, p, "even"), Lambda, spurious_order(p))
 
 
 def _finite_layers(p: Params) -> None:

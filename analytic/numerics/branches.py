@@ -326,8 +326,9 @@ def follow_root(
     """Follow the root at ``(k0, Lambda0)`` to every requested ``k >= k0``.
 
     As :func:`follow_branch` (same step control, root count at every step), for a root that
-    does not start at a waveguide cut-off. The root is polished at ``k0``, and a first point at
-    ``k0 (1 - 1e-3)`` gives the secant predictor. Requested ``k < k0`` are reported lost.
+    does not start at a waveguide cut-off. The root is polished at ``k0`` (the value at a requested
+    ``k = k0``), and a first point at ``k0 (1 - 1e-3)`` gives the secant predictor. Requested
+    ``k < k0`` are reported lost.
 
     Returns:
         A :class:`BranchResult` with ``n = -1``, ``sign = 0``.
@@ -345,20 +346,20 @@ def follow_root(
         return BranchResult(label, -1, 0, ks, nan, np.full(ks.shape, np.nan),
                             np.full(ks.shape, np.nan), np.zeros(ks.shape, bool),
                             ["lost"] * ks.size, note=f"{label}: no root near {Lambda0} at k0")
+    # requested k below k0 are lost; one equal to k0 is the polished start itself
     first = int(np.searchsorted(ks, k0))
-    res = _continue(p, label, -1, 0, ks[first:], (k_a, r_a.value), (k0, r0.value),
+    at_k0 = int(first < ks.size and ks[first] == k0)
+    res = _continue(p, label, -1, 0, ks[first + at_k0:], (k_a, r_a.value), (k0, r0.value),
                     dk_min, max_steps, skip)
-    if first == 0:
+    if first + at_k0 == 0:
         return res
-    pad = ks[:first]
-
-    def cat(a: np.ndarray, fill: object) -> np.ndarray:
-        return np.concatenate([np.full(pad.shape, fill, dtype=np.asarray(a).dtype), a])
-
-    return BranchResult(label, -1, 0, ks, cat(res.Lambda, np.nan), cat(res.residual, np.nan),
-                        cat(res.cond, np.nan), cat(res.ok, False),
-                        ["lost"] * first + list(res.flag), res.k_path, res.Lambda_path,
-                        res.note)
+    head = [(np.nan + 0j, np.nan, np.nan, False, "lost")] * first
+    head += [(r0.value, r0.residual, r0.cond, True, "")] * at_k0
+    L_h, res_h, cond_h, ok_h, flag_h = (list(c) for c in zip(*head, strict=True))  # noqa: N806
+    return BranchResult(label, -1, 0, ks, np.concatenate([np.array(L_h, complex), res.Lambda]),
+                        np.concatenate([res_h, res.residual]), np.concatenate([cond_h, res.cond]),
+                        np.concatenate([np.array(ok_h, bool), res.ok]), flag_h + list(res.flag),
+                        res.k_path, res.Lambda_path, res.note)
 
 
 @dataclass

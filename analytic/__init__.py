@@ -3,7 +3,7 @@
 Finite H (this package's ``finite_h``, ``branches``, ``smallk``): the spectrum
 ``det M(Lambda, k, H) = 0``, branches followed from the waveguide cut-offs, small-k asymptotics.
 Generic root tools: ``roots``. Physical units: ``units``. Half-space: ``halfspace``, ``largek``.
-Deformable substrate (finite ``mu2``, issue 9): ``twobody`` (the branch tools dispatch on it).
+Deformable substrate (finite ``mu2``): ``twobody`` (the branch tools dispatch on it).
 """
 
 from analytic.numerics.branches import (

@@ -47,7 +47,7 @@ def add_param_arguments(parser: argparse.ArgumentParser, defaults: Params | None
     """Add the physical parameters to ``parser``.
 
     ``--f --gamma --beta --Delta --H --bc --alpha-pc --alpha-ld`` and the substrate's
-    ``--mu2 --rho2 --beta2 --H2 --bc2`` (issue 9; default ``--mu2 inf``: rigid).
+    ``--mu2 --rho2 --beta2 --H2 --bc2`` (default ``--mu2 inf``: rigid).
     """
     d = defaults or Params()
     g = parser.add_argument_group("physical parameters (dimensionless, docs/design.md section 2)")

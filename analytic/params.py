@@ -4,7 +4,7 @@ Units: ``c_s = mu = rho = 1`` of body 1 (the slider); time unit ``t0 = D / (|g'(
 length unit ``c_s t0``. Every part of the project (analytic roots, finite elements, workflows)
 takes a :class:`Params`.
 
-Two bodies (issue 9): the substrate ``-H2 < y < 0`` has shear modulus ``mu2`` and density
+Two bodies: the substrate ``-H2 < y < 0`` has shear modulus ``mu2`` and density
 ``rho2`` relative to body 1 (so ``c_s2 = sqrt(mu2/rho2)``), its own ``beta2 = c_s2/c_d2``
 (``None``: equal to ``beta``), height ``H2`` (``inf``: half-space) and bottom condition ``bc2``
 (``"velocity"``: ``u_x = 0, s_yy = 0``; ``"stress"``: ``s_xy = s_yy = 0``). The default

@@ -19,7 +19,7 @@ Units of the dimensionless problem: time ``t0 = D / v0`` [s], length ``l0 = c_s 
 [m/s] (positive: the pattern ``exp(Lambda t - i k x)`` moves towards ``+x``, the sliding
 direction), height ``H = H_m / l0``.
 
-Two bodies (issue 9): a :class:`Substrate` (shear modulus, Poisson ratio, density, height [m],
+Two bodies: a :class:`Substrate` (shear modulus, Poisson ratio, density, height [m],
 bottom condition) gives ``mu2 = mu_sub / mu``, ``rho2 = rho_sub / rho``,
 ``beta2 = beta(nu_sub)``, ``H2 = H_sub / l0``; the units stay those of body 1 (the slider).
 Worked examples (literature values, rounded; marked as such below): :data:`PMMA_ON_STEEL`,

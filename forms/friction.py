@@ -59,133 +59,22 @@ under shift-and-invert), far from every finite target.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from petsc4py import PETSc
 
-from analytic.params import Params
+from analytic.law import FrictionLaw, ScalarFunction
 
-Poly = tuple[float, ...]
+__all__ = [
+    "DIRICHLET_DIAGONAL", "FrictionLaw", "FrictionOperator", "ScalarFunction",
+    "apply_dirichlet", "friction_operator",
+]
 
 #: Diagonal put in the Dirichlet rows of the constant term (:func:`apply_dirichlet`): these rows
 #: read ``u_d = 0`` for every Lambda; their eigenvalues are at infinity. Every model uses this one.
 DIRICHLET_DIAGONAL = 1.0
-
-
-def _polymul(a: Poly, b: Poly) -> Poly:
-    """Product of two polynomials with ascending coefficients."""
-    return tuple(float(c) for c in np.polynomial.polynomial.polymul(a, b))
-
-
-def _shift(a: Poly, power: int) -> Poly:
-    """``L**power * a(L)`` (ascending coefficients)."""
-    return (0.0,) * power + tuple(a)
-
-
-@dataclass(frozen=True)
-class FrictionLaw:
-    """Scalar multipliers of the interface x-row, as polynomials over a common denominator.
-
-    All tuples hold ascending coefficients in ``Lambda``: ``(c0, c1, ...)`` means
-    ``c0 + c1 L + ...``. The x-row reads ``(rx R_x + ry R_y + ux (B u)_x) / den = 0``.
-
-    Attributes:
-        rx: Numerator multiplying the shear reaction ``R_x = -sxy``.
-        ry: Numerator multiplying the normal reaction ``R_y = -syy``.
-        ux: Numerator multiplying the interface "mass" of ``u_x``.
-        den: Common denominator (``L + 1``); must be linear.
-        spurious: Roots that clearing the denominator may add (dropped by the solvers).
-    """
-
-    rx: Poly
-    ry: Poly
-    ux: Poly
-    den: Poly = (1.0, 1.0)
-    spurious: tuple[complex, ...] = field(default=(-1.0 + 0j,))
-
-    @classmethod
-    def from_params(cls, p: Params) -> FrictionLaw:
-        """The law of docs/design.md section 3 for parameters ``p`` (standard or generalized)."""
-        rx = _polymul((1.0, p.alpha_pc), (1.0, 1.0))
-        ry = (p.f, p.f - p.alpha_ld)
-        ux = (0.0, p.Delta / p.gamma, 1.0 / p.gamma)
-        spurious = [-1.0 + 0j]
-        if p.alpha_pc > 0:
-            spurious.append(-1.0 / p.alpha_pc + 0j)
-        return cls(rx=rx, ry=ry, ux=ux, den=(1.0, 1.0), spurious=tuple(spurious))
-
-    def x_row_numerators(self) -> dict[str, Poly]:
-        """Numerator (in ``L``) multiplying each source row in the interface x-row.
-
-        Keys: ``"Kx"``, ``"Mx"`` (rows of ``K``, ``M`` at ``u_x``), ``"Ky"``, ``"My"`` (rows at
-        ``u_y``, unconstrained), ``"Bx"`` (interface mass row at ``u_x``). ``R = K u + L^2 M u``
-        gives the ``L^2`` shift of the mass rows.
-        """
-        return {
-            "Kx": self.rx,
-            "Mx": _shift(self.rx, 2),
-            "Ky": self.ry,
-            "My": _shift(self.ry, 2),
-            "Bx": self.ux,
-        }
-
-    @property
-    def degree(self) -> int:
-        """Degree in ``Lambda`` of the polynomial form (3, or 4 with ``alpha_pc > 0``)."""
-        nums = self.x_row_numerators().values()
-        return max(2, max(_degree(c) for c in nums))
-
-    def polynomial_coefficients(self) -> dict[str, list[float]]:
-        """x-row: coefficient of each source in ``A_j`` (``j = 0..degree``)."""
-        n = self.degree + 1
-        return {key: _padded(c, n) for key, c in self.x_row_numerators().items()}
-
-    def split_coefficients(self) -> tuple[dict[str, list[float]], dict[str, float]]:
-        """x-row in partial fractions: ``num/den = q(L) + r/den``.
-
-        Returns:
-            ``(poly, rational)``: ``poly[key][j]`` multiplies ``L^j`` (``j = 0..degree-1``),
-            ``rational[key]`` multiplies ``1/den(L)``.
-        """
-        if _degree(self.den) != 1:
-            raise ValueError("split form implemented for a linear denominator only")
-        n = self.degree  # quotient degree <= degree - 1
-        poly: dict[str, list[float]] = {}
-        rational: dict[str, float] = {}
-        for key, num in self.x_row_numerators().items():
-            q, r = np.polynomial.polynomial.polydiv(np.asarray(num, float), np.asarray(self.den))
-            poly[key] = _padded(tuple(q), n)
-            rational[key] = float(r[0]) if len(r) else 0.0
-        return poly, rational
-
-    def multipliers(self, lam: complex) -> dict[str, complex]:
-        """Rational values ``num(L)/den(L)`` per source (for checks against traction laws)."""
-        d = np.polynomial.polynomial.polyval(lam, self.den)
-        return {
-            key: np.polynomial.polynomial.polyval(lam, num) / d
-            for key, num in self.x_row_numerators().items()
-        }
-
-    def is_spurious(self, lam: complex, rtol: float = 1e-6) -> bool:
-        """True if ``lam`` is within ``rtol * max(1, |s|)`` of a spurious root ``s``."""
-        return any(abs(lam - s) <= rtol * max(1.0, abs(s)) for s in self.spurious)
-
-
-def _degree(c: Poly) -> int:
-    nz = [i for i, v in enumerate(c) if v != 0.0]
-    return nz[-1] if nz else 0
-
-
-def _padded(c: Poly, n: int) -> list[float]:
-    out = [0.0] * n
-    for i, v in enumerate(c):
-        if v != 0.0:
-            if i >= n:
-                raise ValueError("polynomial longer than the requested length")
-            out[i] = float(v)
-    return out
 
 
 @dataclass
@@ -194,36 +83,27 @@ class FrictionOperator:
 
     Attributes:
         matrices: PETSc matrices (owned: call :meth:`destroy`).
-        functions: Per matrix, ``("power", j)`` for ``L^j`` or ``("rational", num, den)`` for
-            ``num(L)/den(L)`` (ascending coefficients).
+        functions: Per matrix, its scalar function (``L^j``, or ``1/(L + 1)`` in the split form).
         form: ``"polynomial"`` or ``"split"``.
         constant_term: Index of the ``L^0`` matrix (where Dirichlet rows get their diagonal).
         law: The friction law used.
     """
 
     matrices: list[PETSc.Mat]
-    functions: list[tuple]
+    functions: list[ScalarFunction]
     form: str
     constant_term: int
     law: FrictionLaw
 
     def scalars(self, lam: complex) -> np.ndarray:
         """Values ``phi_i(lam)`` of the scalar functions."""
-        return np.array([_eval_function(fn, lam) for fn in self.functions], dtype=complex)
+        return np.array([fn(lam) for fn in self.functions], dtype=complex)
 
     def destroy(self) -> None:
         """Destroy the PETSc matrices."""
         for a in self.matrices:
             a.destroy()
         self.matrices = []
-
-
-def _eval_function(fn: tuple, lam: complex) -> complex:
-    if fn[0] == "power":
-        return complex(lam) ** fn[1]
-    num, den = fn[1], fn[2]
-    pv = np.polynomial.polynomial.polyval
-    return complex(pv(lam, num) / pv(lam, den))
 
 
 def _local_rows(mat: PETSc.Mat | None, row: int) -> dict[int, complex]:
@@ -276,13 +156,13 @@ def friction_operator(
     if form == "polynomial":
         xcoef = law.polynomial_coefficients()
         n_poly = deg + 1
-        functions: list[tuple] = [("power", j) for j in range(n_poly)]
+        functions = [ScalarFunction.power(j) for j in range(n_poly)]
         x_terms = [{key: xcoef[key][j] for key in xcoef} for j in range(n_poly)]
     elif form == "split":
         pcoef, rcoef = law.split_coefficients()
         n_poly = max(deg, 3)  # interior rows need L^2; quotient degree <= deg - 1
-        functions = [("power", j) for j in range(n_poly)]
-        functions.append(("rational", (1.0,), tuple(law.den)))
+        functions = [ScalarFunction.power(j) for j in range(n_poly)]
+        functions.append(ScalarFunction(num=(1.0,), den=law.den))
         x_terms = [
             {key: (pcoef[key][j] if j < len(pcoef[key]) else 0.0) for key in pcoef}
             for j in range(n_poly)

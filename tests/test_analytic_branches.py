@@ -5,6 +5,7 @@ from analytic.numerics.branches import (
     branch_label,
     follow_branch,
     follow_branches,
+    follow_root,
     parse_branch_label,
     roots_in_box,
 )
@@ -63,3 +64,14 @@ def test_labels_and_order():
         parse_branch_label("0x")
     with pytest.raises(ParameterError, match="branches"):
         follow_branches(Params(), 0, [1.0])
+
+
+def test_follow_root_with_a_requested_k_equal_to_k0():
+    """k0 among the requested k: its value is the start (this divided by zero before)."""
+    p = Params()
+    ref = follow_branch(p, 0, -1, [0.5, 1.0, 2.0])
+    r = follow_root(p, "0-", 1.0, ref.Lambda[1], [0.5, 1.0, 2.0])
+    assert r.flag[0] == "lost" and np.isnan(r.Lambda[0])
+    assert r.ok[1:].all(), r.note
+    # the same roots, polished twice (measured 1e-15 relative)
+    assert np.allclose(r.Lambda[1:], ref.Lambda[1:], rtol=1e-12, atol=0)

@@ -20,7 +20,7 @@ import pyvista  # noqa: F401, I001
 from mpi4py import MPI
 
 from analytic.params import Params
-from forms.solvers.continuation import follow_branch
+from forms.solvers.continuation import follow_fe_branch
 from forms.studies import strip_mode
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -150,7 +150,7 @@ def test_most_unstable_branch_point():
     params = Params()
     ks = np.array([0.5, 1.0, 1.5, 2.0, 2.5])
     k, lam = strip_mode.branch_eigenvalue(MPI.COMM_WORLD, params, (0, -1), 1.0, k_scan=ks)
-    ref = follow_branch(params, lambda q: lam, ks)  # every value near the branch
+    ref = follow_fe_branch(params, lambda q: lam, ks)  # every value near the branch
     assert k in ks and lam.real == pytest.approx(np.max(ref.real), rel=1e-9)
     assert MPI.COMM_WORLD.allgather((k, lam)) == [(k, lam)] * MPI.COMM_WORLD.size
 

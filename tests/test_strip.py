@@ -173,12 +173,12 @@ def test_follow_branch_stays_on_stress_top_0plus():
     """
     from analytic.numerics.branches import polish_root
     from analytic.numerics.tracking import Branch, waveguide_lambda
-    from forms.solvers.continuation import follow_branch
+    from forms.solvers.continuation import follow_fe_branch
 
     params = Params(bc="stress")
     b = Branch.parse("0+")
     ks = np.linspace(1.0, 2.0, 21)
-    lam = follow_branch(params, lambda k: waveguide_lambda(params, b, k), ks, comm=MPI.COMM_SELF)
+    lam = follow_fe_branch(params, lambda k: waveguide_lambda(params, b, k), ks, comm=MPI.COMM_SELF)
     assert np.all(np.isfinite(lam))
     # smooth: neighbouring steps (dk = 0.05) move by less than 0.02 (measured max 0.016); a
     # k-wise waveguide target lands on -1.113 + 7.707i at k = 1.6 instead

@@ -19,7 +19,7 @@ from mpi4py import MPI  # noqa: E402
 from analytic.params import Params  # noqa: E402
 from forms.mode_postprocessing import interface_stresses  # noqa: E402
 from forms.models.strip import build_strip_problem, solve_modes  # noqa: E402
-from forms.solvers.continuation import follow_branch  # noqa: E402
+from forms.solvers.continuation import follow_fe_branch  # noqa: E402
 from forms.solvers.spatial_stability import kulikovskii_limit  # noqa: E402
 from forms.studies import block  # noqa: E402
 from meshes.strip import strip_mesh  # noqa: E402
@@ -207,7 +207,7 @@ def test_infinite_strip_reference():
     assert ref.lam_inf.real == max(t[2].real for t in ref.per_branch) and ref.label == "0-"
     assert abs(ref.k_inf - 2.0) <= 0.5 + 1e-12  # within one grid step of the coarse maximum
     # a local maximum on the refined grid (step 0.05): its neighbours grow less
-    near = follow_branch(params, lambda k: ref.lam_inf, [ref.k_inf - 0.05, ref.k_inf,
+    near = follow_fe_branch(params, lambda k: ref.lam_inf, [ref.k_inf - 0.05, ref.k_inf,
                                                          ref.k_inf + 0.05])
     assert near[1] == pytest.approx(ref.lam_inf, rel=1e-10)
     assert near[0].real <= ref.lam_inf.real and near[2].real <= ref.lam_inf.real

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from analytic.numerics.continuation import March, Path, SkipTarget, Trial, march
 from analytic.numerics.roots import (
     ContourError,
     Root,
@@ -325,8 +326,9 @@ def follow_root(
     """Follow the root at ``(k0, Lambda0)`` to every requested ``k >= k0``.
 
     As :func:`follow_branch` (same step control, root count at every step), for a root that
-    does not start at a waveguide cut-off. The root is polished at ``k0``, and a first point at
-    ``k0 (1 - 1e-3)`` gives the secant predictor. Requested ``k < k0`` are reported lost.
+    does not start at a waveguide cut-off. The root is polished at ``k0`` (the value at a requested
+    ``k = k0``), and a first point at ``k0 (1 - 1e-3)`` gives the secant predictor. Requested
+    ``k < k0`` are reported lost.
 
     Returns:
         A :class:`BranchResult` with ``n = -1``, ``sign = 0``.
@@ -344,66 +346,58 @@ def follow_root(
         return BranchResult(label, -1, 0, ks, nan, np.full(ks.shape, np.nan),
                             np.full(ks.shape, np.nan), np.zeros(ks.shape, bool),
                             ["lost"] * ks.size, note=f"{label}: no root near {Lambda0} at k0")
+    # requested k below k0 are lost; one equal to k0 is the polished start itself
     first = int(np.searchsorted(ks, k0))
-    res = _continue(p, label, -1, 0, ks[first:], (k_a, r_a.value), (k0, r0.value),
+    at_k0 = int(first < ks.size and ks[first] == k0)
+    res = _continue(p, label, -1, 0, ks[first + at_k0:], (k_a, r_a.value), (k0, r0.value),
                     dk_min, max_steps, skip)
-    if first == 0:
+    if first + at_k0 == 0:
         return res
-    pad = ks[:first]
-
-    def cat(a: np.ndarray, fill: object) -> np.ndarray:
-        return np.concatenate([np.full(pad.shape, fill, dtype=np.asarray(a).dtype), a])
-
-    return BranchResult(label, -1, 0, ks, cat(res.Lambda, np.nan), cat(res.residual, np.nan),
-                        cat(res.cond, np.nan), cat(res.ok, False),
-                        ["lost"] * first + list(res.flag), res.k_path, res.Lambda_path,
-                        res.note)
+    head = [(np.nan + 0j, np.nan, np.nan, False, "lost")] * first
+    head += [(r0.value, r0.residual, r0.cond, True, "")] * at_k0
+    L_h, res_h, cond_h, ok_h, flag_h = (list(c) for c in zip(*head, strict=True))  # noqa: N806
+    return BranchResult(label, -1, 0, ks, np.concatenate([np.array(L_h, complex), res.Lambda]),
+                        np.concatenate([res_h, res.residual]), np.concatenate([cond_h, res.cond]),
+                        np.concatenate([np.array(ok_h, bool), res.ok]), flag_h + list(res.flag),
+                        res.k_path, res.Lambda_path, res.note)
 
 
-def _continue(p: Params, label: str, n: int, sign: int, ks: np.ndarray,
-              prev: tuple[float, complex], cur: tuple[float, complex], dk_min: float,
-              max_steps: int, skip: Skip | None = None) -> BranchResult:
-    """The continuation loop shared by :func:`follow_branch` and :func:`follow_root`.
+@dataclass
+class _Step:
+    """A corrected step of a branch: the polished root, the corrector and the move."""
 
-    ``skip(k, Lambda_predicted, uncertainty)`` True: the requested ``k`` is not needed (flag
-    ``"outside"``, no value); the continuation then does not stop there.
+    root: Root
+    corr: float
+    move: float
+
+
+@dataclass
+class _BranchStepper:
+    """The branch-specific half of the continuation (:mod:`analytic.numerics.continuation`).
+
+    Acceptance: a converged corrector that moved less than a quarter of the step's move (3/4
+    until three points give the curvature) and one root, at both ends, in the square centred
+    between the old and the new root (module docstring). ``good_h`` is the last step accepted
+    without doubt; ``doubt`` the flag of every point after an ambiguous one.
     """
-    out_L = np.full(ks.shape, np.nan + 0j)
-    out_res = np.full(ks.shape, np.nan)
-    out_cond = np.full(ks.shape, np.nan)
-    out_ok = np.zeros(ks.shape, dtype=bool)
-    flags = ["lost"] * ks.size
-    k_prev, L_prev = prev
-    k_cur, L_cur = cur
-    k_path = [k_prev, k_cur]
-    L_path = [L_prev, L_cur]
-    dk = k_cur - k_prev if k_prev > 0 else k_cur
-    if ks.size == 0:
-        return BranchResult(label, n, sign, ks, out_L, out_res, out_cond, out_ok, flags,
-                            np.array(k_path), np.array(L_path, dtype=complex), "")
-    good_h = dk  # last step accepted without doubt
-    hist: tuple[float, complex] | None = None
-    target_i = 0
-    notes: list[str] = []
-    doubt = ""
-    steps = 0
 
-    def attempt(k_new: float) -> tuple[Root, bool, float, float]:
-        """Predict, correct and check one step to k_new: (root, accepted, corrector, move)."""
-        h = k_new - k_cur
-        # predictor: quadratic through the last three points (secant with only two)
-        d1 = (L_cur - L_prev) / (k_cur - k_prev)
-        L_pred = L_cur + d1 * h
-        if hist is not None:
-            k2, L2 = hist
-            d2 = (d1 - (L_prev - L2) / (k_prev - k2)) / (k_cur - k2)
-            L_pred = L_pred + d2 * h * (k_new - k_prev)
-        r = polish(spectrum_function(p, k_new, branch_sheet(p)), L_pred)
-        dL = abs(r.value - L_cur)
+    p: Params
+    label: str
+    dk_min: float
+    good_h: float
+    notes: list[str] = field(default_factory=list)
+    doubt: str = ""
+
+    def attempt(self, path: Path, k_new: float) -> Trial[_Step]:
+        """Quadratic predictor, Newton corrector on the spectrum function, root count."""
+        L_cur = path.value[-1]  # noqa: N806
+        L_pred = path.predict(k_new, order=2)  # noqa: N806
+        r = polish(spectrum_function(self.p, k_new, branch_sheet(self.p)), L_pred)
+        dL = abs(r.value - L_cur)  # noqa: N806
         corr = abs(r.value - L_pred)
         # Until three points exist the secant cannot know the curvature (the linear term may
         # vanish at the cut-off, e.g. beta = 1/5): allow a larger corrector on those steps.
-        ratio = 0.25 if hist is not None else 0.75
+        ratio = 0.25 if len(path.k) >= 3 and path.k[-3] > 0 else 0.75
         ok = r.converged and corr <= ratio * max(dL, 1e-12 * abs(L_cur))
         if ok:
             # Counting between steps: the square centred between the old and the new root,
@@ -412,74 +406,93 @@ def _continue(p: Params, label: str, n: int, sign: int, ks: np.ndarray,
             # and a root approaching ours within the step is seen at one end or the other.
             centre = 0.5 * (L_cur + r.value)
             rad = max(2.0 * corr, dL, 1e-9 * abs(r.value))
-            ok = _count_pair(p, k_new, k_cur, centre, rad) == (1, 1)
-        return r, ok, corr, dL
+            ok = _count_pair(self.p, k_new, path.k[-1], centre, rad) == (1, 1)
+        return Trial(k_new, r.value, ok, _Step(r, corr, dL), flag=self.doubt if ok else "")
 
-    while target_i < ks.size and steps < max_steps:
-        k_target = float(ks[target_i])
-        if skip is not None and k_target > k_cur:
-            d1 = (L_cur - L_prev) / (k_cur - k_prev)
-            if skip(k_target, L_cur + d1 * (k_target - k_cur), abs(d1) * (k_target - k_cur)):
-                flags[target_i] = "outside"
-                target_i += 1
-                continue
-        steps += 1
-        # the step ends on a requested k (may be short; never leave a sliver before it)
-        clamped = k_cur + dk * (1.0 + 1e-6) >= k_target
-        k_new = k_target if clamped else k_cur + dk
-        h = k_new - k_cur
-        r, accepted, corr, dL = attempt(k_new)
-        if not accepted and h > dk_min:
-            dk = 0.5 * h
-            continue
-        flag = ""
-        if not accepted:
-            # Roots closer than the step can resolve (a near-collision): step over it with a
-            # step of the last undoubted size, if the root there is isolated.
-            k_over = min(k_cur + max(4.0 * good_h, 100.0 * dk_min), k_target)
-            r_over, ok_over, corr_o, dL_o = attempt(k_over)
-            if ok_over:
-                notes.append(f"branch {label}: stepped over a near-collision of roots between"
-                             f" k = {k_cur:.6g} and {k_over:.6g}")
-                k_new, h, r, corr, dL = k_over, k_over - k_cur, r_over, corr_o, dL_o
-            else:
-                flag = "ambiguous" if r.converged else "lost"
-        if flag == "lost":
-            notes.append(f"branch {label} lost at k = {k_new:.6g} ({r.reason})")
-            break
-        if flag == "ambiguous":
-            notes.append(f"branch {label}: root near k = {k_new:.6g} not isolated"
-                         " (close roots or a crossing)")
-            if not doubt:
-                doubt = f"after an ambiguous point at k = {k_new:.6g}"
-        elif doubt:
-            flag = doubt  # the branch's identity is in doubt from there on
-        hist = (k_prev, L_prev) if k_prev > 0 else None
-        k_prev, L_prev, k_cur, L_cur = k_cur, L_cur, k_new, r.value
-        k_path.append(k_cur)
-        L_path.append(L_cur)
-        if k_new == k_target:
-            out_L[target_i] = r.value
-            out_res[target_i] = r.residual
-            out_cond[target_i] = r.cond
-            out_ok[target_i] = flag == ""
-            flags[target_i] = flag
-            target_i += 1
-        # step control: grow when the predictor was good; after doubt restart at a normal size
-        if flag == "ambiguous":
-            dk = good_h
-        elif clamped and h < dk:
-            pass  # a short step onto a requested k says nothing about the step size
-        elif r.iterations <= 4 and corr < 0.05 * dL:
-            good_h = h
-            dk = min(2.0 * h, max(0.25 * k_cur, dk_min), 0.1 / p.H + 0.1 * k_cur)
-        else:
-            good_h = h
-            dk = h
-    if steps >= max_steps:
-        notes.append(f"branch {label}: max_steps = {max_steps} reached at k = {k_cur:.6g}")
+    def rescue(self, path: Path, trial: Trial[_Step], k_target: float) -> Trial[_Step] | None:
+        """Roots closer than the step can resolve: step over with the last undoubted size."""
+        k_cur = path.k[-1]
+        k_over = min(k_cur + max(4.0 * self.good_h, 100.0 * self.dk_min), k_target)
+        over = self.attempt(path, k_over)
+        if over.accepted:
+            self.notes.append(f"branch {self.label}: stepped over a near-collision of roots"
+                              f" between k = {k_cur:.6g} and {k_over:.6g}")
+            return over
+        r = trial.result.root
+        if not r.converged:
+            self.notes.append(f"branch {self.label} lost at k = {trial.k:.6g} ({r.reason})")
+            return None
+        self.notes.append(f"branch {self.label}: root near k = {trial.k:.6g} not isolated"
+                          " (close roots or a crossing)")
+        if not self.doubt:
+            self.doubt = f"after an ambiguous point at k = {trial.k:.6g}"
+        trial.flag = "ambiguous"
+        return trial
+
+    def next_step(self, path: Path, h: float, trial: Trial[_Step], clamped: bool, dk: float
+                  ) -> float:
+        """Grow when the predictor was good; after doubt restart at a normal size."""
+        if trial.flag == "ambiguous":
+            return self.good_h
+        if clamped and h < dk:
+            return dk  # a short step onto a requested k says nothing about the step size
+        self.good_h = h
+        st = trial.result
+        if st.root.iterations <= 4 and st.corr < 0.05 * st.move:
+            k_cur = path.k[-1]
+            return min(2.0 * h, max(0.25 * k_cur, self.dk_min), 0.1 / self.p.H + 0.1 * k_cur)
+        return h
+
+
+def _skip_target(skip: Skip) -> SkipTarget:
+    """The engine's ``skip(path, k)`` from a branch ``skip(k, predicted, uncertainty)``."""
+
+    def skip_target(path: Path, k_target: float) -> bool:
+        d1 = path.secant()
+        h = k_target - path.k[-1]
+        return skip(k_target, path.value[-1] + d1 * h, abs(d1) * h)
+
+    return skip_target
+
+
+def _continue(p: Params, label: str, n: int, sign: int, ks: np.ndarray,
+              prev: tuple[float, complex], cur: tuple[float, complex], dk_min: float,
+              max_steps: int, skip: Skip | None = None) -> BranchResult:
+    """The continuation shared by :func:`follow_branch` and :func:`follow_root`.
+
+    ``skip(k, Lambda_predicted, uncertainty)`` True: the requested ``k`` is not needed (flag
+    ``"outside"``, no value); the continuation then does not stop there.
+    """
+    path = Path([prev[0], cur[0]], [prev[1], cur[1]])
+    dk = cur[0] - prev[0] if prev[0] > 0 else cur[0]
+    stepper = _BranchStepper(p, label, dk_min, good_h=dk)
+    if ks.size == 0:
+        return _branch_result(label, n, sign, ks, path, None, stepper.notes)
+    run = march(stepper, path, ks, dk=dk, dk_min=dk_min, max_steps=max_steps,
+                skip=None if skip is None else _skip_target(skip))
+    if run.steps >= max_steps:
+        stepper.notes.append(f"branch {label}: max_steps = {max_steps} reached at"
+                             f" k = {path.k[-1]:.6g}")
+    return _branch_result(label, n, sign, ks, path, run, stepper.notes)
+
+
+def _branch_result(label: str, n: int, sign: int, ks: np.ndarray, path: Path,
+                   run: March[_Step] | None, notes: list[str]) -> BranchResult:
+    """The :class:`BranchResult` of a march (``run``: None before any step)."""
+    out_L = np.full(ks.shape, np.nan + 0j)  # noqa: N806
+    out_res = np.full(ks.shape, np.nan)
+    out_cond = np.full(ks.shape, np.nan)
+    out_ok = np.zeros(ks.shape, dtype=bool)
+    flags = ["lost"] * ks.size
+    for i, t in enumerate(run.trials if run is not None else []):
+        if run.skipped[i]:
+            flags[i] = "outside"
+        elif t is not None:
+            r = t.result.root
+            out_L[i], out_res[i], out_cond[i] = t.value, r.residual, r.cond
+            out_ok[i], flags[i] = t.flag == "", t.flag
     return BranchResult(label, n, sign, ks, out_L, out_res, out_cond, out_ok, flags,
-                        np.array(k_path), np.array(L_path, dtype=complex), "; ".join(notes))
+                        np.array(path.k), np.array(path.value, dtype=complex), "; ".join(notes))
 
 
 def follow_branches(p: Params, n_branches: int, k_values: float | np.ndarray

@@ -148,31 +148,15 @@ def polish(
             dfz, pending = pending, None
         else:
             dfz = _derivative(fun, z, dfun)
-        if not np.isfinite(dfz) or dfz == 0:
-            if prev is not None and prev[1] != fz:  # secant fall-back
-                dz = -fz * (z - prev[0]) / (fz - prev[1])
-            else:  # nudge off a critical point
-                dz = 1e-6 * max(abs(z), 1.0) * (1 + 1j)
-        else:
-            dz = -fz / dfz
+        dz = _direction(z, fz, dfz, prev)
         step = abs(dz)
         if step <= tol * max(abs(z), 1.0):
             z += dz
             fz, dfz = _value_and_derivative(fun, z, dfun)  # dfz: for cond, at the final z
             converged, reason = True, "Newton step below tolerance"
             break
-        # damped step: halve until |F| decreases
-        lam = 1.0
-        accepted = False
-        for _ in range(12):
-            zn = z + lam * dz
-            # the value and the next derivative in one call (one call per Newton step)
-            fn, pending = _value_and_derivative(fun, zn, dfun)
-            if np.isfinite(fn) and abs(fn) < abs(fz):
-                accepted = True
-                break
-            lam *= 0.5
-        if not accepted:
+        zn, fn, pending = _damped_step(fun, z, fz, dz, dfun)
+        if zn is None:
             if step <= 1e3 * tol * max(abs(z), 1.0) or abs(fz) <= 1e3 * _EPS * scale:
                 converged, reason = True, "residual at the rounding level of the function"
             else:
@@ -185,15 +169,37 @@ def polish(
         dfz = _derivative(fun, z, dfun)
     absd = abs(dfz) if np.isfinite(dfz) else 0.0
     cond = scale / (absd * max(abs(z), 1e-300)) if absd > 0 else math.inf
-    return Root(
-        value=z,
-        residual=abs(fz) / scale if np.isfinite(fz) else math.inf,
-        cond=cond,
-        iterations=it,
-        converged=converged,
-        reason=reason,
-        step=step,
-    )
+    residual = abs(fz) / scale if np.isfinite(fz) else math.inf
+    return Root(z, residual, cond, it, converged, reason, step)
+
+
+def _direction(z: complex, fz: complex, dfz: complex, prev: tuple[complex, complex] | None
+               ) -> complex:
+    """Newton step; the secant step (or a nudge off a critical point) where ``F' = 0``."""
+    if np.isfinite(dfz) and dfz != 0:
+        return -fz / dfz
+    if prev is not None and prev[1] != fz:  # secant fall-back
+        return -fz * (z - prev[0]) / (fz - prev[1])
+    return 1e-6 * max(abs(z), 1.0) * (1 + 1j)  # nudge off a critical point
+
+
+def _damped_step(fun: ComplexFunction, z: complex, fz: complex, dz: complex,
+                 dfun: ComplexFunction | None
+                 ) -> tuple[complex | None, complex, complex | None]:
+    """Halve the step until ``|F|`` decreases: ``(z_new, F(z_new), F'(z_new))``.
+
+    ``z_new`` is None when twelve halvings did not decrease ``|F|``. The value and the next
+    derivative come in one call (one call per Newton step).
+    """
+    lam = 1.0
+    fn: complex = fz
+    for _ in range(12):
+        zn = z + lam * dz
+        fn, pending = _value_and_derivative(fun, zn, dfun)
+        if np.isfinite(fn) and abs(fn) < abs(fz):
+            return zn, fn, pending
+        lam *= 0.5
+    return None, fn, None
 
 
 def _box_checked(box: Sequence[float]) -> Box:

@@ -15,13 +15,9 @@ Eq. (elastic fields) (columns ``A_1..A_4``).
 **Matrix.** Four columns (basis solutions), four rows: the two top conditions at ``y = H``
 (``bc = "velocity"``: ``u_x = 0, s_yy = 0``; ``bc = "stress"``: ``s_xy = 0, s_yy = 0``), then
 ``u_y = 0`` and the friction law at ``y = 0`` (docs/design.md section 3), the latter multiplied by
-``Lambda + 1`` so that it is polynomial in ``Lambda``::
-
-    (Lambda+1)(1 + alpha_pc Lambda) s_xy + (f (Lambda+1) - alpha_ld Lambda) s_yy
-        - (1/gamma) Lambda (Lambda + Delta) u_x = 0
-
-(when ``alpha_ld = 0`` and ``Delta = 1`` the factor ``Lambda + 1`` cancels and is not applied,
-so no spurious root at ``Lambda = -1`` appears). Nothing here has a pole: ``Lambda = -1`` and
+``Lambda + 1`` so that it is polynomial in ``Lambda`` (:meth:`analytic.law.FrictionLaw.row`; not
+multiplied when ``alpha_ld = 0`` and ``Delta = 1``, where the factor cancels, so no spurious root
+at ``Lambda = -1`` appears). Nothing here has a pole: ``Lambda = -1`` and
 ``Lambda = -1/alpha_pc`` are ordinary points.
 
 Two bases are implemented (``basis=``):
@@ -68,6 +64,7 @@ import math
 
 import numpy as np
 
+from analytic.law import FrictionLaw
 from analytic.params import ParameterError, Params, require_rigid
 
 SPURIOUS_ORDER_AT_ZERO = 4
@@ -145,25 +142,6 @@ def _boundary_fields(Lambda: np.ndarray, k: np.ndarray, p: Params, basis: str
     return _columns_fields(P, k, bottom, kinds), _columns_fields(P, k, top, kinds)
 
 
-def friction_coefficients(Lambda: np.ndarray, p: Params
-                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Coefficients ``(a, b, c)`` of the friction row ``a s_xy + b s_yy + c u_x = 0`` at y = 0.
-
-    The rational law of docs/design.md section 3 multiplied by ``Lambda + 1`` (not multiplied when
-    ``alpha_ld = 0`` and ``Delta = 1``, where the factor cancels).
-    """
-    L = np.asarray(Lambda, dtype=complex)
-    if p.alpha_ld == 0 and p.Delta == 1.0:
-        a = (1.0 + p.alpha_pc * L) * np.ones_like(L)
-        b = p.f * np.ones_like(L)
-        c = -L / p.gamma
-    else:
-        a = (1.0 + p.alpha_pc * L) * (L + 1.0)
-        b = p.f * (L + 1.0) - p.alpha_ld * L
-        c = -L * (L + p.Delta) / p.gamma
-    return a, b, c
-
-
 def matrix_M(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params,
              basis: str = "even") -> np.ndarray:
     """The 4x4 matrix (rows: two top conditions, ``u_y(0) = 0``, friction law at y = 0).
@@ -180,7 +158,7 @@ def matrix_M(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params,
     require_rigid(p, "analytic.physics.finite_h")
     L, kk = np.broadcast_arrays(np.asarray(Lambda, dtype=complex), np.asarray(k, dtype=float))
     bottom, top = _boundary_fields(L, kk, p, basis)
-    a, b, c = friction_coefficients(L, p)
+    a, b, c = FrictionLaw.from_params(p).row(L)
     friction = a[..., None] * bottom[..., 2, :] + b[..., None] * bottom[..., 3, :] \
         + c[..., None] * bottom[..., 0, :]
     rows = (0, 3) if p.bc == "velocity" else (2, 3)
@@ -213,7 +191,6 @@ def det_M(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -> np.
     if degenerate.any():
         L = np.where(degenerate, L + 1e-12 * (np.abs(L) + kk) * (1 + 1j), L)
     M = matrix_M(L, kk, p, "waves")
-    norms = np.prod(np.linalg.norm(M, axis=-1), axis=-1)
     ks, kd = wavenumbers(L, kk, p.beta)
     with np.errstate(invalid="ignore", divide="ignore"):
         hs, hd, aL = H * np.abs(ks), H * np.abs(kd), np.abs(L)
@@ -223,7 +200,23 @@ def det_M(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -> np.
         phase = phase * np.where(aL > 0, aL / L, 1.0) ** SPURIOUS_ORDER_AT_ZERO
         weight = (hs / (1.0 + hs)) * (hd / (1.0 + hd)) \
             * (aL / (aL + kk + 1.0 / H)) ** SPURIOUS_ORDER_AT_ZERO
-        return np.linalg.det(M) / norms * phase / weight
+        return row_normalised_det(M) * phase / weight
+
+
+def row_normalised_det(M: np.ndarray, Lambda: np.ndarray | complex | None = None,  # noqa: N803
+                       order: int = 0) -> np.ndarray:
+    """``det(M)`` over the product of its row norms (a relative residual, ``<= 1``).
+
+    With ``Lambda``: times ``(|Lambda|/Lambda)^order``, the phase of ``det(M) / Lambda^order``
+    (the even bases vanish like ``Lambda^order`` at 0; 1 there).
+    """
+    out = np.linalg.det(M) / np.prod(np.linalg.norm(M, axis=-1), axis=-1)
+    if Lambda is None:
+        return out
+    L = np.broadcast_to(np.asarray(Lambda, dtype=complex), out.shape)  # noqa: N806
+    with np.errstate(invalid="ignore", divide="ignore"):
+        unit = np.where(L == 0, 1.0, np.abs(L) / np.where(L == 0, 1.0, L))
+    return out * unit**order
 
 
 def det_M_even(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -> np.ndarray:
@@ -232,12 +225,7 @@ def det_M_even(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -
     Same zeros and phase (up to a constant) as :func:`det_M`; accurate for moderate ``H Re k``
     only (ill-conditioned when ``H |Re k_s - Re k_d|`` is large). A cross-check.
     """
-    M = matrix_M(Lambda, k, p, "even")
-    norms = np.prod(np.linalg.norm(M, axis=-1), axis=-1)
-    L = np.broadcast_to(np.asarray(Lambda, dtype=complex), norms.shape)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        unit = np.where(L == 0, 1.0, np.abs(L) / np.where(L == 0, 1.0, L))
-    return np.linalg.det(M) / norms * unit**SPURIOUS_ORDER_AT_ZERO
+    return row_normalised_det(matrix_M(Lambda, k, p, "even"), Lambda, SPURIOUS_ORDER_AT_ZERO)
 
 
 def det_M_waves(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -> np.ndarray:
@@ -246,9 +234,7 @@ def det_M_waves(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) 
     Same zeros as :func:`det_M`, but multi-valued across the cuts of ``k_s``, ``k_d`` (the
     imaginary axis beyond ``+-i k``): do not use it for argument-principle counts.
     """
-    M = matrix_M(Lambda, k, p, "waves")
-    norms = np.prod(np.linalg.norm(M, axis=-1), axis=-1)
-    return np.linalg.det(M) / norms
+    return row_normalised_det(matrix_M(Lambda, k, p, "waves"))
 
 
 def _tanh(x: np.ndarray) -> np.ndarray:
@@ -292,9 +278,8 @@ def spectrum_S(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -
     k = np.asarray(k, dtype=float)
     _, kd = wavenumbers(L, k, p.beta)
     G1, G2 = G12(L, k, p)
-    return ((1.0 + p.alpha_pc * L) * kd * G1
-            - 1j * k * (p.f - p.alpha_ld * L / (L + 1.0)) * G2
-            + L * (L + p.Delta) / (p.gamma * (L + 1.0)))
+    law = FrictionLaw.from_params(p)
+    return law.shear(L) * kd * G1 - 1j * k * law.normal(L) * G2 + law.slip(L)
 
 
 def cutoff(n: int, sign: int, p: Params) -> complex:

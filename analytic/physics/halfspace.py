@@ -43,6 +43,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from analytic.law import FrictionLaw
+from analytic.numerics.continuation import Path, Trial, march
+from analytic.numerics.maximise import maximise
 from analytic.numerics.roots import Root, count_zeros, polish
 from analytic.params import ParameterError, Params, require_rigid
 
@@ -117,9 +120,12 @@ def spectrum(z: complex | np.ndarray, q: float, p: Params, A: complex | np.ndarr
     z = _c(z)
     gg1 = g1(z, p.beta, A, B)
     gg2 = 2.0 - gg1
-    iqz = 1j * q * z
-    return (p.gamma * (1.0 - iqz) * (B * gg1 * (1.0 - p.alpha_pc * iqz) - 1j * p.f * gg2)
-            + p.gamma * q * p.alpha_ld * gg2 * z - 1j * z * (p.Delta - iqz))
+    # the friction law cleared of L + 1 at L = -i q z: gamma (a B g1 - i b g2) - gamma c / q,
+    # with -gamma c / q = L (L + Delta) / q = -i z (L + Delta) (finite at q = 0)
+    law = FrictionLaw.from_params(p)
+    L = -1j * q * z  # noqa: N806
+    a, b, _ = law.cleared(L)
+    return p.gamma * (a * B * gg1 - 1j * b * gg2) - 1j * z * (L + law.Delta)
 
 
 def s(z: complex | np.ndarray, q: float, p: Params) -> complex | np.ndarray:
@@ -379,30 +385,43 @@ def follow(family: str, qs: Sequence[float] | np.ndarray, p: Params, *,
         One :class:`HalfSpaceRoot` per ``q``.
     """
     qs = np.asarray(qs, dtype=float)
-    out: list[HalfSpaceRoot] = []
-    root = find_root(family, float(qs[0]), p, branch=branch, guess=guess)
-    out.append(root)
-    for q_next in qs[1:]:
-        q_prev, x_prev = out[-1].q, out[-1].kappa
-        target = float(q_next)
-        depth = 0
-        q_cur, x_cur = q_prev, x_prev
-        while True:
-            trial = find_root(family, target, p, branch=branch, guess=x_cur)
-            ok = trial.converged and abs(trial.kappa - x_cur) <= max_jump * (1 + abs(x_cur))
-            if ok and target == float(q_next):
-                out.append(trial)
-                break
-            if ok:
-                q_cur, x_cur = target, trial.kappa
-                target = float(q_next)
-                continue
-            depth += 1
-            if depth > max_halvings:
-                out.append(trial)
-                break
-            target = 0.5 * (q_cur + target)
-    return out
+    first = find_root(family, float(qs[0]), p, branch=branch, guess=guess)
+    stepper = _HalfSpaceStepper(family, p, branch, max_jump)
+    run = march(stepper, Path([first.q], [first.kappa]), qs[1:], max_halvings=max_halvings)
+    return [first] + [t.result for t in run.trials if t is not None]
+
+
+@dataclass
+class _HalfSpaceStepper:
+    """:func:`follow` on the continuation engine: natural continuation, bounded jumps.
+
+    Each step starts Newton from the previous unknown (order-0 predictor) and is accepted when
+    it converged and moved by at most ``max_jump (1 + |unknown|)``; the engine halves a
+    refused step, and a root still refused after the last halving is kept as it is.
+    """
+
+    family: str
+    p: Params
+    branch: str
+    max_jump: float
+
+    def attempt(self, path: Path, k_new: float) -> Trial[HalfSpaceRoot]:
+        """Newton from the previous unknown, jump bounded."""
+        x_cur = path.predict(k_new, order=0)
+        r = find_root(self.family, k_new, self.p, branch=self.branch, guess=x_cur)
+        ok = r.converged and abs(r.kappa - x_cur) <= self.max_jump * (1 + abs(x_cur))
+        return Trial(k_new, r.kappa, ok, r)
+
+    def rescue(self, path: Path, trial: Trial[HalfSpaceRoot], k_target: float
+               ) -> Trial[HalfSpaceRoot]:
+        """No further halving: the refused root stands for the target (``converged`` says)."""
+        trial.closes_target = True
+        return trial
+
+    def next_step(self, path: Path, h: float, trial: Trial[HalfSpaceRoot], clamped: bool,
+                  dk: float) -> float:
+        """After any accepted step, straight on to the target."""
+        return math.inf
 
 
 def dilatational_tracks(qs: np.ndarray, p: Params) -> dict[str, list[HalfSpaceRoot]]:
@@ -585,19 +604,12 @@ class MaxGrowth:
 
 def _refine_max(fun: Callable[[float], float], qs: np.ndarray, i: int) -> tuple[float, float]:
     """Maximise ``fun`` in ``log q`` between the grid neighbours of index ``i`` (bounded Brent)."""
-    from scipy.optimize import minimize_scalar
-
     lo = math.log(qs[max(i - 1, 0)])
     hi = math.log(qs[min(i + 1, len(qs) - 1)])
     if hi <= lo:
         return float(qs[i]), fun(float(qs[i]))
-    def neg(t: float) -> float:
-        v = fun(math.exp(t))
-        return -v if math.isfinite(v) else 1e300
-
-    res = minimize_scalar(neg, bounds=(lo, hi), method="bounded",
-                          options={"xatol": 1e-10 * (1.0 + abs(lo))})
-    q_best, v_best = math.exp(res.x), -res.fun
+    t_best, v_best = maximise(lambda t: fun(math.exp(t)), lo, hi, xatol=1e-10 * (1.0 + abs(lo)))
+    q_best = math.exp(t_best)
     v_i = fun(float(qs[i]))
     return (q_best, v_best) if v_best >= v_i else (float(qs[i]), v_i)
 

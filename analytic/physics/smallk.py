@@ -29,6 +29,7 @@ import math
 
 import numpy as np
 
+from analytic.law import FrictionLaw
 from analytic.params import ParameterError, Params, check_k
 from analytic.physics.finite_h import cutoff
 
@@ -47,9 +48,8 @@ def slope(n: int, sign: int, p: Params) -> complex:
     L = cutoff(n, sign, p)
     H = p.H
     sh, ch = np.sinh(H * L), np.cosh(H * L)
-    F0 = L * (L + p.Delta) / (p.gamma * (L + 1.0))
-    f_eff = p.f - p.alpha_ld * L / (L + 1.0)
-    a0 = 1.0 + p.alpha_pc * L
+    law = FrictionLaw.from_params(p)
+    F0, f_eff, a0 = law.slip(L), law.normal(L), law.shear(L)
     if p.bc == "velocity":
         return complex(-1j * f_eff * ch / (p.beta**2 * H * (a0 * L * ch + F0 * sh)))
     sd = np.sinh(p.beta * H * L)

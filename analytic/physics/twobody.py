@@ -1,4 +1,4 @@
-"""Exact two-body spectrum: a slider on a deformable substrate (issue 9, finite contrast).
+"""Exact two-body spectrum: a slider on a deformable substrate (finite contrast).
 
 Geometry and units: body 1 (the slider) ``0 < y < H`` with ``mu = rho = c_s = 1`` and ``beta``;
 body 2 (the substrate) ``-H2 < y < 0`` with ``mu2, rho2`` relative to body 1,
@@ -23,7 +23,7 @@ two outer rows). Columns: body 1 then body 2, each ``psi, phi`` partial waves. R
 - at ``y = 0``: ``u_y``, ``s_xy``, ``s_yy`` continuous, and the friction law on the slip
   ``(Lambda+1)(1 + alpha_pc Lambda) s_xy + (f (Lambda+1) - alpha_ld Lambda) s_yy
   - (1/gamma) Lambda (Lambda + Delta) (u_x^(1) - u_x^(2)) = 0`` (the coefficients of
-  :func:`analytic.physics.finite_h.friction_coefficients`, the same polynomial form as the rigid
+  :meth:`analytic.law.FrictionLaw.row`, the same polynomial form as the rigid
   case).
 
 **Single-valued spectrum function** (finite ``H`` and ``H2``). Exactly as
@@ -71,8 +71,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from analytic.law import FrictionLaw
 from analytic.params import Material, ParameterError, Params
-from analytic.physics.finite_h import _even_pair, friction_coefficients
+from analytic.physics.finite_h import _even_pair, row_normalised_det
 
 SPURIOUS_ORDER_FINITE_LAYER = 4
 SPURIOUS_ORDER_HALF_SPACE = 2
@@ -265,7 +266,7 @@ def matrix_twobody(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Param
             rows.append(np.concatenate([z1, out2[..., r, :]], axis=-1))
     for r in (1, 2, 3):  # u_y, s_xy, s_yy continuous
         rows.append(np.concatenate([in1[..., r, :], -in2[..., r, :]], axis=-1))
-    a, b, c = friction_coefficients(L, p)
+    a, b, c = FrictionLaw.from_params(p).row(L)
     a, b, c = a[..., None], b[..., None], c[..., None]
     fr1 = a * in1[..., 2, :] + b * in1[..., 3, :] + c * in1[..., 0, :]
     fr2 = -c * in2[..., 0, :]
@@ -313,7 +314,6 @@ def det_twobody(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params,
     if degenerate.any():  # removable 0/0 points of a continuous function: step off them
         L = np.where(degenerate, L + 1e-12 * scale * (1 + 1j), L)
     M = matrix_twobody(L, kk, p, "regular", sheet)
-    norms = np.prod(np.linalg.norm(M, axis=-1), axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
         phase = np.ones(L.shape, dtype=complex)
         weight = np.ones(L.shape)
@@ -329,7 +329,7 @@ def det_twobody(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params,
             phase = phase * np.where(hd > 0, np.abs(kd) / kd, 1.0)
             phase = phase * (np.abs(ks + kd) / (ks + kd)) ** 2
             weight = weight * (hs / (1.0 + hs)) * (hd / (1.0 + hd))
-        return np.linalg.det(M) / norms * phase / weight
+        return row_normalised_det(M) * phase / weight
 
 
 def det_twobody_even(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params
@@ -339,12 +339,7 @@ def det_twobody_even(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Par
     Finite ``H`` and ``H2`` only; accurate for moderate ``H Re k`` (ill-conditioned for large).
     """
     _finite_layers(p)
-    M = matrix_twobody(Lambda, k, p, "even")
-    norms = np.prod(np.linalg.norm(M, axis=-1), axis=-1)
-    L = np.broadcast_to(np.asarray(Lambda, dtype=complex), norms.shape)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        unit = np.where(L == 0, 1.0, np.abs(L) / np.where(L == 0, 1.0, L))
-    return np.linalg.det(M) / norms * unit ** spurious_order(p)
+    return row_normalised_det(matrix_twobody(Lambda, k, p, "even"), Lambda, spurious_order(p))
 
 
 def _finite_layers(p: Params) -> None:
@@ -380,7 +375,7 @@ def det_twobody_propagator(Lambda: complex, k: float, p: Params) -> complex:
     L = complex(Lambda)
     T1 = scipy.linalg.expm(-_state_matrix(L, k, p.slider) * p.H)[:, _FREE[p.bc]]
     T2 = scipy.linalg.expm(_state_matrix(L, k, p.substrate) * p.H2)[:, _FREE[p.bc2]]
-    a, b, c = (complex(v) for v in friction_coefficients(np.array(L), p))
+    a, b, c = (complex(v) for v in FrictionLaw.from_params(p).row(np.array(L)))
     rows = np.array([
         np.concatenate([T1[1], -T2[1]]),
         np.concatenate([T1[2], -T2[2]]),

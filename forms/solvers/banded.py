@@ -32,20 +32,7 @@ from scipy.linalg import lapack
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from analytic.numerics.roots import Box, ContourError, winding_number
-from forms.friction import FrictionOperator
-
-
-def _function_and_derivative(fn: tuple, z: complex) -> tuple[complex, complex]:
-    """``phi(z)`` and ``phi'(z)`` of one scalar function of a FrictionOperator."""
-    if fn[0] == "power":
-        j = int(fn[1])
-        return z**j, (j * z ** (j - 1) if j > 0 else 0.0)
-    num = np.asarray(fn[1], dtype=complex)
-    den = np.asarray(fn[2], dtype=complex)
-    pv = np.polynomial.polynomial
-    n, d = pv.polyval(z, num), pv.polyval(z, den)
-    dn, dd = pv.polyval(z, pv.polyder(num)), pv.polyval(z, pv.polyder(den))
-    return n / d, (dn * d - n * dd) / (d * d)
+from forms.friction import FrictionOperator, ScalarFunction
 
 
 @dataclass
@@ -79,7 +66,8 @@ class BandedOperator:
     """
 
     def __init__(self, op: FrictionOperator | None = None, *,
-                 mats: list[sp.csr_matrix] | None = None, functions: list | None = None,
+                 mats: list[sp.csr_matrix] | None = None,
+                 functions: list[ScalarFunction] | None = None,
                  perm: np.ndarray | None = None) -> None:
         if op is not None:
             mats = [_csr(a) for a in op.matrices]
@@ -121,7 +109,7 @@ class BandedOperator:
     def _band(self, z: complex) -> np.ndarray:
         ab = np.zeros_like(self.bands[0])
         for fn, b in zip(self.functions, self.bands, strict=True):
-            ab += _function_and_derivative(fn, z)[0] * b
+            ab += fn.value_and_derivative(z)[0] * b
         return ab
 
     def _factor(self, z: complex) -> tuple[np.ndarray, np.ndarray, int]:
@@ -160,7 +148,7 @@ class BandedOperator:
     def residual(self, z: complex, x: np.ndarray) -> float:
         """Relative residual of ``(z, x)`` (``x`` in the operator's original order)."""
         xp = np.asarray(x, dtype=complex)[self.perm]
-        phi = np.array([_function_and_derivative(fn, z)[0] for fn in self.functions])
+        phi = np.array([fn.value_and_derivative(z)[0] for fn in self.functions])
         den = float(np.sum(np.abs(phi) * self.norms)) * np.linalg.norm(xp)
         return float(np.linalg.norm(self._apply(phi, xp)) / den) if den > 0 else math.inf
 
@@ -193,7 +181,7 @@ class BandedOperator:
             if info > 0:  # exactly singular: z is an eigenvalue to rounding
                 step = 0.0
                 break
-            dphi = np.array([_function_and_derivative(fn, z)[1] for fn in self.functions])
+            dphi = np.array([fn.value_and_derivative(z)[1] for fn in self.functions])
             rhs = self._apply(dphi, x)
             u, info2 = lapack.zgbtrs(lu, self.kl, self.ku, rhs, piv)
             den = np.vdot(v, u)

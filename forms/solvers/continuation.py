@@ -3,7 +3,7 @@
 The 1D cross-section model (:class:`forms.models.cross_section.CrossSectionModel`) solved for single
 eigenpairs, each near a target that follows the branch:
 
-- :func:`follow_branch`: ``Lambda(k)`` along a grid, each ``k`` solved near the linear
+- :func:`follow_fe_branch`: ``Lambda(k)`` along a grid, each ``k`` solved near the linear
   extrapolation of the two previous eigenvalues (stays on the branch where a ``k``-wise target
   would jump);
 - :func:`most_unstable_k`: the grid point of largest ``Re Lambda`` of that branch;
@@ -26,6 +26,7 @@ import dolfinx.fem
 import dolfinx.geometry
 from mpi4py import MPI
 
+from analytic.numerics.continuation import Path
 from analytic.params import Params
 from forms.models.cross_section import CrossSectionModel
 from forms.solvers.slepc import PolynomialSolver, shift_off
@@ -77,7 +78,7 @@ def cross_section_mode(params: Params, k: float, target: complex, degree: int = 
     model = CrossSectionModel(comm, params, degree=degree, cells=cells, k_max=max(k, 1.0))
     solver = PolynomialSolver(comm, nev=1, prefix="xs_")
     try:
-        # target may be an eigenvalue of this very mesh (from follow_branch): shift off it
+        # target may be an eigenvalue of this very mesh (from follow_fe_branch): shift off it
         res = solver.solve(model.operator(k), shift_off(target))
         if not res.pairs:
             return None
@@ -99,15 +100,16 @@ def cross_section_mode(params: Params, k: float, target: complex, degree: int = 
         model.destroy()
 
 
-def follow_branch(params: Params, target_of_k: Callable[[float], complex], ks: np.ndarray,
+def follow_fe_branch(params: Params, target_of_k: Callable[[float], complex], ks: np.ndarray,
                   degree: int = 3, comm: MPI.Comm = MPI.COMM_SELF) -> np.ndarray:
     """One branch of the cross-section model along ``ks``, by continuation.
 
     The first ``k`` is solved near ``target_of_k(k)`` (e.g. the waveguide estimate of
-    :func:`analytic.numerics.tracking.waveguide_lambda`); every next one near the linear
-    extrapolation of
-    the last two eigenvalues, so the branch is followed where a ``k``-wise target would jump to
-    another one (it does for the stress top, ``0+``, near ``k = 1.4``).
+    :func:`analytic.numerics.tracking.waveguide_lambda`); every next one near the prediction of
+    :meth:`analytic.numerics.continuation.Path.predict` (order 1: the linear extrapolation of
+    the last two eigenvalues), so the branch is followed where a ``k``-wise target would jump
+    to another one (it does for the stress top, ``0+``, near ``k = 1.4``). A ``k`` where
+    nothing converged restarts the path.
 
     Returns:
         ``Lambda`` per ``k`` (``nan`` where nothing converged).
@@ -116,18 +118,17 @@ def follow_branch(params: Params, target_of_k: Callable[[float], complex], ks: n
     model = CrossSectionModel(comm, params, degree=degree, k_max=float(np.max(ks)))
     solver = PolynomialSolver(comm, nev=1, prefix="xs_")
     out = np.full(len(ks), complex("nan"))
+    path: Path | None = None
     try:
         for i, k in enumerate(ks):
-            if i >= 2 and np.isfinite(out[i - 1]) and np.isfinite(out[i - 2]):
-                slope = (out[i - 1] - out[i - 2]) / (ks[i - 1] - ks[i - 2])
-                target = out[i - 1] + slope * (k - ks[i - 1])
-            elif i >= 1 and np.isfinite(out[i - 1]):
-                target = out[i - 1]
-            else:
-                target = target_of_k(float(k))
+            target = target_of_k(float(k)) if path is None else path.predict(float(k), order=1)
             res = solver.solve(model.operator(float(k)), shift_off(target))
             if res.pairs:
                 out[i] = res.pairs[0].value
+                path = path or Path([], [])
+                path.append(float(k), out[i])
+            else:
+                path = None
             res.destroy()
     finally:
         solver.destroy()
@@ -137,12 +138,12 @@ def follow_branch(params: Params, target_of_k: Callable[[float], complex], ks: n
 
 def most_unstable_k(params: Params, target_of_k: Callable[[float], complex], ks: np.ndarray,
                     degree: int = 3, comm: MPI.Comm = MPI.COMM_SELF) -> tuple[float, complex]:
-    """Largest growth rate of one branch on a grid of ``k`` (:func:`follow_branch`).
+    """Largest growth rate of one branch on a grid of ``k`` (:func:`follow_fe_branch`).
 
     Returns:
         ``(k, Lambda)`` at the grid point of largest ``Re Lambda``.
     """
-    lam = follow_branch(params, target_of_k, ks, degree, comm)
+    lam = follow_fe_branch(params, target_of_k, ks, degree, comm)
     ok = np.isfinite(lam)
     if not ok.any():
         raise RuntimeError("no converged cross-section eigenvalue on the k grid")

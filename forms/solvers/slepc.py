@@ -29,7 +29,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
-from forms.friction import FrictionOperator
+from forms.friction import FrictionOperator, ScalarFunction
 
 #: Relative distance by which :func:`shift_off` moves a shift away from a value that may be an
 #: eigenvalue (an exact root, or an eigenvalue of the same mesh from an earlier solve). A shift
@@ -198,16 +198,13 @@ class PolynomialSolver:
         self.pep.destroy()
 
 
-def _make_fn(comm: MPI.Comm, fn: tuple) -> SLEPc.FN:
-    """SLEPc FN for a scalar function descriptor of :class:`~forms.friction.FrictionOperator`."""
+def _make_fn(comm: MPI.Comm, fn: ScalarFunction) -> SLEPc.FN:
+    """SLEPc FN for a scalar function of :class:`~forms.friction.FrictionOperator`."""
     f = SLEPc.FN().create(comm)
     f.setType(SLEPc.FN.Type.RATIONAL)
-    if fn[0] == "power":
-        coeffs = [1.0] + [0.0] * fn[1]  # SLEPc wants descending coefficients
-        f.setRationalNumerator(coeffs)
-    else:
-        f.setRationalNumerator(list(reversed(fn[1])))
-        f.setRationalDenominator(list(reversed(fn[2])))
+    f.setRationalNumerator(list(reversed(fn.num)))  # SLEPc wants descending coefficients
+    if fn.power_index is None:
+        f.setRationalDenominator(list(reversed(fn.den)))
     return f
 
 

@@ -33,7 +33,7 @@ from analytic.numerics.tracking import Branch, waveguide_lambda
 from analytic.params import Params
 from forms.mode_postprocessing import normalise
 from forms.models.strip import build_strip_problem, solve_modes, strip_mesh_for
-from forms.solvers.continuation import follow_branch, most_unstable_k
+from forms.solvers.continuation import follow_fe_branch, most_unstable_k
 from forms.solvers.spatial_stability import kulikovskii_limit
 
 #: Columns of :meth:`BlockMode.row` (the CSV of ``finite_block.py``).
@@ -143,7 +143,7 @@ def infinite_strip_reference(comm: MPI.Comm, params: Params, branches: Sequence[
         if lb.real <= 0 and len(branches) > 1:
             continue  # a stable branch seeds no targets
         for ks in (np.linspace(kb, 1.5 * kb, n_targets), np.linspace(kb, 0.5 * kb, n_targets)):
-            for z in follow_branch(params, lambda k, z=lb: z, ks):
+            for z in follow_fe_branch(params, lambda k, z=lb: z, ks):
                 if np.isfinite(z):
                     targets.append(z if z.imag <= 0 else z.conjugate())
     label, k_inf, lam_inf = max(per_branch, key=lambda t: t[2].real)

@@ -47,7 +47,7 @@ from forms.models.strip import build_strip_problem, solve_modes, strip_mesh_for
 from forms.solvers.continuation import (
     CrossSectionMode,
     cross_section_mode,
-    follow_branch,
+    follow_fe_branch,
     most_unstable_k,
 )
 from meshes.interval import grading_ratio
@@ -97,7 +97,7 @@ def branch_eigenvalue(comm: MPI.Comm, params: Params, branch: tuple[int, int], k
                       k_scan: np.ndarray | None = None) -> tuple[float, complex]:
     """``(k, Lambda)`` of one cross-section branch, the same on every rank (rank 0's values).
 
-    The branch is followed from small ``k`` (:func:`follow_branch` from the waveguide estimate,
+    The branch is followed from small ``k`` (:func:`follow_fe_branch` from the waveguide estimate,
     :func:`analytic.numerics.tracking.waveguide_lambda`): a ``k``-wise waveguide target can land on
     another branch. Every rank solves its own copy (``MPI.COMM_SELF``), then rank 0's numbers
     are broadcast.
@@ -122,7 +122,7 @@ def branch_eigenvalue(comm: MPI.Comm, params: Params, branch: tuple[int, int], k
     if k_scan is not None:
         return comm.bcast(most_unstable_k(params, wg, k_scan), root=0)
     ks = np.linspace(min(0.05, k), k, int(np.clip(k / 0.05, 2, 400)) + 1)
-    return float(k), comm.bcast(complex(follow_branch(params, wg, ks)[-1]), root=0)
+    return float(k), comm.bcast(complex(follow_fe_branch(params, wg, ks)[-1]), root=0)
 
 
 def _exact_branch_eigenvalue(comm: MPI.Comm, params: Params, branch: tuple[int, int], k: float,

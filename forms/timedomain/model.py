@@ -99,9 +99,10 @@ import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from analytic.law import FrictionLaw
 from analytic.params import ParameterError, Params
 from forms.elasticity import stiffness_density
-from forms.friction import FrictionLaw, apply_dirichlet, friction_operator
+from forms.friction import apply_dirichlet, friction_operator
 from forms.models.periodic import reduce_matrix, reduction_map
 from forms.solvers.slepc import PolynomialSolver
 from meshes.strip import INTERFACE, TOP, StripMesh, edge_dofs

@@ -84,6 +84,11 @@ class Profile:
                                  "y") from None
         _check_tree(tree, self.name, self.text)
         object.__setattr__(self, "_code", compile(tree, f"<{self.name}>", "eval"))
+        try:
+            self(np.array([0.0, 0.5]))
+        except (TypeError, ValueError, ArithmeticError) as err:
+            raise ParameterError(f"{self.name} = {self.text!r} cannot be evaluated "
+                                 f"({type(err).__name__})") from None
 
     def _eval(self, y: object, table: int) -> object:
         names = {key: fns[table] for key, fns in FUNCTIONS.items()}

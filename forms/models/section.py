@@ -264,7 +264,8 @@ def pml_layers(design, side: str = "slider", mu: float = 1.0, rho: float = 1.0, 
 def stack_from_layers(params: Params, rows: list[LayerRow], degree: int = 3,
                       cells: int | None = None, k_max: float = 1.0, n_max: int = 0,
                       ratio: float | None = None,
-                      profiles: dict[str, Profile] | None = None) -> Stack:
+                      profiles: dict[str, Profile] | None = None, cells2: int | None = None,
+                      ratio2: float | None = None) -> Stack:
     """The stack of a layers file (:func:`forms.models.profiles.read_layers`) on a substrate.
 
     The slider is ``0 < y < rows[-1].y_top`` (``params.H`` is not used); the substrate, the
@@ -285,6 +286,8 @@ def stack_from_layers(params: Params, rows: list[LayerRow], degree: int = 3,
         ratio: Grading ``h_max/h_min`` of the first layer.
         profiles: ``{"mu" | "rho" | "beta": Profile}``: that coefficient follows the profile in
             every slider layer (the file's column is then not used).
+        cells2: Substrate cells (:func:`stack_from_params`).
+        ratio2: Substrate grading.
     """
     height = rows[-1].y_top
     beta_min = min(r.beta for r in rows)
@@ -300,7 +303,8 @@ def stack_from_layers(params: Params, rows: list[LayerRow], degree: int = 3,
         mat = {name: profiles.get(name, getattr(r, name)) for name in MATERIALS}
         layers.append(Layer(v, **mat))
         below = r.y_top
-    base = stack_from_params(params.replace(H=height), degree=degree, k_max=k_max, n_max=n_max)
+    base = stack_from_params(params.replace(H=height), degree=degree, cells=2, cells2=cells2,
+                             k_max=k_max, n_max=n_max, ratio2=ratio2)
     return Stack(tuple(layers), base.substrate, top=base.top, bottom=base.bottom)
 
 

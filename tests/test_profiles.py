@@ -6,11 +6,14 @@ profile converges at the order ``h^(2p)``. Runs serially and under
 ``mpirun -n 2 python -m mpi4py -m pytest`` (``world``: one mesh over both ranks).
 """
 
+import csv
 import logging
 import math
+import os
 
 import numpy as np
 import pytest
+from _workflows import run_workflow
 
 from mpi4py import MPI
 
@@ -172,3 +175,48 @@ def test_profile_converges_at_order_2p(degree, cells):
     # measured 2026-11-24: P2 3.92, 3.98 (8/16/32 cells); P3 5.53, 5.84 (4/8/16 cells)
     assert np.all(orders > 2 * degree - 0.6) and np.all(orders < 2 * degree + 0.5)
     assert orders[-1] > 2 * degree - 0.2
+
+
+def _spectrum(out) -> list[dict[str, str]]:
+    with open(os.path.join(out, "spectrum.csv")) as fh:
+        return list(csv.DictReader(fh))
+
+
+@pytest.mark.slow  # measured 23 s (two sweeps) on the loaded 2-core machine
+@pytest.mark.serial
+def test_sweep_one_layer_file_gives_todays_numbers(tmp_path):
+    """``sweep_k.py --model layers --layers FILE`` with one layer: the homogeneous sweep's rows."""
+    layers = tmp_path / "one.csv"
+    layers.write_text("y_top,mu,rho,beta\n0.7,1,1,0.45\n")
+    outs = {"params": tmp_path / "p", "layers": tmp_path / "l"}
+    common = ["--k", "1", "--quiet", "--no-plot"]
+    runs = {"params": ["--H", "0.7", "--beta", "0.45"],
+            "layers": ["--model", "layers", "--layers", str(layers)]}
+    for name, extra in runs.items():
+        proc = run_workflow("sweep_k.py", [*common, *extra, "--out", str(outs[name])])
+        assert proc.returncode == 0, proc.stderr[-2000:]
+    a, b = _spectrum(outs["params"]), _spectrum(outs["layers"])
+    assert len(a) >= 3 and a == b
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("bad,word,nproc", [
+    (["--mu-profile", "1 + y"], "--mu-profile needs --model layers", 1),
+    (["--model", "layers"], "--model layers needs", 1),
+    (["--model", "strip"], "--model", 1),
+    (["--model", "layers", "--rho-profile", "exp(y"], "--rho-profile", 1),
+    (["--model", "layers", "--beta-profile", "0.45"], "only one layer", 1),
+    (["--model", "layers", "--layers", "TWO"], "only one layer", 2),
+    (["--model", "layers", "--layers", "missing.csv"], "cannot be read", 1),
+])
+def test_sweep_bad_slider_one_line_exit_2(tmp_path, bad, word, nproc):
+    """Bad slider options: one line naming them, exit code 2, nothing written (also -n 2)."""
+    two = tmp_path / "two.csv"
+    two.write_text("y_top,mu,rho,beta\n0.1,0.6,1,0.5\n0.5,1,1,0.5\n")
+    out = tmp_path / "bad"
+    args = [str(two) if a == "TWO" else a for a in bad]
+    proc = run_workflow("sweep_k.py", [*args, "--out", str(out)], nproc=nproc)
+    assert proc.returncode == 2
+    lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and word in lines[0], proc.stderr
+    assert not out.exists()

@@ -27,7 +27,7 @@ import numpy as np
 
 import ufl
 
-from analytic.params import ParameterError
+from analytic.params import ParameterError, Params
 
 #: Functions a profile may call: name -> (numpy function, UFL function).
 FUNCTIONS = {
@@ -170,3 +170,73 @@ def read_layers(path: str | Path) -> list[LayerRow]:
     except (OSError, UnicodeDecodeError, csv.Error) as err:
         raise ParameterError(f"layers = {str(path)!r} cannot be read ({err})") from None
     return parse_layers(rows, f"layers file {path}")
+
+
+#: Choices of the sweep's ``--model`` this module serves (1D).
+SECTION_MODELS = ("section", "layers")
+
+
+@dataclass(frozen=True)
+class SliderMaterial:
+    """A slider made of layers and/or profiles (the ``layers`` model).
+
+    Attributes:
+        rows: Layers from the interface up (empty: one layer ``H, 1, 1, beta`` of the params).
+        profiles: ``{"mu" | "rho" | "beta": Profile}`` replacing that column in every layer.
+    """
+
+    rows: tuple[LayerRow, ...] = ()
+    profiles: tuple[tuple[str, Profile], ...] = ()
+
+    def layer_rows(self, H: float, beta: float) -> list[LayerRow]:  # noqa: N803
+        """The rows, or the homogeneous slider of height ``H``."""
+        return list(self.rows) or [LayerRow(H, 1.0, 1.0, beta)]
+
+    def as_dict(self) -> dict[str, object]:
+        """JSON-friendly description (for a run's record)."""
+        return {"layers": [list(map(float, (r.y_top, r.mu, r.rho, r.beta))) for r in self.rows],
+                "profiles": {name: prof.text for name, prof in self.profiles}}
+
+
+def slider_material(model: str, layers: str | None = None, mu: str | None = None,
+                    rho: str | None = None, beta: str | None = None) -> SliderMaterial | None:
+    """The slider of the options ``--model``, ``--layers FILE``, ``--mu/rho/beta-profile EXPR``.
+
+    Returns:
+        ``None`` for ``model = "section"`` (the homogeneous slider of the params), else the
+        checked :class:`SliderMaterial`.
+
+    Raises:
+        ParameterError: An unknown model, layer options without ``--model layers``,
+            ``--model layers`` without any, or a bad file or expression (one line).
+    """
+    exprs = {"mu": mu, "rho": rho, "beta": beta}
+    given = [f"--{n}-profile" for n, v in exprs.items() if v is not None]
+    given += ["--layers"] if layers is not None else []
+    if model not in SECTION_MODELS:
+        raise ParameterError(f"--model = {model!r} is not one of {', '.join(SECTION_MODELS)}")
+    if model == "section":
+        if given:
+            raise ParameterError(f"{given[0]} needs --model layers (--model is 'section')")
+        return None
+    if not given:
+        raise ParameterError("--model layers needs --layers FILE or a --mu/--rho/--beta-profile "
+                             "expression of y")
+    rows = tuple(read_layers(layers)) if layers is not None else ()
+    profiles = tuple((n, Profile(v, f"--{n}-profile")) for n, v in exprs.items()
+                     if v is not None)
+    return SliderMaterial(rows, profiles)
+
+
+def homogeneous_params(params: Params, material: SliderMaterial) -> Params | None:
+    """``params`` of the one homogeneous layer ``material`` describes, or ``None``.
+
+    One row with ``mu = rho = 1`` and no profile is the homogeneous slider of height
+    ``y_top`` and ratio ``beta`` (the exact roots of :mod:`analytic.physics.finite_h` apply).
+    """
+    if material.profiles or len(material.rows) != 1:
+        return None
+    row = material.rows[0]
+    if row.mu != 1.0 or row.rho != 1.0:
+        return None
+    return params.replace(H=row.y_top, beta=row.beta)

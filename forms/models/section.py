@@ -64,7 +64,7 @@ from forms.friction import (
     friction_operator,
 )
 from forms.models.periodic import reduce_matrix
-from forms.models.profiles import LayerRow, Profile
+from forms.models.profiles import LayerRow, Profile, SliderMaterial
 from meshes.interval import default_cells, grading_ratio, interval_vertices
 from meshes.layered import interval_from_pieces
 
@@ -306,6 +306,25 @@ def stack_from_layers(params: Params, rows: list[LayerRow], degree: int = 3,
     base = stack_from_params(params.replace(H=height), degree=degree, cells=2, cells2=cells2,
                              k_max=k_max, n_max=n_max, ratio2=ratio2)
     return Stack(tuple(layers), base.substrate, top=base.top, bottom=base.bottom)
+
+
+def section_stack(params: Params, material: SliderMaterial | None = None, degree: int = 3,
+                  cells: int | None = None, k_max: float = 1.0, n_max: int = 0,
+                  ratio: float | None = None, cells2: int | None = None,
+                  ratio2: float | None = None) -> Stack:
+    """The stack of the command-line options: ``params`` and the slider's material.
+
+    ``material = None`` (``--model section``): :func:`stack_from_params`. Otherwise
+    (``--model layers``, :func:`forms.models.profiles.slider_material`): its layers (or the
+    homogeneous slider of ``params``) with its profiles, :func:`stack_from_layers`. The other
+    arguments are those of these two.
+    """
+    if material is None:
+        return stack_from_params(params, degree=degree, cells=cells, cells2=cells2,
+                                 k_max=k_max, n_max=n_max, ratio=ratio, ratio2=ratio2)
+    return stack_from_layers(params, material.layer_rows(params.H, params.beta), degree=degree,
+                             cells=cells, k_max=k_max, n_max=n_max, ratio=ratio,
+                             profiles=dict(material.profiles), cells2=cells2, ratio2=ratio2)
 
 
 def layer_coefficients(msh: dolfinx.mesh.Mesh, stack: Stack, axis: int

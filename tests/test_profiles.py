@@ -20,7 +20,7 @@ from mpi4py import MPI
 from analytic.numerics.roots import polish
 from analytic.params import ParameterError, Params
 from analytic.physics.finite_h import det_M
-from analytic.physics.layered_exact import ExactLayer, layered_root
+from analytic.physics.layered_exact import ExactLayer, branch_peak, layered_root
 from forms.models.cross_section import CrossSectionModel
 from forms.models.profiles import LayerRow, Profile, parse_layers, read_layers
 from forms.models.section import Layer, SectionModel, stack_from_layers, stack_from_params
@@ -220,3 +220,29 @@ def test_sweep_bad_slider_one_line_exit_2(tmp_path, bad, word, nproc):
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and word in lines[0], proc.stderr
     assert not out.exists()
+
+
+# README "Layered and graded sliders": branch 0- of the paper defaults (velocity top), peak of
+# Re Lambda over k, homogeneous and with a damage zone (mu = 0.6 for y < 0.1 H).
+DAMAGE_ZONE = {
+    "homogeneous": ([ExactLayer(0.0, 0.5, 1.0, 1.0, 0.5)], 1.754854, 0.3274525486 - 7.148911888j),
+    "damage zone": ([ExactLayer(0.0, 0.05, 0.6, 1.0, 0.5), ExactLayer(0.05, 0.5, 1.0, 1.0, 0.5)],
+                    1.681460, 0.3091190178 - 6.729390432j),
+}
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("case", list(DAMAGE_ZONE))
+def test_damage_zone_readme_numbers(case):
+    """The README's peaks (exact layered roots) and the FE at the peak (P4, 24 cells)."""
+    p = Params()
+    layers, k_readme, lam_readme = DAMAGE_ZONE[case]
+    k, lam = branch_peak(0.27 - 6.6j, 1.0, np.arange(0.5, 3.01, 0.25), p, layers)
+    # the README prints 7 digits of k, 10 of Lambda; the peak in k is flat (|dRe/dk| ~ 0)
+    assert abs(k - k_readme) < 1e-6 and abs(lam - lam_readme) < 1e-8
+    rows = [LayerRow(lay.top, lay.mu, lay.rho, lay.beta) for lay in layers]
+    model = SectionModel(MPI.COMM_SELF, stack_from_layers(p, rows, degree=4, cells=24, k_max=6.0),
+                         p, degree=4)
+    fe = _roots(model, k, lam, 1)[0]
+    model.destroy()
+    assert abs(fe - lam) < 1e-11 * abs(lam)  # measured 2.7e-13 and 1.5e-13

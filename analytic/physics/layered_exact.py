@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.integrate
 import scipy.linalg
+import scipy.optimize
 
 from analytic.numerics.roots import Root, polish
 from analytic.params import Params
@@ -117,3 +118,42 @@ def layered_root(z0: complex, k: float, p: Params, layers: Sequence[ExactLayer],
     """The root of :func:`det_layered` Newton reaches from ``z0`` (e.g. an FE eigenvalue)."""
     fun = np.vectorize(lambda z: det_layered(complex(z), k, p, layers), otypes=[complex])
     return polish(fun, complex(z0), tol=tol)
+
+
+def follow_layered(z0: complex, k0: float, ks: Sequence[float], p: Params,
+                   layers: Sequence[ExactLayer]) -> np.ndarray:
+    """The root through ``(k0, z0)`` at each of ``ks`` (Newton from the neighbour nearer ``k0``).
+
+    Raises:
+        RuntimeError: Newton fails at some ``k`` (refine ``ks``).
+    """
+    ks = np.asarray(ks, dtype=float)
+    out = np.empty(len(ks), dtype=complex)
+    for side in (ks >= k0, ks < k0):
+        idx = np.flatnonzero(side)
+        idx = idx[np.argsort(np.abs(ks[idx] - k0))]
+        z = complex(z0)
+        for i in idx:
+            root = layered_root(z, float(ks[i]), p, layers)
+            if not root.converged:
+                raise RuntimeError(f"layered root lost at k = {ks[i]}: {root.reason}")
+            z = out[i] = root.value
+    return out
+
+
+def branch_peak(z0: complex, k0: float, ks: Sequence[float], p: Params,
+                layers: Sequence[ExactLayer]) -> tuple[float, complex]:
+    """``(k, Lambda)`` of the largest ``Re Lambda`` along the root through ``(k0, z0)``.
+
+    The root is followed over the grid ``ks`` (:func:`follow_layered`); the best grid point is
+    refined between its neighbours (bounded Brent, ``xatol = 1e-9``).
+    """
+    ks = np.sort(np.asarray(ks, dtype=float))
+    zs = follow_layered(z0, k0, ks, p, layers)
+    i = int(np.argmax(zs.real))
+    lo, hi = ks[max(i - 1, 0)], ks[min(i + 1, len(ks) - 1)]
+    res = scipy.optimize.minimize_scalar(
+        lambda k: -layered_root(zs[i], float(k), p, layers).value.real, bounds=(lo, hi),
+        method="bounded", options={"xatol": 1e-9})
+    k = float(res.x)
+    return k, layered_root(zs[i], k, p, layers).value

@@ -115,8 +115,10 @@ def test_one_layer_file_is_todays_model(comm_name, case):
     models = [SectionModel(comm, new, p, degree=4),
               CrossSectionModel(comm, p, degree=4, cells=8, k_max=2.0) if case == "rigid"
               else SectionModel(comm, old, p, degree=4)]
-    got, ref = (_roots(m, 1.0, TARGET, 3) for m in models)
-    assert np.array_equal(np.array(got), np.array(ref))
+    got, ref = (np.array(_roots(m, 1.0, TARGET, 3)) for m in models)
+    # the same matrices; serially bit-identical eigenvalues, distributed over two ranks the
+    # solver's reductions differ by rounding (measured below 1e-14)
+    assert len(got) == 3 and np.all(np.abs(got - ref) <= 1e-13 * np.abs(ref))
     if case == "rigid":  # and today's numbers are the exact ones: measured 4e-14 (P4, 8 cells)
         exact = polish(lambda z: det_M(z, 1.0, p), got[0]).value
         assert abs(got[0] - exact) < 1e-12 * abs(exact)

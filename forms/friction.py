@@ -19,7 +19,7 @@ and the y-row of the interface node keeps ``u_y = 0``. All other rows are ``(K +
 
 **Two deformable bodies (the general case).** With a substrate, the interface carries two
 nodes per point, slider side ``(u_x1, u_y1)`` and substrate side ``(u_x2, u_y2)``. The model
-(:mod:`forms.models.layered`) eliminates ``u_y2 = u_y1`` and writes ``u_x1 = s + u_x2`` (``s`` the
+(:mod:`forms.models.section`) eliminates ``u_y2 = u_y1`` and writes ``u_x1 = s + u_x2`` (``s`` the
 slip) by a map ``P`` and reduces ``P^H A P``: the reduced row of ``u_y`` is then
 ``R_y1 + R_y2 = 0`` (normal traction continuous), the row of ``u_x2`` is ``R_x1 + R_x2 = 0``
 (shear traction continuous) and the row of ``s`` is ``R_x1``. The friction law replaces the

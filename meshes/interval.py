@@ -96,7 +96,7 @@ def _gmsh_interval(H: float, cells: int, ratio: float) -> None:
 def interval_vertices(H: float, cells: int, ratio: float = 1.0) -> np.ndarray:
     """The increasing vertex coordinates :func:`interval_mesh` uses (gmsh, on the calling rank).
 
-    For layered stacks (:mod:`forms.models.layered`) that must reproduce the cross-section model's
+    For layered stacks (:mod:`forms.models.section`) that must reproduce the cross-section model's
     mesh exactly (the same gmsh nodes, not a re-computed progression).
     """
     if not (math.isfinite(H) and H > 0) or cells < 1 or ratio < 1.0:

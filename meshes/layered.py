@@ -4,7 +4,7 @@
 of the communicator passes them, dolfinx distributes the cells); :func:`geometric_sizes` makes
 cell sizes that grow geometrically from ``h0`` to ``h_max`` (then stay) to fill a length;
 :func:`interval_from_pieces` joins disconnected pieces (two bodies with their own nodes at the
-interface, :mod:`forms.models.layered`).
+interface, :mod:`forms.models.section`).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Layered cross-section model (forms/models/layered.py): rigid limit, two bodies vs exact, PML
+"""Layered cross-section model (forms/models/section.py): rigid limit, two bodies vs exact, PML
 layers.
 
 Runs serially and under ``mpirun -n 2 python -m mpi4py -m pytest`` (``world``: one mesh
@@ -21,15 +21,15 @@ from analytic.physics import largek
 from analytic.physics.halfspace import dilatational_root
 from analytic.physics.twobody import det_twobody
 from forms.models.cross_section import CrossSectionModel
-from forms.models.layered import (
+from forms.models.pml import HalfSpaceModel, design_layer
+from forms.models.section import (
     Layer,
-    LayeredModel,
+    SectionModel,
     Stack,
     pml_layers,
     pml_stack,
     stack_from_params,
 )
-from forms.models.pml import HalfSpaceModel, design_layer
 from forms.solvers.slepc import PolynomialSolver, SplitSolver
 
 logging.disable(logging.INFO)
@@ -62,7 +62,7 @@ def _sorted_dense(model) -> tuple[np.ndarray, np.ndarray]:
 def test_rigid_stack_is_the_cross_section_model(p):
     """mu2 = inf: the same matrices (entry by entry, dofs sorted by y) as CrossSectionModel."""
     cs = CrossSectionModel(MPI.COMM_SELF, p, degree=4, cells=6, k_max=3.0)
-    lm = LayeredModel(MPI.COMM_SELF, stack_from_params(p, degree=4, cells=6, k_max=3.0), p,
+    lm = SectionModel(MPI.COMM_SELF, stack_from_params(p, degree=4, cells=6, k_max=3.0), p,
                       degree=4)
     assert lm.stack.rigid and lm.size == cs.size
     pa, pb = _sorted_dense(cs), _sorted_dense(lm)
@@ -81,7 +81,7 @@ def test_rigid_stack_check_value(comm_name):
     """The project's check value through the layered model (P3, 20 cells, as the FE test)."""
     comm = COMMS[comm_name]
     p = Params()
-    lm = LayeredModel(comm, stack_from_params(p, degree=3, cells=20), p, degree=3)
+    lm = SectionModel(comm, stack_from_params(p, degree=3, cells=20), p, degree=3)
     cs = CrossSectionModel(comm, p, degree=3, cells=20)
     solver = PolynomialSolver(comm, nev=1)
     lams = []
@@ -103,7 +103,7 @@ def test_two_body_roots_match_exact(name):
     """FE (P4, default cells) vs det_twobody: the four roots nearest -2i at k = 0.5 and 2."""
     p = TWO_BODY[name]
     comm = MPI.COMM_WORLD
-    model = LayeredModel(comm, stack_from_params(p, degree=4, k_max=2.0), p, degree=4)
+    model = SectionModel(comm, stack_from_params(p, degree=4, k_max=2.0), p, degree=4)
     solver = PolynomialSolver(comm, nev=4)
     for k in (0.5, 2.0):
         _check_against_exact(model, solver, p, k)
@@ -131,7 +131,7 @@ def _check_against_exact(model, solver, p, k):
 def test_two_body_fe_converges_to_exact(cells):
     """The long soft substrate of "pc-weakening" on coarse meshes: the error falls with h."""
     p = TWO_BODY["pc-weakening"]
-    model = LayeredModel(MPI.COMM_SELF, stack_from_params(p, degree=4, cells=cells[0],
+    model = SectionModel(MPI.COMM_SELF, stack_from_params(p, degree=4, cells=cells[0],
                                                           cells2=cells[1]), p, degree=4)
     solver = PolynomialSolver(MPI.COMM_SELF, nev=4)
     res = solver.solve(model.operator(2.0), -2.0j)
@@ -152,7 +152,7 @@ def test_split_form_two_bodies_matches_polynomial():
     p = TWO_BODY["pc-ld"]
     lam = {}
     for form, cls in (("polynomial", PolynomialSolver), ("split", SplitSolver)):
-        model = LayeredModel(MPI.COMM_SELF, stack_from_params(p, degree=4, cells=6, cells2=6),
+        model = SectionModel(MPI.COMM_SELF, stack_from_params(p, degree=4, cells=6, cells2=6),
                              p, degree=4, form=form)
         solver = cls(MPI.COMM_SELF, nev=1)
         res = solver.solve(model.operator(1.0), -0.77j)
@@ -169,7 +169,7 @@ def test_stiff_substrate_approaches_rigid():
     comm = MPI.COMM_SELF
     p = Params()
     solver = PolynomialSolver(comm, nev=1)
-    rigid = LayeredModel(comm, stack_from_params(p, degree=4, cells=6), p, degree=4)
+    rigid = SectionModel(comm, stack_from_params(p, degree=4, cells=6), p, degree=4)
     res = solver.solve(rigid.operator(1.0), -6.6j)
     lam0 = res.pairs[0].value
     res.destroy()
@@ -177,7 +177,7 @@ def test_stiff_substrate_approaches_rigid():
     diffs = []
     for mu2 in (1e6, 1e8, 1e10):
         q = p.replace(mu2=mu2, rho2=1.0, H2=0.5, bc2="stress")
-        model = LayeredModel(comm, stack_from_params(q, degree=4, cells=6, cells2=6), q,
+        model = SectionModel(comm, stack_from_params(q, degree=4, cells=6, cells2=6), q,
                              degree=4)
         res = solver.solve(model.operator(1.0), lam0)
         diffs.append(abs(res.pairs[0].value - lam0) / abs(lam0))
@@ -200,7 +200,7 @@ def test_stretched_layer_is_the_halfspace_model(comm_name):
     target = complex(-1j * q * largek.z_linear(q, p))
     design = design_layer(q, target, p.beta, 4)
     hs = HalfSpaceModel(comm, p, design, 4)
-    lm = LayeredModel(comm, Stack(pml_layers(design, "slider", beta=p.beta), top="clamped"),
+    lm = SectionModel(comm, Stack(pml_layers(design, "slider", beta=p.beta), top="clamped"),
                       p, 4)
     solver = PolynomialSolver(comm, nev=1)
     a = solver.solve(hs.op, target)
@@ -234,7 +234,7 @@ def test_halfspaces_with_pml_layers(name):
     stack = pml_stack(p, k, target)
     assert (stack.top == "clamped") == (not math.isfinite(p.H))
     assert (stack.bottom == "clamped") == (not math.isfinite(p.H2))
-    model = LayeredModel(MPI.COMM_WORLD, stack, p, 4)
+    model = SectionModel(MPI.COMM_WORLD, stack, p, 4)
     solver = PolynomialSolver(MPI.COMM_WORLD, nev=1)
     res = solver.solve(model.operator(k), target)
     lam = res.pairs[0].value
@@ -254,7 +254,7 @@ def test_interface_conditions_hold_on_the_mode():
     p = TWO_BODY["vel-stress"]
     out = {}
     for name, comm in COMMS.items():
-        model = LayeredModel(comm, stack_from_params(p, degree=4, cells=6, cells2=6), p, 4)
+        model = SectionModel(comm, stack_from_params(p, degree=4, cells=6, cells2=6), p, 4)
         solver = PolynomialSolver(comm, nev=1)
         res = solver.solve(model.operator(1.0), -1.9j)
         vec = model.canonical(res.pairs[0].vector)
@@ -297,7 +297,7 @@ def test_k_blocks_recombine_to_the_operator():
     """Both models expose T0, T1, T2; T0 + k T1 + k^2 T2 is operator(k) (same matrices)."""
     p = TWO_BODY["pc-ld"]
     models = [CrossSectionModel(MPI.COMM_WORLD, Params(), degree=2, cells=6),
-              LayeredModel(MPI.COMM_WORLD, stack_from_params(p, degree=2, cells=4, cells2=4), p,
+              SectionModel(MPI.COMM_WORLD, stack_from_params(p, degree=2, cells=4, cells2=4), p,
                            degree=2)]
     k = 1.7
     for model in models:
@@ -320,7 +320,7 @@ def test_spatial_roots_work_on_two_bodies():
 
     p = TWO_BODY["vel-stress"]
     comm = MPI.COMM_WORLD
-    model = LayeredModel(comm, stack_from_params(p, degree=4, cells=6, cells2=6), p, 4)
+    model = SectionModel(comm, stack_from_params(p, degree=4, cells=6, cells2=6), p, 4)
     solver = PolynomialSolver(comm, nev=1)
     res = solver.solve(model.operator(1.3), -2.0j)
     lam = res.pairs[0].value
@@ -338,10 +338,10 @@ def _symmetric_roots(bc: str, delta: float, k: float) -> tuple[list[complex], li
     f = 0 and 1/gamma ~ 0)."""
     comm = MPI.COMM_SELF
     p = Params(bc=bc, Delta=delta, mu2=1.0, rho2=1.0, H2=0.5, bc2=bc)
-    model = LayeredModel(comm, stack_from_params(p, degree=4, cells=8, cells2=8, k_max=3.0),
+    model = SectionModel(comm, stack_from_params(p, degree=4, cells=8, cells2=8, k_max=3.0),
                          p, 4)
     q = Params(bc=bc, f=0.0, gamma=1e14)
-    roller = LayeredModel(comm, stack_from_params(q, degree=4, cells=8, k_max=3.0), q, 4)
+    roller = SectionModel(comm, stack_from_params(q, degree=4, cells=8, k_max=3.0), q, 4)
     solver = PolynomialSolver(comm, nev=10)
     roots, dist = [], []
     for target in (-1j, -5j, -10j, -0.5 + 0j, -0.4j):
@@ -391,7 +391,7 @@ def test_symmetric_identical_stack_grows_when_velocity_weakening():
 def test_broken_symmetry_grows(bc, k, target):
     """Identical materials, H2 = H/2 (Delta = 0.7): a growing mode, confirmed by det_twobody."""
     p = Params(bc=bc, Delta=0.7, mu2=1.0, rho2=1.0, H2=0.25, bc2=bc)
-    model = LayeredModel(MPI.COMM_WORLD, stack_from_params(p, degree=4, k_max=10.0, n_max=1), p,
+    model = SectionModel(MPI.COMM_WORLD, stack_from_params(p, degree=4, k_max=10.0, n_max=1), p,
                          4)
     solver = PolynomialSolver(MPI.COMM_WORLD, nev=1)
     res = solver.solve(model.operator(k), target)

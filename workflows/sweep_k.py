@@ -46,6 +46,7 @@ from tqdm import tqdm  # noqa: E402
 
 from analytic.numerics.spectrum import Region  # noqa: E402
 from analytic.params import Params  # noqa: E402
+from forms.models.profiles import SliderMaterial, homogeneous_params, slider_material  # noqa: E402
 from forms.solvers.certified import ROW_FIELDS, KResult, default_discretisation  # noqa: E402
 from forms.studies import sweep  # noqa: E402
 
@@ -76,12 +77,38 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--degree", type=int, default=0, help="Lagrange degree 1..6 (0: auto, P4)")
     ap.add_argument("--cells", type=int, default=0,
                     help="cells of the interval mesh (0: chosen from the region and --rtol)")
+    m = ap.add_argument_group("slider (1D model; forms.models.profiles)")
+    m.add_argument("--model", default="section", help="section (homogeneous, default) or "
+                   "layers (--layers and/or profiles)")
+    m.add_argument("--layers", default=None, metavar="FILE",
+                   help="CSV y_top,mu,rho,beta, one layer per row from y = 0 up (--model layers)")
+    for name in ("mu", "rho", "beta"):
+        m.add_argument(f"--{name}-profile", default=None, metavar="EXPR",
+                       help=f"{name}(y) as an expression of y, e.g. '1 - 0.6*exp(-y/0.05)' "
+                       "(--model layers)")
     ap.add_argument("--out", default=os.path.join("out", "sweep_k"), help="output directory")
     ap.add_argument("--resume", action="store_true",
                     help="continue a sweep in --out with the same settings")
     ap.add_argument("--no-plot", action="store_true", help="skip dispersion.png")
     ap.add_argument("--quiet", action="store_true", help="no progress output")
     return ap
+
+
+def slider(args: argparse.Namespace, params: Params) -> tuple[Params, SliderMaterial | None]:
+    """The model of ``--model``: ``(params, material)`` (``None``: homogeneous slider).
+
+    The certified path needs the exact roots: a layers model is accepted when it is one
+    homogeneous layer (then ``H`` and ``beta`` come from its row); more needs the FE-first sweep.
+    """
+    material = slider_material(args.model, args.layers, args.mu_profile, args.rho_profile,
+                               args.beta_profile)
+    if material is None:
+        return params, None
+    exact = homogeneous_params(params, material)
+    if exact is None:
+        raise _cli.ParameterError("--model layers: only one layer with mu = rho = 1 and no "
+                                  "profile is allowed here (the certified sweep needs exact roots)")
+    return exact, material
 
 
 def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]:
@@ -91,7 +118,7 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
         ``(params, k, merged, region)``: ``k`` sorted and unique, ``merged`` the number of
         duplicate values dropped.
     """
-    params = _cli.params_from_args(args)
+    params, args.material = slider(args, _cli.params_from_args(args))
     if params.two_body and not math.isfinite(params.H2):
         raise _cli.ParameterError("H2 = inf is outside its allowed range here: the certified "
                                   "sweep needs a finite substrate (H2 > 0 finite)")
@@ -208,6 +235,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     config = {"params": params.as_dict(), "k": [float(v) for v in k],
               "region": region.as_dict(params), "rtol": args.rtol, "degree": disc[0],
               "cells": disc[1], "grading_ratio": ratio}
+    if args.material is not None:
+        config["material"] = args.material.as_dict()
     with _cli.RunFolder(comm, args.out, "sweep_k", config, resume=args.resume, resumable=True,
                         outputs=OUTPUTS) as run:
         out = run.path
@@ -229,7 +258,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
             bar = tqdm(total=len(mine), desc=f"k values (rank 0 of {comm.size})", unit="k",
                        file=sys.stderr)
         share = sweep.solve_k_values(params, region, disc, args.rtol, k, mine, fams, out,
-                                     bar.update if bar is not None else None)
+                                     bar.update if bar is not None else None, args.material)
         if bar is not None:
             bar.close()
         times = comm.gather({"rank": comm.rank, "families_s": t_fam, "solve_s": share.seconds,

@@ -3,7 +3,7 @@
 docs/design.md section 5, "Half-space". Above a physical region ``0 < y < h_phys`` a layer
 ``h_phys < y < h_phys + L`` maps ``y`` to the complex coordinate ``y~`` with
 ``dy~/dy = s(y)``; in the weak form ``d/dy -> (1/s) d/dy`` and ``dy -> s dy``
-(:func:`stretched_gradients`). The layer's top is clamped (``u = 0``). A partial wave
+(:class:`forms.models.section.SectionModel`). The layer's top is clamped (``u = 0``). A partial wave
 ``exp(-k_* y~)`` (``k_* = k_s`` or ``k_d``) then decays in the layer like
 ``exp(-Re(k_* s) (y - h_phys))``.
 
@@ -43,24 +43,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-import dolfinx
-import dolfinx.fem.petsc
-import ufl
 from mpi4py import MPI
 
 from analytic.params import Params
 from analytic.physics import finite_h
-from forms.elasticity import cross_section_gradients, mass_density, stiffness_density
-from forms.friction import (
-    DIRICHLET_DIAGONAL,
-    FrictionLaw,
-    FrictionOperator,
-    apply_dirichlet,
-    friction_operator,
-)
-from forms.models.cross_section import owned_global_rows
+from forms.friction import FrictionOperator
+from forms.models.section import SectionModel, Stack, pml_layers
 from forms.solvers.slepc import PolynomialSolver, SolveResult, SplitSolver
-from meshes.layered import geometric_sizes, interval_from_vertices, layer_count
+from meshes.layered import geometric_sizes, layer_count
 
 #: Cell size times |k_*| (in units of |y~|) per element degree. Measured (2026-11-21, default
 #: layer): P4 gives relative errors 2e-14 .. 1.3e-13 on the dilatational roots and
@@ -219,22 +209,19 @@ def design_layer(k: float, target: complex, beta: float, degree: int = 4, *,
                        attenuation=attenuation, vertices=vertices, budget_exceeded=budget)
 
 
-def stretched_gradients(u: ufl.core.expr.Expr, k: float, stretch: ufl.core.expr.Expr
-                        ) -> ufl.core.expr.Expr:
-    """Gradient of ``u_hat(y) exp(-i k x)`` in the stretched coordinate: ``G0/s + k G1``."""
-    g0, g1 = cross_section_gradients(u)
-    return g0 / stretch + k * g1
-
-
-class HalfSpaceModel:
+class HalfSpaceModel(SectionModel):
     """Cross-section operator ``T(Lambda)`` at one ``k`` with a PML layer on top.
 
-    Strong conditions: ``u_y(0) = 0`` and ``u = 0`` at the top of the layer; friction at
-    ``y = 0`` by the row operation of :mod:`forms.friction`.
+    A constructor of the one 1D model (:class:`forms.models.section.SectionModel`): a physical
+    layer ``0 < y < h_phys`` and the stretched layer of ``design``
+    (:func:`forms.models.section.pml_layers`), clamped at the top, on a rigid substrate. Strong
+    conditions: ``u_y(0) = 0`` and ``u = 0`` at the top of the layer; friction at ``y = 0`` by
+    the row operation of :mod:`forms.friction`. :attr:`op` is the operator at ``design.k``.
 
     Args:
         comm: Communicator of the mesh and matrices.
-        params: Physical parameters (``H`` and ``bc`` are ignored: half-space).
+        params: Physical parameters (``H``, ``bc`` and the substrate are ignored: half-space on
+            a rigid substrate).
         design: Layer (:func:`design_layer`).
         degree: Lagrange degree.
         form: ``"polynomial"`` (PEP) or ``"split"`` (NEP).
@@ -242,61 +229,10 @@ class HalfSpaceModel:
 
     def __init__(self, comm: MPI.Comm, params: Params, design: LayerDesign, degree: int = 4,
                  form: str = "polynomial") -> None:
-        self.comm, self.params, self.design = comm, params, design
-        self.degree, self.form = int(degree), form
-        self.law = FrictionLaw.from_params(params)
-        msh = interval_from_vertices(comm, design.vertices)
-        self.mesh = msh
-        self.V = V = dolfinx.fem.FunctionSpace(
-            msh, ufl.VectorElement("Lagrange", msh.ufl_cell(), self.degree, dim=2))
-        # Piecewise-constant stretch, set from the cell midpoints.
-        Q = dolfinx.fem.FunctionSpace(msh, ("DG", 0))  # noqa: N806
-        s = dolfinx.fem.Function(Q)
-        mid = Q.tabulate_dof_coordinates()[:, 0]
-        s.x.array[:] = np.where(mid > design.h_phys, design.stretch, 1.0 + 0j)
-        self.stretch = s
-
-        fdim = 0
-        bottom = dolfinx.mesh.locate_entities_boundary(msh, fdim, lambda x: np.isclose(x[0], 0.0))
-        top = dolfinx.mesh.locate_entities_boundary(
-            msh, fdim, lambda x: np.isclose(x[0], design.top))
-        tags = dolfinx.mesh.meshtags(msh, fdim, bottom, np.full(len(bottom), 1, dtype=np.int32))
-        ds = ufl.Measure("ds", domain=msh, subdomain_data=tags)
-        u, w = ufl.TrialFunction(V), ufl.TestFunction(V)
-        lmbda = params.lame_lambda
-        # ufl.inner conjugates the test side: give the test gradient conj(s) so that the
-        # form carries d/dy~ = (1/s) d/dy on both sides (bilinear in the stretch).
-        gu = stretched_gradients(u, design.k, s)
-        gw = stretched_gradients(w, design.k, ufl.conj(s))
-        stiffness = stiffness_density(gu, gw, lmbda, 1.0) * s * ufl.dx
-        mass = mass_density(u, w) * s * ufl.dx
-        imass = ufl.inner(u[0], w[0]) * ds(1)
-        assemble = dolfinx.fem.petsc.assemble_matrix
-        mats = [assemble(dolfinx.fem.form(a)) for a in (stiffness, mass, imass)]
-        for a in mats:
-            a.assemble()
-        loc = dolfinx.fem.locate_dofs_topological
-        x_bottom = owned_global_rows(V, loc(V.sub(0), fdim, bottom))
-        y_bottom = owned_global_rows(V, loc(V.sub(1), fdim, bottom))
-        clamp = [owned_global_rows(V, loc(V.sub(c), fdim, top)) for c in (0, 1)]
-        self.interface_x, self.interface_y = x_bottom, y_bottom
-        self.dirichlet_dofs = np.concatenate([y_bottom, *clamp])
-        self.op: FrictionOperator = friction_operator(self.law, *mats, x_bottom, y_bottom,
-                                                      form=form)
-        # Dirichlet rows read u_d = 0 for every Lambda: their eigenvalues sit at infinity.
-        apply_dirichlet(self.op.matrices, self.dirichlet_dofs, self.op.constant_term,
-                        DIRICHLET_DIAGONAL)
-        for a in mats:
-            a.destroy()
-
-    @property
-    def size(self) -> int:
-        """Global number of unknowns."""
-        return self.op.matrices[0].getSize()[0]
-
-    def destroy(self) -> None:
-        """Destroy the PETSc matrices."""
-        self.op.destroy()
+        self.design = design
+        stack = Stack(pml_layers(design, "slider", beta=params.beta), top="clamped")
+        super().__init__(comm, stack, params, degree, form)
+        self.op: FrictionOperator = self.operator(design.k)
 
 
 @dataclass

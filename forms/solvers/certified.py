@@ -39,7 +39,8 @@ from analytic.numerics.branches import BranchResult
 from analytic.numerics.roots import ContourError
 from analytic.numerics.spectrum import Region, certified_roots
 from analytic.params import Params
-from forms.models.cross_section import CrossSectionModel
+from forms.models.profiles import SliderMaterial
+from forms.models.section import SectionModel, section_stack
 from forms.solvers.banded import BandedModel
 
 #: Columns of one spectrum row, in CSV order.
@@ -133,26 +134,19 @@ class CertifiedSolver:
         ratio: Grading ratio of the mesh.
         k_max: Largest ``k`` of the sweep.
         rtol: Relative accuracy a row must reach to be ``ok``.
+        material: Layers/profiles of the slider (:func:`forms.models.profiles.slider_material`;
+            ``None``: homogeneous).
     """
 
     def __init__(self, params: Params, region: Region, degree: int, cells: int, ratio: float,
-                 k_max: float, rtol: float) -> None:
+                 k_max: float, rtol: float, material: SliderMaterial | None = None) -> None:
         self.params, self.region, self.rtol = params, region, rtol
-        if params.two_body:
-            # two deformable bodies: the layered model (identical to CrossSectionModel for a
-            # rigid substrate), the substrate meshed by the same rule (its own wave speed)
-            from forms.models.layered import LayeredModel, stack_from_params
-
-            self.cells2 = substrate_cells(params, region, k_max, rtol)
-            stack = stack_from_params(params, degree=degree, cells=cells, cells2=self.cells2,
-                                      k_max=k_max, ratio=ratio, ratio2=1.0)
-            self.models = [LayeredModel(MPI.COMM_SELF, stack, params, degree=d)
-                           for d in (degree, degree + 1)]
-        else:
-            self.cells2 = 0
-            kw = {"cells": cells, "k_max": k_max, "ratio": ratio, "form": "polynomial"}
-            self.models = [CrossSectionModel(MPI.COMM_SELF, params, degree=degree, **kw),
-                           CrossSectionModel(MPI.COMM_SELF, params, degree=degree + 1, **kw)]
+        # the one 1D model; rigid and homogeneous it is the CrossSectionModel of these cells
+        self.cells2 = substrate_cells(params, region, k_max, rtol) if params.two_body else 0
+        stack = section_stack(params, material, degree=degree, cells=cells, k_max=k_max,
+                              ratio=ratio, cells2=self.cells2 or None, ratio2=1.0)
+        self.models = [SectionModel(MPI.COMM_SELF, stack, params, degree=d)
+                       for d in (degree, degree + 1)]
         self.banded = [BandedModel(m) for m in self.models]
         self.degree, self.cells, self.ratio = degree, cells, ratio
 

@@ -12,7 +12,7 @@ flagged by the reflection estimate), one row each with the errors against the ex
 Two bodies (a half-space slider on a deformable substrate of finite ``H2``): the exact roots
 are every root of :func:`analytic.physics.twobody.det_twobody` in boxes under the slider's shear
 cut (:func:`two_body_roots`), and :func:`solve_two_body_k` computes each with the one 1D model
-of layers (:class:`forms.models.layered.LayeredModel` on :func:`forms.models.layered.pml_stack`,
+of layers (:class:`forms.models.section.SectionModel` on :func:`forms.models.section.pml_stack`,
 PML on top of the slider) at two layer settings; no truncated strips.
 """
 
@@ -30,8 +30,8 @@ from mpi4py import MPI
 from analytic.numerics.branches import roots_in_box
 from analytic.params import Params
 from analytic.physics.halfspace import HalfSpaceRoot
-from forms.models.layered import LayeredModel, pml_stack
 from forms.models.pml import solve_halfspace, solve_truncated
+from forms.models.section import SectionModel, pml_stack
 from forms.solvers.slepc import PolynomialSolver
 
 #: Keys of a row of :func:`solve_k` (the CSV columns, in order).
@@ -148,7 +148,7 @@ def two_body_roots(p: Params, ks: Sequence[float], re_max: float = 2.0,
 def _pml_solve(comm: MPI.Comm, p: Params, k: float, target: complex, degree: int,
                attenuation: float) -> tuple[complex, float, int]:
     """``(Lambda, residual, unknowns)`` of the layered model with a PML, nearest ``target``."""
-    model = LayeredModel(comm, pml_stack(p, k, target, degree=degree, attenuation=attenuation),
+    model = SectionModel(comm, pml_stack(p, k, target, degree=degree, attenuation=attenuation),
                          p, degree=degree)
     solver = PolynomialSolver(comm, nev=1, prefix="pml_")
     try:

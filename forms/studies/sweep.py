@@ -34,6 +34,7 @@ import numpy as np
 from analytic.numerics.branches import BranchResult
 from analytic.numerics.spectrum import FamilyPlan, Region, follow_family, plan_families, plan_items
 from analytic.params import Params
+from forms.models.profiles import SliderMaterial
 from forms.solvers.certified import CertifiedSolver, KResult
 
 #: What ``summary.json`` says the certificate of the most unstable eigenvalue states.
@@ -148,7 +149,8 @@ class ShareRun:
 
 def solve_k_values(params: Params, region: Region, discretisation: tuple[int, int, float],
                    rtol: float, k: np.ndarray, mine: Sequence[int], fams: list[BranchResult],
-                   folder: str, progress: Callable[[], object] | None = None) -> ShareRun:
+                   folder: str, progress: Callable[[], object] | None = None,
+                   material: SliderMaterial | None = None) -> ShareRun:
     """The certified spectrum at ``k[i]`` for each ``i`` of ``mine``, each written to its file.
 
     One :class:`forms.solvers.certified.CertifiedSolver` (on ``COMM_SELF``, for ``k`` up to
@@ -166,10 +168,12 @@ def solve_k_values(params: Params, region: Region, discretisation: tuple[int, in
         fams: The followed families (:func:`follow_families`).
         folder: The run folder (``folder/raw`` exists).
         progress: Called after every finished ``k`` (e.g. a progress bar's update).
+        material: The slider's layers/profiles (``None``: homogeneous), see
+            :func:`forms.models.section.section_stack`.
     """
     t0 = time.perf_counter()
     degree, cells, ratio = discretisation
-    solver = CertifiedSolver(params, region, degree, cells, ratio, float(k[-1]), rtol)
+    solver = CertifiedSolver(params, region, degree, cells, ratio, float(k[-1]), rtol, material)
     try:
         for i in mine:
             write_json(raw_file(folder, i), solver.solve(float(k[i]), fams).as_dict())

@@ -35,12 +35,72 @@ EXIT_USAGE = 2
 EXIT_FLAGGED = 1
 
 
-def _rank() -> int:
-    """Rank under mpirun, from its environment (this package does not use MPI itself)."""
+def rank() -> int:
+    """This process's rank in MPI_COMM_WORLD, also before or without ``MPI_Init``.
+
+    From mpi4py if it is imported and initialised (this module never imports it), else from
+    mpirun's environment; 0 without mpirun.
+    """
+    mpi = sys.modules.get("mpi4py.MPI")
+    if mpi is not None and mpi.Is_initialized() and not mpi.Is_finalized():
+        return mpi.COMM_WORLD.rank
     for var in ("OMPI_COMM_WORLD_RANK", "PMIX_RANK", "PMI_RANK"):
         if var in os.environ:
             return int(os.environ[var])
     return 0
+
+
+def world_size() -> int:
+    """Number of ranks of the job (1 when not under mpirun); see :func:`rank`."""
+    mpi = sys.modules.get("mpi4py.MPI")
+    if mpi is not None and mpi.Is_initialized() and not mpi.Is_finalized():
+        return mpi.COMM_WORLD.size
+    for var in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE"):
+        if var in os.environ:
+            return int(os.environ[var])
+    return 1
+
+
+_VERSIONS: dict[str, str] = {}
+_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def versions() -> dict[str, str]:
+    """Versions of Python, the numerical stack, the project (git) and the machine (cached).
+
+    Read from the installed package metadata, so it imports nothing heavy; PETSc/SLEPc library
+    versions are added once petsc4py/slepc4py are initialised. The one provenance record of
+    the project (JSON files, PNG text chunks).
+    """
+    if not _VERSIONS:
+        import platform
+        import subprocess
+        from importlib import metadata
+
+        out = {"python": platform.python_version()}
+        for dist, key in (("numpy", "numpy"), ("scipy", "scipy"), ("matplotlib", "matplotlib"),
+                          ("fenics-dolfinx", "dolfinx"), ("fenics-ffcx", "ffcx"),
+                          ("petsc4py", "petsc4py"), ("slepc4py", "slepc4py"),
+                          ("mpi4py", "mpi4py"), ("pyvista", "pyvista")):
+            with contextlib.suppress(metadata.PackageNotFoundError):
+                out[key] = metadata.version(dist)
+        try:
+            out["git"] = subprocess.run(["git", "-C", _ROOT, "rev-parse", "--short", "HEAD"],
+                                        capture_output=True, text=True,
+                                        timeout=10).stdout.strip() or "unknown"
+        except (OSError, subprocess.SubprocessError):
+            out["git"] = "unknown"
+        out["machine"] = f"{platform.platform()}, {os.cpu_count()} cores"
+        _VERSIONS.update(out)
+    if "petsc4py.PETSc" in sys.modules and "petsc" not in _VERSIONS:
+        from petsc4py import PETSc
+
+        _VERSIONS["petsc"] = ".".join(map(str, PETSc.Sys.getVersion()))
+    if "slepc4py.SLEPc" in sys.modules and "slepc" not in _VERSIONS:
+        from slepc4py import SLEPc
+
+        _VERSIONS["slepc"] = ".".join(map(str, SLEPc.Sys.getVersion()))
+    return dict(_VERSIONS)
 
 
 def add_param_arguments(parser: argparse.ArgumentParser, defaults: Params | None = None) -> None:
@@ -215,7 +275,7 @@ def _dispersion(args: argparse.Namespace) -> int:
     positive_int("--branches", args.branches, 1, 20)
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise ParameterError(f"--out = {args.out!r} exists and is not a directory")
-    if _rank() != 0:
+    if rank() != 0:
         return 0  # every rank checked the input; rank 0 writes
     files = write_dispersion(p, k, args.branches, args.out)
     for f in files:
@@ -303,7 +363,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point: returns the exit code (2 on bad input, one line on stderr; 1 if flagged)."""
-    quiet = _rank() != 0
+    quiet = rank() != 0
     try:
         with open(os.devnull, "w") as null, contextlib.redirect_stdout(null if quiet else
                                                                            sys.stdout), \

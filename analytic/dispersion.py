@@ -5,22 +5,14 @@ from __future__ import annotations
 import csv
 import json
 import os
-import platform
 import sys
 
 import numpy as np
 
+from analytic.cli import versions
 from analytic.numerics.branches import BranchResult, follow_branches
 from analytic.params import Params
 from analytic.physics.smallk import lambda_smallk
-
-
-def _versions() -> dict[str, str]:
-    import matplotlib
-    import scipy
-
-    return {"python": platform.python_version(), "numpy": np.__version__,
-            "scipy": scipy.__version__, "matplotlib": matplotlib.__version__}
 
 
 def plot_dispersion(p: Params, results: list[BranchResult], path: str,
@@ -102,7 +94,7 @@ def write_dispersion(p: Params, k: np.ndarray, n_branches: int, out: str) -> lis
                        for r in results},
         "notes": [r.note for r in results if r.note],
         "command": " ".join(sys.argv),
-        "versions": _versions(),
+        "versions": versions(),
     }
     json_path = os.path.join(out, "dispersion.json")
     with open(json_path, "w") as fh:

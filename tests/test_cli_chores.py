@@ -265,7 +265,7 @@ def test_interrupted_run_says_resume_continues(tmp_path, nproc):
     assert proc.returncode != 0, err[-2000:]
     said = [ln for ln in _lines(err) if "--resume" in ln]
     assert len(said) == 1, err[-2000:]
-    assert ("interrupted (Ctrl-C)" if nproc == 1 else "stopped") in said[0]
+    assert ("stopped by SIGINT (Ctrl-C)" if nproc == 1 else "stopped") in said[0]
     assert str(out) in said[0]
     assert not (out / _cli.LOCK).exists()
     assert len(_csv_rows(out)) >= 2

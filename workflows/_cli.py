@@ -60,7 +60,15 @@ from _options import (
     split_petsc,
     start,
 )
-from _provenance import add_png_metadata, command, dumps, json_safe, png_metadata, versions
+from _provenance import (
+    add_png_metadata,
+    command,
+    dumps,
+    json_dump,
+    json_safe,
+    png_metadata,
+    versions,
+)
 from _runfolder import LOCK, LOCK_GRACE, RECORD, RunFolder
 from _sharing import map_shared, my_share, quiet_jit, rank, say, share_by_cost, world_size
 from _supervise import EXIT_FAILED, EXIT_USAGE, run

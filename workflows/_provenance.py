@@ -23,7 +23,7 @@ from _sharing import world_size
 
 from analytic.cli import versions
 
-__all__ = ["add_png_metadata", "command", "describe_difference", "dumps", "json_safe",
+__all__ = ["add_png_metadata", "command", "describe_difference", "dumps", "json_dump", "json_safe",
            "png_metadata", "set_argv", "versions"]
 
 _ARGV: dict[str, list[str] | None] = {"argv": None}
@@ -144,3 +144,9 @@ def describe_difference(old: Any, new: Any) -> str | None:
     if diff is None:
         return None
     return f"{diff} = {_short(_lookup(old, diff))} there, {_short(_lookup(new, diff))} now"
+
+
+def json_dump(obj: Any, fh: Any, **kwargs: Any) -> None:
+    """``json.dump`` in strict JSON (:func:`dumps`; a ``default`` argument is not needed)."""
+    kwargs.pop("default", None)
+    fh.write(dumps(obj, **kwargs) + "\n")

@@ -83,12 +83,13 @@ def save_figure(fig: Any, path: str, **kwargs: Any) -> None:
 
 
 @contextlib.contextmanager
-def atomic_files(folder: str, names: Sequence[str], comm: Any = None) -> Iterator[str]:
-    """A temporary folder inside ``folder`` in which a library writes ``names``; moved on success.
+def atomic_files(folder: str, last: Sequence[str] = (), comm: Any = None) -> Iterator[str]:
+    """A temporary folder inside ``folder`` for a library's files; moved into ``folder`` on success.
 
-    ``names`` are moved in order (put the file that refers to the others, e.g. ``mode.xdmf``
-    after ``mode.h5``, last). With ``comm`` (a collective writer) rank 0 creates, moves and
-    removes, between barriers. On an exception the temporary folder is removed.
+    Every file written there is moved, the names in ``last`` at the end in their order (the
+    file that refers to the others, e.g. ``mode.xdmf`` after ``mode.h5``). With ``comm`` (a
+    collective writer) rank 0 creates, moves and removes, between barriers. On an exception
+    the temporary folder is removed and nothing is moved.
     """
     tmp = os.path.join(folder, f"{PARTIAL}{os.getpid()}")
     if comm is not None:
@@ -103,6 +104,7 @@ def atomic_files(folder: str, names: Sequence[str], comm: Any = None) -> Iterato
         if comm is not None:
             comm.barrier()
         if lead:
+            names = sorted(n for n in os.listdir(tmp) if n not in last) + list(last)
             for name in names:
                 os.replace(os.path.join(tmp, name), os.path.join(folder, name))
     finally:

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import os
 
 import _cli
@@ -41,7 +40,7 @@ OUTPUTS = ("benchmark.json", "convergence.csv", "convergence.png", "run.json", "
 def convergence(out: str) -> dict:
     """Section 5: relative error at the check point for P1..P4; observed orders (CSV, PNG)."""
     rows = bench.convergence(bench.CONVERGENCE_CELLS)
-    with open(os.path.join(out, "convergence.csv"), "w", newline="") as fh:
+    with _cli.atomic_open(os.path.join(out, "convergence.csv"), "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
@@ -70,7 +69,7 @@ def plot_convergence(path: str, rows: list[dict], cells: dict) -> None:
     ax.legend()
     ax.grid(True, which="both", lw=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=130, metadata=_cli.png_metadata(
+    _cli.save_figure(fig, path, dpi=130, metadata=_cli.png_metadata(
         {"cells": cells}, "h-convergence of the cross-section model"))
     plt.close(fig)
 
@@ -101,8 +100,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         report["convergence"] = convergence(run.path)
         report["versions"] = _cli.versions()
         report["command"] = _cli.command()
-        with open(run.file("benchmark.json"), "w") as fh:
-            json.dump(report, fh, indent=1)
+        with _cli.atomic_open(run.file("benchmark.json"), "w") as fh:
+            _cli.json_dump(report, fh, indent=1)
     r = report["speed"]["ratios"]
     print(f"per branch point: analytic certified / baseline = "
           f"{r['analytic_certified_over_baseline']:.2f} (target <= 10), FE / baseline = "

@@ -195,7 +195,8 @@ def plot_dispersion(path: str, params: Params, region: Region, results: list[KRe
         title += f", alpha_pc={p.alpha_pc:g}, alpha_ld={p.alpha_ld:g}"
     ax1.set_title(title, fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=130, metadata=_cli.png_metadata(parameters, "certified dispersion"))
+    _cli.save_figure(fig, path, dpi=130,
+                     metadata=_cli.png_metadata(parameters, "certified dispersion"))
     plt.close(fig)
 
 

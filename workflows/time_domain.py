@@ -220,10 +220,10 @@ def _summarise(args: argparse.Namespace, params: object, td: object, mode: objec
                          nx=args.wavelengths * args.cells_per_wavelength, ny=args.ny,
                          cell=args.cell, friction_theta=args.friction_theta, t_end=t_end,
                          inputs={"amplitude": args.amplitude, "linear_limit": args.linear_limit},
-                         setup_time=setup_time, command=" ".join([sys.executable] + sys.argv),
+                         setup_time=setup_time, command=_cli.command(),
                          versions=_cli.versions())
-    with open(os.path.join(args.out, "summary.json"), "w") as fh:
-        json.dump(summary, fh, indent=1)
+    with _cli.atomic_open(os.path.join(args.out, "summary.json"), "w") as fh:
+        _cli.json_dump(summary, fh, indent=1)
     if not args.no_plots:
         plot_all(args.out, figure_data(data, frames, exact, summary["window"],
                                        summary["measured"]), frames, summary, exact,
@@ -236,9 +236,8 @@ def _summarise(args: argparse.Namespace, params: object, td: object, mode: objec
 
 def _plot_save(fig, path: str, summary: dict) -> None:  # noqa: ANN001
     """Save ``fig`` with the run's command and parameters as PNG metadata."""
-    meta = {"Title": os.path.basename(path), "Description": summary["command"],
-            "Comment": json.dumps(summary["parameters"], default=str)}
-    fig.savefig(path, dpi=120, metadata=meta)
+    meta = _cli.png_metadata(summary["parameters"], os.path.basename(path))
+    _cli.save_figure(fig, path, dpi=120, metadata=meta)
 
 
 def plot_all(out: str, fig_data: dict, frames: dict, summary: dict, exact: complex,

@@ -103,6 +103,61 @@ def versions() -> dict[str, str]:
     return dict(_VERSIONS)
 
 
+def json_safe(obj: object) -> object:
+    """``obj`` with every non-finite float replaced: NaN -> ``None``, +-inf -> ``"inf"``/``"-inf"``.
+
+    The project's JSON convention (strict JSON that any parser reads; docs/workflows.md).
+    Dicts, lists, tuples and numpy arrays/scalars are walked; a complex number or anything
+    else JSON cannot hold becomes its ``str``.
+    """
+    if obj is None or isinstance(obj, (bool, int, str)):
+        return obj
+    if isinstance(obj, float):
+        if math.isnan(obj):
+            return None
+        if math.isinf(obj):
+            return "inf" if obj > 0 else "-inf"
+        return obj
+    if isinstance(obj, dict):
+        return {str(k): json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_safe(v) for v in obj]
+    tolist = getattr(obj, "tolist", None)  # numpy arrays and scalars
+    if callable(tolist):
+        return json_safe(tolist())
+    if isinstance(obj, complex):
+        return str(obj)
+    try:
+        return json_safe(float(obj))  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return str(obj)
+
+
+def dumps(obj: object, **kwargs: object) -> str:
+    """Strict JSON of ``obj`` (:func:`json_safe`; ``allow_nan=False`` as a guard)."""
+    return json.dumps(json_safe(obj), allow_nan=False, **kwargs)  # type: ignore[arg-type]
+
+
+def _is_number(token: str) -> bool:
+    try:
+        complex(token.replace("i", "j"))
+    except ValueError:
+        return False
+    return True
+
+
+def attach_negative_values(argv: Sequence[str]) -> list[str]:
+    """``--opt -1e6`` -> ``--opt=-1e6`` (argparse would read ``-1e6`` as an option)."""
+    out: list[str] = []
+    for tok in argv:
+        if (out and tok.startswith("-") and _is_number(tok) and out[-1].startswith("--")
+                and "=" not in out[-1]):
+            out[-1] = f"{out[-1]}={tok}"
+        else:
+            out.append(tok)
+    return out
+
+
 def add_param_arguments(parser: argparse.ArgumentParser, defaults: Params | None = None) -> None:
     """Add the physical parameters to ``parser``.
 
@@ -174,8 +229,12 @@ def parse_k(spec: str, name: str = "--k") -> np.ndarray:
                                  f"start = {parts[0]}")
         values = np.linspace(start, stop, count)
     else:
+        items = s.split(",")
+        if any(not v.strip() for v in items):
+            raise ParameterError(f"{name} = {spec!r} has an empty item (two commas, or a comma "
+                                 "at an end): give k1,k2,... with a number between commas")
         try:
-            values = np.array([float(v) for v in s.split(",") if v.strip()])
+            values = np.array([float(v) for v in items])
         except ValueError:
             raise malformed from None
     return check_k(values, name=name.lstrip("-"))
@@ -263,7 +322,7 @@ def _units(args: argparse.Namespace) -> int:
         "units": {"t0_s": c.t0, "length_m": c.length, "c_s_m_per_s": c.c_s,
                   "c_d_m_per_s": c.c_d},
     }
-    print(json.dumps(out, indent=2))
+    print(dumps(out, indent=2))
     return 0
 
 
@@ -287,7 +346,7 @@ def _gr(args: argparse.Namespace) -> int:
     from analytic.physics.twobody import generalized_rayleigh
 
     g = generalized_rayleigh(args.mu2, args.rho2, args.beta, args.beta2)
-    print(json.dumps(g.as_dict()))
+    print(dumps(g.as_dict()))
     return 0
 
 
@@ -368,7 +427,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         with open(os.devnull, "w") as null, contextlib.redirect_stdout(null if quiet else
                                                                            sys.stdout), \
                 contextlib.redirect_stderr(null if quiet else sys.stderr):
-            args = build_parser().parse_args(argv)
+            args = build_parser().parse_args(
+                attach_negative_values(sys.argv[1:] if argv is None else argv))
             return int(args.func(args) or 0)
     except ParameterError as err:
         if not quiet:

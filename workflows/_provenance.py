@@ -4,16 +4,15 @@
   ranks; :func:`versions` (from :mod:`analytic.cli`, one definition in the project).
 - :func:`png_metadata` / :func:`add_png_metadata`: PNG text chunks (``Description``: command,
   ``Comment``: parameters, ``Software``: versions).
-- :func:`json_safe` / :func:`dumps`: standard JSON that any parser reads. Non-finite numbers
-  follow one convention: ``NaN`` is written as ``null``, ``+inf`` / ``-inf`` as the strings
-  ``"inf"`` / ``"-inf"`` (so a rigid substrate is ``"mu2": "inf"``); never bare ``NaN`` or
+- :func:`json_safe` / :func:`dumps` (from :mod:`analytic.cli`): standard JSON that any parser
+  reads. Non-finite numbers follow one convention: ``NaN`` is written as ``null``, ``+inf`` /
+  ``-inf`` as the strings ``"inf"`` / ``"-inf"`` (so a rigid substrate is ``"mu2": "inf"``); never bare ``NaN`` or
   ``Infinity``.
 """
 
 from __future__ import annotations
 
 import json
-import math
 import shlex
 import sys
 from collections.abc import Sequence
@@ -21,7 +20,7 @@ from typing import Any
 
 from _sharing import world_size
 
-from analytic.cli import versions
+from analytic.cli import dumps, json_safe, versions
 
 __all__ = ["add_png_metadata", "command", "describe_difference", "dumps", "json_dump", "json_safe",
            "png_metadata", "set_argv", "versions"]
@@ -32,42 +31,6 @@ _ARGV: dict[str, list[str] | None] = {"argv": None}
 def set_argv(argv: Sequence[str]) -> None:
     """Record the arguments of this run (:func:`command` shows them)."""
     _ARGV["argv"] = list(argv)
-
-
-def json_safe(obj: Any) -> Any:
-    """``obj`` with every non-finite float replaced: NaN -> ``None``, +-inf -> ``"inf"``/``"-inf"``.
-
-    Dicts, lists, tuples and numpy arrays/scalars are walked; anything else JSON cannot hold
-    becomes its ``str``.
-    """
-    if isinstance(obj, bool) or obj is None or isinstance(obj, str):
-        return obj
-    if isinstance(obj, int):
-        return obj
-    if isinstance(obj, float):
-        if math.isnan(obj):
-            return None
-        if math.isinf(obj):
-            return "inf" if obj > 0 else "-inf"
-        return obj
-    if isinstance(obj, dict):
-        return {str(k): json_safe(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [json_safe(v) for v in obj]
-    tolist = getattr(obj, "tolist", None)  # numpy arrays and scalars
-    if callable(tolist):
-        return json_safe(tolist())
-    if isinstance(obj, complex):
-        return str(obj)
-    try:
-        return json_safe(float(obj))
-    except (TypeError, ValueError):
-        return str(obj)
-
-
-def dumps(obj: Any, **kwargs: Any) -> str:
-    """Strict JSON of ``obj`` (:func:`json_safe`; ``allow_nan=False`` as a guard)."""
-    return json.dumps(json_safe(obj), allow_nan=False, **kwargs)
 
 
 def command() -> str:

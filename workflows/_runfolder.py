@@ -141,11 +141,12 @@ class RunFolder:
 
     def holds_outputs(self) -> bool:
         """Whether the folder holds anything besides its record, lock and partial files."""
-        try:
-            names = os.listdir(self.path)
-        except OSError:
-            return False
-        return any(n not in (RECORD, LOCK) and PARTIAL not in n for n in names)
+        for top, dirs, files in os.walk(self.path):
+            dirs[:] = [d for d in dirs if PARTIAL not in d]
+            if any(PARTIAL not in f and (top != self.path or f not in (RECORD, LOCK))
+                   for f in files):
+                return True
+        return False
 
     def __enter__(self) -> RunFolder:
         return self.open()

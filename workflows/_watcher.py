@@ -16,10 +16,11 @@ RECORD, LOCK, PARTIAL = "run.json", "run.lock", ".partial"
 
 
 def _holds_outputs(folder: str) -> bool:
-    try:
-        return any(n not in (RECORD, LOCK) and PARTIAL not in n for n in os.listdir(folder))
-    except OSError:
-        return False
+    for top, dirs, files in os.walk(folder):
+        dirs[:] = [d for d in dirs if PARTIAL not in d]
+        if any(PARTIAL not in f and (top != folder or f not in (RECORD, LOCK)) for f in files):
+            return True
+    return False
 
 
 def _remove_lock(folder: str, pid: int) -> None:

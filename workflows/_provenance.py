@@ -6,8 +6,8 @@
   ``Comment``: parameters, ``Software``: versions).
 - :func:`json_safe` / :func:`dumps` (from :mod:`analytic.cli`): standard JSON that any parser
   reads. Non-finite numbers follow one convention: ``NaN`` is written as ``null``, ``+inf`` /
-  ``-inf`` as the strings ``"inf"`` / ``"-inf"`` (so a rigid substrate is ``"mu2": "inf"``); never bare ``NaN`` or
-  ``Infinity``.
+  ``-inf`` as the strings ``"inf"`` / ``"-inf"`` (so a rigid substrate is ``"mu2": "inf"``);
+  never bare ``NaN`` or ``Infinity``.
 """
 
 from __future__ import annotations

@@ -111,6 +111,7 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
         region = Region(args.re_min, args.re_max, args.c_max, args.omega0 or None)
     except _cli.ParameterError as err:
         raise _cli.ParameterError("--" + str(err).replace("_", "-", 1)) from None
+    _cli.check_sweep_limits(params, k, region)
     return params, k, len(k_all) - len(k), region
 
 

@@ -10,7 +10,7 @@ import numpy as np
 from analytic.cli import parse_k
 from analytic.params import ParameterError
 
-__all__ = ["SWEEP_WH_MAX", "SWEEP_W_MAX", "check_sweep_limits", "parse_grid"]
+__all__ = ["SWEEP_DELTA_MAX", "SWEEP_WH_MAX", "SWEEP_W_MAX", "check_sweep_limits", "parse_grid"]
 
 
 def parse_grid(spec: str, name: str = "--k", max_count: int = 100000) -> np.ndarray:
@@ -42,6 +42,9 @@ def parse_grid(spec: str, name: str = "--k", max_count: int = 100000) -> np.ndar
 #: regions.
 SWEEP_WH_MAX = 70.0
 SWEEP_W_MAX = 500.0
+#: |Delta| at k = 1: Delta = -10 took 13 s, -1000 took 45 s with 4 of 13 roots flagged, -1e6
+#: more than 150 s without a line (issue 18): the friction law's rate term stiffens the roots.
+SWEEP_DELTA_MAX = 1000.0
 
 
 def check_sweep_limits(params: Any, k: np.ndarray, region: Any) -> None:
@@ -56,6 +59,10 @@ def check_sweep_limits(params: Any, k: np.ndarray, region: Any) -> None:
         ParameterError: One line naming the limit (:data:`SWEEP_WH_MAX`, :data:`SWEEP_W_MAX`)
             and why.
     """
+    if abs(params.Delta) > SWEEP_DELTA_MAX:
+        raise ParameterError(f"Delta = {params.Delta:g} is outside [-{SWEEP_DELTA_MAX:g}, "
+                             f"{SWEEP_DELTA_MAX:g}], the range in which the certified sweep "
+                             "closes its root counts in bounded time")
     kmax = float(np.max(k))
     w = region.im_max(params, kmax)
     if w > SWEEP_W_MAX:

@@ -228,7 +228,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         mine = [todo[j] for j in _cli.my_share(comm, sweep.k_costs(params, region, k, todo))]
         bar = None
         if comm.rank == 0 and not args.quiet and mine:
-            bar = tqdm(total=len(mine), desc=f"k values (rank 0 of {comm.size})", unit="k",
+            bar = tqdm(total=len(mine), desc=f"k values (rank 0 of {comm.size})", unit=" k values",
                        file=sys.stderr)
         share = sweep.solve_k_values(params, region, disc, args.rtol, k, mine, fams, out,
                                      bar.update if bar is not None else None)
@@ -268,7 +268,7 @@ def report(summary: dict, n_k: int, wall: float, ranks: int, out: str, quiet: bo
               f"eigenvalue(s) flagged, count not closed at {len(cert['k_not_closed'])}"
               f" of {n_k} k value(s); see status in {out}/spectrum.csv", file=sys.stderr)
     best = summary["most_unstable"]
-    if best is not None and not quiet:
+    if best is not None:  # the result line, also with --quiet (it removes progress only)
         sure = "certified" if best["certificate"]["certified"] else "NOT certified"
         print(f"most unstable ({sure}): {best['branch']} at k = {best['k']:.6g}: "
               f"Lambda = {best['re_lambda']:.10g} {best['im_lambda']:+.10g}i "

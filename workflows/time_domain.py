@@ -200,7 +200,8 @@ def _run(args: argparse.Namespace, comm: object, params: object, law: object) ->
                               args.frame_every or max(1, int(round(period / 32 / td.dt))),
                               args.linear_limit, args.friction_theta, theta_switch,
                               progress=bar.update if bar is not None else None)
-    if bar is not None:
+    if bar is not None:  # progress comes every 50 steps: the bar ends at the steps done
+        bar.total = bar.n = td.step
         bar.close()
     if comm.rank == 0:
         _summarise(args, params, td, mode, label, exact, period, t_end, outcome, setup_time)

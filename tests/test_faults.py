@@ -47,7 +47,8 @@ SCENES = {
     "envelope.py": ["--k", "1,2"],
     "contrast.py": ["--mu2-grid", "3", "--H2s", "H", "--k", "1"],
     "mode_shape.py": ["--source", "cross-section", "--no-render", "--phases", "1"],
-    "time_domain.py": ["--nx", "8", "--ny", "4", "--degree", "1", "--t-end", "1"],
+    "time_domain.py": ["--cells-per-wavelength", "16", "--ny", "4", "--amplitude", "1e-6",
+                       "--quiet", "--chunk", "20", "--t-end", "1"],
 }
 #: Seconds a cheap scene run may take on the loaded 2-core machine (measured: 4-40 s).
 QUICK = 180

@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import csv
 import os
+import sys
 
 import _cli
 import numpy as np
@@ -103,6 +104,11 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         with _cli.atomic_open(run.file("benchmark.json"), "w") as fh:
             _cli.json_dump(report, fh, indent=1)
     r = report["speed"]["ratios"]
+    missed = [name for name, ok in (
+        ("analytic/baseline <= 10", r["analytic_certified_over_baseline"] <= 10),
+        ("FE/baseline <= 20", r["fe_over_baseline"] <= 20),
+        ("MPI >= 0.9", report.get("mpi", {}).get("speedup_fraction_of_two_copy_throughput",
+                                                  1.0) >= 0.9)) if not ok]
     print(f"per branch point: analytic certified / baseline = "
           f"{r['analytic_certified_over_baseline']:.2f} (target <= 10), FE / baseline = "
           f"{r['fe_over_baseline']:.2f} (target <= 20)")
@@ -112,6 +118,9 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
               f"{m['speedup_fraction_of_two_copy_throughput']:.2f} of the two-copy throughput "
               f"{m['two_copy_throughput']:.2f} (target >= 0.9); post-processing "
               f"{100 * m['post_processing_share_2_ranks']:.1f} % of the 2-rank wall time")
+    if missed:  # an honest exit code: a missed target is not a success
+        print(f"missed target(s): {', '.join(missed)}; exit code 1", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -372,7 +372,8 @@ def _dispersion(args: argparse.Namespace) -> int:
 def _gr(args: argparse.Namespace) -> int:
     from analytic.physics.twobody import generalized_rayleigh
 
-    g = generalized_rayleigh(args.mu2, args.rho2, args.beta, args.beta2)
+    with np.errstate(all="ignore"):  # mu2 = 1e-300 is answered right, with overflow warnings
+        g = generalized_rayleigh(args.mu2, args.rho2, args.beta, args.beta2)
     print(dumps(g.as_dict()))
     return 0
 

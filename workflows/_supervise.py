@@ -114,11 +114,21 @@ def _stop(line: str, code: int, *, everyone: bool = False) -> None:
 
 
 def _on_signal(signum: int, frame: object) -> None:
-    """SIGTERM/SIGHUP/SIGINT reaching Python: one line, exit ``128 + signum``."""
+    """SIGTERM/SIGHUP/SIGINT reaching Python: one line, exit ``128 + signum``.
+
+    Serially the process prints it; under mpirun, which stops forwarding the ranks' output once
+    it stops the job, rank 0's watcher writes it to mpirun's own stderr.
+    """
     name = signal.Signals(signum).name
     cause = ("Ctrl-C" if signum == signal.SIGINT else
              "under mpirun: another rank failed or was killed, Ctrl-C, or a kill")
-    _stop(f"stopped by {name} ({cause}); {what_to_do()}", 128 + signum)
+    line = f"stopped by {name} ({cause}); {what_to_do()}"
+    if world_size() == 1:
+        _stop(line, 128 + signum)
+    _tell_watcher("why", line.split("; ")[0])
+    _close_folder(failed=True)
+    _flush()
+    os._exit(128 + signum)
 
 
 def run(main: Callable[..., int | None]) -> None:

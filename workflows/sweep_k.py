@@ -252,7 +252,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
             wall = time.perf_counter() - t_start
             summary["timing_s"] = {"wall": wall, "post_processing_rank0": time.perf_counter()
                                    - t2}
-            sweep.write_json(os.path.join(out, "summary.json"), summary)
+            _cli.write_json(os.path.join(out, "summary.json"), summary)  # strict JSON
             code = report(summary, len(k), wall, comm.size, out, args.quiet)
         code = comm.bcast(code)
     return code

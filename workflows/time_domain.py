@@ -32,7 +32,6 @@ Example (the README pictures)::
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import sys
@@ -230,7 +229,7 @@ def _summarise(args: argparse.Namespace, params: object, td: object, mode: objec
                                        summary["measured"]), frames, summary, exact,
                  f"{label}, k = {args.k:g}, bc = {args.bc}, f = {args.f:g},"
                  f" gamma = {args.gamma:g}, Delta = {args.Delta:g}, H = {args.H:g}")
-    print(json.dumps({"predicted": summary["predicted"], "measured": summary["measured"],
+    print(_cli.dumps({"predicted": summary["predicted"], "measured": summary["measured"],
                       "relative_difference": summary["relative_difference"],
                       "end": summary["end"]}, indent=1))
 

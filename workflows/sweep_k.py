@@ -222,8 +222,11 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         if not args.quiet:
             _cli.say(f"following {len(items)} root families (continuation in k) ...", err=True)
         # cost ~ number of requested k the family is followed to: about equal; LPT keeps it even
-        fams = sweep.follow_families(comm, params, region, plan, items, k,
-                                     _cli.my_share(comm, [1.0] * len(items)))
+        fam_share = _cli.my_share(comm, [1.0] * len(items))
+        if comm.rank == 0 and not args.quiet:  # progress from the first second (issue 18)
+            fam_share = tqdm(fam_share, desc=f"root families (rank 0 of {comm.size})",
+                             unit=" families", file=sys.stderr)
+        fams = sweep.follow_families(comm, params, region, plan, items, k, fam_share)
         t_fam = time.perf_counter() - t_fam
         mine = [todo[j] for j in _cli.my_share(comm, sweep.k_costs(params, region, k, todo))]
         bar = None

@@ -82,3 +82,11 @@ from analytic.cli import (
     positive_int,
 )
 from analytic.params import ParameterError, Params, check_k
+
+# A scene run as a script: its watcher from the first second (a rank killed while importing
+# dolfinx is reported too); not when a test or a tool imports _cli.
+if sys.argv and os.path.dirname(os.path.abspath(sys.argv[0])) == os.path.dirname(
+        os.path.abspath(__file__)):
+    from _supervise import start_watcher
+
+    start_watcher()

@@ -36,7 +36,8 @@ from _writing import is_no_space
 
 from analytic.params import ParameterError
 
-__all__ = ["EXIT_FAILED", "EXIT_USAGE", "register_folder", "run", "unregister_folder"]
+__all__ = ["EXIT_FAILED", "EXIT_USAGE", "register_folder", "run", "start_watcher",
+           "unregister_folder"]
 
 EXIT_USAGE = 2
 EXIT_FAILED = 1
@@ -65,7 +66,8 @@ def _tell_watcher(*fields: str) -> None:
         proc.stdin.flush()
 
 
-def _start_watcher() -> None:
+def start_watcher() -> None:
+    """Start this rank's watcher (idempotent); ``_cli`` does it at import for a scene script."""
     if _STATE["proc"] is not None:
         return
     try:
@@ -136,7 +138,7 @@ def run(main: Callable[..., int | None]) -> None:
 
     See the module docstring for each way a run ends.
     """
-    _start_watcher()
+    start_watcher()
     for s in (signal.SIGTERM, signal.SIGHUP):
         with contextlib.suppress(ValueError):
             signal.signal(s, _on_signal)

@@ -63,7 +63,9 @@ def main() -> int:
         why += (f"; the finished part is in {folder}: run the same command with --resume to"
                 " continue" if resumable else f"; {folder} holds only complete files; run the"
                 " same command again")
-    elif folder:
+    elif not folder:
+        why += "; nothing was written: run the same command again"
+    else:
         try:
             os.remove(os.path.join(folder, RECORD))
         except OSError:

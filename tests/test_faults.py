@@ -148,6 +148,7 @@ def test_disk_fills_during_the_run_every_scene(tmp_path, script):
 
 
 @pytest.mark.serial
+@pytest.mark.slow  # measured 20-40 s (two sweep runs)
 @pytest.mark.parametrize("nproc", [1, 2])
 def test_disk_fills_during_sweep(tmp_path, nproc):
     """The main scene, serial and under mpirun -n 2 (the line comes from the rank that saw it)."""
@@ -207,6 +208,7 @@ def tiny_disk(tmp_path):
 
 
 @pytest.mark.serial
+@pytest.mark.slow  # measured 33-47 s (three sweep runs)
 @pytest.mark.parametrize("nproc", [1, 2])
 def test_real_full_disk(tmp_path, tiny_disk, nproc):
     """Issue 18's case: sweep_k --k 1,2 into a full tmpfs, before and during the run."""

@@ -3,24 +3,16 @@
 from __future__ import annotations
 
 import csv
-import json
 import os
-import platform
+import shlex
 import sys
 
 import numpy as np
 
+from analytic.cli import dumps, versions, world_size
 from analytic.numerics.branches import BranchResult, follow_branches
 from analytic.params import Params
 from analytic.physics.smallk import lambda_smallk
-
-
-def _versions() -> dict[str, str]:
-    import matplotlib
-    import scipy
-
-    return {"python": platform.python_version(), "numpy": np.__version__,
-            "scipy": scipy.__version__, "matplotlib": matplotlib.__version__}
 
 
 def plot_dispersion(p: Params, results: list[BranchResult], path: str,
@@ -89,6 +81,9 @@ def write_dispersion(p: Params, k: np.ndarray, n_branches: int, out: str) -> lis
                 L = r.Lambda[i]
                 w.writerow([f"{kv:.12g}", r.label, f"{L.real:.16g}", f"{L.imag:.16g}",
                             f"{r.residual[i]:.3e}", int(bool(r.ok[i]))])
+    command = shlex.join([sys.executable, "-m", "analytic", *sys.argv[1:]])
+    if world_size() > 1:
+        command = f"mpirun -n {world_size()} {command}"
     info = {
         "what": "exact roots of det M(Lambda, k, H) = 0 followed from the waveguide cut-offs",
         "params": p.as_dict(),
@@ -101,15 +96,15 @@ def write_dispersion(p: Params, k: np.ndarray, n_branches: int, out: str) -> lis
                                                                           np.nan))])})
                        for r in results},
         "notes": [r.note for r in results if r.note],
-        "command": " ".join(sys.argv),
-        "versions": _versions(),
+        "command": command,
+        "versions": versions(),
     }
     json_path = os.path.join(out, "dispersion.json")
     with open(json_path, "w") as fh:
-        json.dump(info, fh, indent=2)
+        fh.write(dumps(info, indent=2))  # strict JSON: inf -> "inf", NaN -> null
     png_path = os.path.join(out, "dispersion.png")
     plot_dispersion(p, results, png_path,
-                    metadata={"Title": "analytic dispersion curve",
-                              "Description": json.dumps(p.as_dict()),
-                              "Software": "analytic (bimaterial-stability)"})
+                    metadata={"Title": "analytic dispersion curve", "Description": command,
+                              "Comment": dumps(p.as_dict()),
+                              "Software": "bimaterial-stability " + dumps(versions())})
     return [csv_path, json_path, png_path]

@@ -89,7 +89,7 @@ def test_dispersion_writes_csv_json_png(tmp_path):
 @pytest.mark.serial
 def test_main_in_process_returns_2_on_bad_input(capsys):
     """Every rank returns 2; under mpirun only rank 0 prints the line."""
-    from analytic.cli import _rank
+    from analytic.cli import rank as _rank
 
     assert main(["branch", "--k", "1", "--Delta", "nan"]) == 2
     err = capsys.readouterr().err.strip().splitlines()

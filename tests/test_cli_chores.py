@@ -265,7 +265,7 @@ def test_interrupted_run_says_resume_continues(tmp_path, nproc):
     assert proc.returncode != 0, err[-2000:]
     said = [ln for ln in _lines(err) if "--resume" in ln]
     assert len(said) == 1, err[-2000:]
-    assert ("interrupted (Ctrl-C)" if nproc == 1 else "stopped") in said[0]
+    assert ("stopped by SIGINT (Ctrl-C)" if nproc == 1 else "stopped") in said[0]
     assert str(out) in said[0]
     assert not (out / _cli.LOCK).exists()
     assert len(_csv_rows(out)) >= 2
@@ -295,6 +295,76 @@ def test_analytic_branch_flags_doubtful_rows():
     nan_rows = [r for r in rows if r["re_lambda"] == "nan"]
     assert nan_rows and all(r["flag"] for r in nan_rows)
     assert "flagged" in res.stderr
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("args,needle", [
+    (["--H", "1e6"], "k*H = 1e+06 is above 50"),   # was: silent for 120 s
+    (["--beta", "1e-6"], "beta = 1e-06 is below"),  # was: silent for 120 s
+    (["--k", "1,,2"], "empty item"),                # was: read as 1,2
+])
+def test_analytic_limits_and_malformed_lists(args, needle):
+    """Issue 18: refused in one line before any work (limits measured in analytic/cli.py)."""
+    argv = ["branch", "--k", "1", *args] if args[0] != "--k" else ["branch", *args]
+    t0 = time.monotonic()
+    _one_error_line(_analytic(argv), needle)
+    assert time.monotonic() - t0 < QUICK
+
+
+@pytest.mark.serial
+def test_analytic_negative_value_after_option(capsys):
+    """``--Delta -1e6`` is a value, as in the workflows (was: an argparse error)."""
+    from analytic.cli import attach_negative_values
+
+    assert attach_negative_values(["branch", "--Delta", "-1e6", "--k", "1"]) == [
+        "branch", "--Delta=-1e6", "--k", "1"]
+    assert attach_negative_values(["-x", "-1"]) == ["-x", "-1"]
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("script,args,needle", [
+    ("sweep_k.py", ["--k", "1", "--H", "1e-9"], "region's height"),  # was: ContourError
+    ("sweep_k.py", ["--k", "1e9"], "region's height"),              # was: silent 150 s
+    ("sweep_k.py", ["--k", "1", "--Delta", "-1e6"], "Delta = -1e+06"),  # was: silent 150 s
+    ("sweep_k.py", ["--k", "30"], "roots"),                         # over a minute per k
+    ("time_domain.py", ["--H", "1e-9"], "mesh"),  # was: run.json left before exit 2
+])
+def test_scene_limits_refused_before_any_file(tmp_path, script, args, needle):
+    """Validation by what the solver can do: one line, exit 2, no run.json, no lock."""
+    out = tmp_path / "out"
+    _one_error_line(run_workflow(script, [*args, "--out", str(out)], 1, QUICK), needle)
+    assert not (out / _cli.RECORD).exists() and not (out / _cli.LOCK).exists()
+
+
+@pytest.mark.serial
+def test_resume_of_a_missing_folder_is_an_error(tmp_path):
+    """Was: --resume on a folder that does not exist started from scratch silently."""
+    out = tmp_path / "nowhere"
+    _one_error_line(run_workflow("sweep_k.py", ["--k", "1", "--resume", "--out", str(out)], 1,
+                                 QUICK), "--resume", "does not exist")
+    assert not out.exists()
+
+
+@pytest.mark.serial
+def test_grid_with_an_empty_item_is_an_error():
+    with pytest.raises(_cli.ParameterError, match="empty item"):
+        _cli.parse_grid("1,,2")
+    with pytest.raises(_cli.ParameterError, match="empty item"):
+        _cli.parse_k("1,2,")
+
+
+@pytest.mark.serial
+def test_png_metadata_has_the_full_command_and_versions(monkeypatch):
+    """Every PNG: command with mpirun -n N, parameters and versions as strict JSON."""
+    monkeypatch.setenv("OMPI_COMM_WORLD_SIZE", "2")
+    monkeypatch.setattr(_cli, "world_size", lambda: 2, raising=False)
+    import _provenance
+
+    monkeypatch.setattr(_provenance, "world_size", lambda: 2)
+    meta = _cli.png_metadata({"mu2": float("inf"), "x": float("nan")}, "t")
+    assert meta["Description"].startswith("mpirun -n 2 ")
+    assert json.loads(meta["Comment"]) == {"mu2": "inf", "x": None}
+    assert "dolfinx" in json.loads(meta["Software"].split(" ", 1)[1])
 
 
 # ---------------------------------------------------------------- in-process helpers

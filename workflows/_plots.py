@@ -33,7 +33,8 @@ def save_png(fig, path: str, parameters: dict) -> None:  # noqa: ANN001
         path: PNG file.
         parameters: Run parameters for the ``Comment`` chunk.
     """
-    fig.savefig(path, dpi=130, metadata=_cli.png_metadata(parameters, os.path.basename(path)))
+    _cli.save_figure(fig, path, dpi=130,
+                     metadata=_cli.png_metadata(parameters, os.path.basename(path)))
 
 
 def plot_phase_diagram(rows: list[tuple[float, float]], records: list[dict], window: Window,
@@ -155,6 +156,6 @@ def plot_interface(data: dict[str, np.ndarray], out_png: str, title: str, meta: 
     ax.set_ylabel(r"$\delta u_x(y=0)$")
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     fig.tight_layout()
-    fig.savefig(out_png, dpi=130, metadata=_cli.png_metadata(meta, title))
+    _cli.save_figure(fig, out_png, dpi=130, metadata=_cli.png_metadata(meta, title))
     plt.close(fig)
 

@@ -25,8 +25,8 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import os
+import sys
 
 import _cli
 import numpy as np
@@ -41,7 +41,7 @@ OUTPUTS = ("benchmark.json", "convergence.csv", "convergence.png", "run.json", "
 def convergence(out: str) -> dict:
     """Section 5: relative error at the check point for P1..P4; observed orders (CSV, PNG)."""
     rows = bench.convergence(bench.CONVERGENCE_CELLS)
-    with open(os.path.join(out, "convergence.csv"), "w", newline="") as fh:
+    with _cli.atomic_open(os.path.join(out, "convergence.csv"), "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
@@ -70,7 +70,7 @@ def plot_convergence(path: str, rows: list[dict], cells: dict) -> None:
     ax.legend()
     ax.grid(True, which="both", lw=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=130, metadata=_cli.png_metadata(
+    _cli.save_figure(fig, path, dpi=130, metadata=_cli.png_metadata(
         {"cells": cells}, "h-convergence of the cross-section model"))
     plt.close(fig)
 
@@ -101,9 +101,14 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         report["convergence"] = convergence(run.path)
         report["versions"] = _cli.versions()
         report["command"] = _cli.command()
-        with open(run.file("benchmark.json"), "w") as fh:
-            json.dump(report, fh, indent=1)
+        with _cli.atomic_open(run.file("benchmark.json"), "w") as fh:
+            _cli.json_dump(report, fh, indent=1)
     r = report["speed"]["ratios"]
+    missed = [name for name, ok in (
+        ("analytic/baseline <= 10", r["analytic_certified_over_baseline"] <= 10),
+        ("FE/baseline <= 20", r["fe_over_baseline"] <= 20),
+        ("MPI >= 0.9", report.get("mpi", {}).get("speedup_fraction_of_two_copy_throughput",
+                                                  1.0) >= 0.9)) if not ok]
     print(f"per branch point: analytic certified / baseline = "
           f"{r['analytic_certified_over_baseline']:.2f} (target <= 10), FE / baseline = "
           f"{r['fe_over_baseline']:.2f} (target <= 20)")
@@ -113,6 +118,9 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
               f"{m['speedup_fraction_of_two_copy_throughput']:.2f} of the two-copy throughput "
               f"{m['two_copy_throughput']:.2f} (target >= 0.9); post-processing "
               f"{100 * m['post_processing_share_2_ranks']:.1f} % of the 2-rank wall time")
+    if missed:  # an honest exit code: a missed target is not a success
+        print(f"missed target(s): {', '.join(missed)}; exit code 1", file=sys.stderr)
+        return 1
     return 0
 
 

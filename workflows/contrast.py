@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import math
 import os
 
@@ -88,7 +87,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         if comm.rank == 0:
             rows = [{"mu2": float(m), "rho2": params[i].rho2, "H2": h, **res[i]}
                     for i, (m, h) in enumerate(cases)]
-            with open(run.file("contrast.csv"), "w", newline="") as fh:
+            with _cli.atomic_open(run.file("contrast.csv"), "w", newline="") as fh:
                 w = csv.DictWriter(fh, fieldnames=list(rows[0]))
                 w.writeheader()
                 w.writerows(rows)
@@ -98,8 +97,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
             summary = {"config": config, "curves": curves, "rows": rows,
                        "note": "re_lambda None: no root in the region at any k of the grid",
                        "versions": _cli.versions(), "command": _cli.command()}
-            with open(run.file("summary.json"), "w") as fh:
-                json.dump(summary, fh, indent=1)
+            with _cli.atomic_open(run.file("summary.json"), "w") as fh:
+                _cli.json_dump(summary, fh, indent=1)
             plot(run.file("contrast.png"), p0, rows, h2s, config)
             for h, c in curves.items():
                 _cli.say(f"H2 = {h}: max growth {c['max_growth']:.4f} at mu2 = "
@@ -133,7 +132,8 @@ def plot(path: str, p: object, rows: list[dict], h2s: list[float], meta: dict) -
                  f"{meta['rho2_exponent']:g}", fontsize=8)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=130, metadata=_cli.png_metadata(meta, "growth rate vs contrast"))
+    _cli.save_figure(fig, path, dpi=130,
+                     metadata=_cli.png_metadata(meta, "growth rate vs contrast"))
     plt.close(fig)
 
 

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import math
 import os
 
@@ -76,7 +75,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         if comm.rank == 0:
             best = envelope_maximum(p, region, ks, [rows[i][0] for i in range(len(k))])
             hs = halfspace.max_growth("dilatational", p.replace(H=math.inf))
-            with open(run.file("envelope.csv"), "w", newline="") as fh:
+            with _cli.atomic_open(run.file("envelope.csv"), "w", newline="") as fh:
                 w = csv.writer(fh)
                 w.writerow(["k", "kH", "re_lambda_max", "im_lambda", "roots_in_region"])
                 for i, kk in enumerate(ks):
@@ -90,8 +89,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                                     float(re[-1]) if np.isfinite(re[-1]) else None},
                        "failed_counts_k": [ks[i] for i in failed],
                        "versions": _cli.versions(), "command": _cli.command()}
-            with open(run.file("summary.json"), "w") as fh:
-                json.dump(summary, fh, indent=1)
+            with _cli.atomic_open(run.file("summary.json"), "w") as fh:
+                _cli.json_dump(summary, fh, indent=1)
             plot(run.file("envelope.png"), p, np.array(ks), re, best, hs.growth, config)
             if best is None:
                 _cli.say(f"no root in the region (Re Lambda >= {region.re_min:g}) at any k of "
@@ -130,7 +129,7 @@ def plot(path: str, p: object, k: np.ndarray, re: np.ndarray, best: dict | None,
                  f"Delta={p.Delta:g}, H={p.H:g}", fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=130, metadata=_cli.png_metadata(meta, "growth-rate envelope"))
+    _cli.save_figure(fig, path, dpi=130, metadata=_cli.png_metadata(meta, "growth-rate envelope"))
     plt.close(fig)
 
 

@@ -37,7 +37,6 @@ as markers on that figure (``x, y`` in the figure's axes units: ``q`` or ``Hk``,
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import time
 
@@ -290,8 +289,8 @@ def _run(comm: MPI.Comm, opts: argparse.Namespace, names: list[str]) -> int:
     if comm.rank == 0:
         index = {k: v for part in parts for k, v in part.items()}
         wall = time.perf_counter() - t_start
-        with open(os.path.join(opts.out, "figures.json"), "w") as fh:
-            json.dump({"command": command, "versions": _cli.versions(),
+        with _cli.atomic_open(os.path.join(opts.out, "figures.json"), "w") as fh:
+            _cli.json_dump({"command": command, "versions": _cli.versions(),
                        "ranks": comm.size, "fe_points_per_curve": opts.fe_points,
                        "fe": not opts.no_fe,
                        "seconds": {"wall": wall,
@@ -317,7 +316,7 @@ def _write_figure(opts: argparse.Namespace, data: FigureData, tasks: list[FETask
     meta = {"figure": data.name, **data.params}
     if isinstance(fe_info, dict):
         meta["fe"] = {k: v for k, v in fe_info.items() if k != "skipped"}
-    fig.savefig(path, dpi=130, metadata=_cli.png_metadata(meta, os.path.basename(path)))
+    _cli.save_figure(fig, path, dpi=130, metadata=_cli.png_metadata(meta, os.path.basename(path)))
     plt.close(fig)
     return {"status": "written", "file": os.path.basename(path), "parameters": data.params,
             "fe": fe_info}

@@ -164,7 +164,7 @@ def plot_convergence(L: np.ndarray, lam: np.ndarray, g_inf: float, order_p: floa
     ax.legend(fontsize=8)
     ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
-    fig.savefig(out_png, dpi=130, metadata=_cli.png_metadata(meta, title))
+    _cli.save_figure(fig, out_png, dpi=130, metadata=_cli.png_metadata(meta, title))
     plt.close(fig)
 
 
@@ -196,7 +196,7 @@ def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, b
     json_path = os.path.join(args.out, "finite_block.json")
     done = comm.bcast(_read_done(csv_path) if (run.resumed and comm.rank == 0) else {}, root=0)
     if comm.rank == 0 and not done:
-        with open(csv_path, "w", newline="") as f:
+        with _cli.atomic_open(csv_path, "w", newline="") as f:
             csv.writer(f).writerow(COLUMNS)
     for lb_, kb_, zb_ in ref.per_branch:
         _cli.say(f"infinite strip, branch {lb_}: max Re Lambda = {zb_:.8g} at k = {kb_:.6g}")
@@ -258,8 +258,8 @@ def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, b
                 f"most unstable mode of a block, L = {last.length:g}, {args.lateral} ends:"
                 f" Lambda = {last.eigenvalue.real:.5f} {last.eigenvalue.imag:+.5f}i", meta)
         meta["timings"]["total (this run)"] = time.perf_counter() - t_start
-        with open(json_path, "w") as f:
-            json.dump(meta, f, indent=2)
+        with _cli.atomic_open(json_path, "w") as f:
+            _cli.json_dump(meta, f, indent=2)
         print(f"wrote {args.out}/", flush=True)
     return 1 if failed else 0
 

@@ -31,7 +31,6 @@ from __future__ import annotations
 import argparse
 import csv
 import dataclasses
-import json
 import math
 import os
 
@@ -162,7 +161,7 @@ def plot(rows: list[dict], roots: list, path: str, title: str, meta: dict) -> No
     ax2.set_title("filled: trusted by the code; hollow: flagged", fontsize=9)
     ax2.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=110, metadata=_cli.png_metadata(meta, title))
+    _cli.save_figure(fig, path, dpi=110, metadata=_cli.png_metadata(meta, title))
     plt.close(fig)
 
 
@@ -198,12 +197,13 @@ def _run(comm, args: argparse.Namespace, p: Params, ks, hs, bcs, branches) -> in
     if comm.rank == 0:
         rows = halfspace_modes.merge_rows(parts)
         silent = halfspace_modes.silent_failures(rows, args.silent_rtol)
-        with open(os.path.join(args.out, OUTPUT_FILES[0]), "w", newline="") as fh:
+        with _cli.atomic_open(os.path.join(args.out, OUTPUT_FILES[0]), "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=COLUMNS)
             w.writeheader()
             for r in rows:
                 w.writerow({c: r[c] for c in COLUMNS})
-        with open(os.path.join(args.out, f"{args.overlay_name}.csv"), "w", newline="") as fh:
+        overlay = os.path.join(args.out, f"{args.overlay_name}.csv")
+        with _cli.atomic_open(overlay, "w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(["x", "y", "label"])
             for r in rows:
@@ -218,8 +218,8 @@ def _run(comm, args: argparse.Namespace, p: Params, ks, hs, bcs, branches) -> in
         meta["params"] = {k: (v if not isinstance(v, float) or math.isfinite(v) else str(v))
                           for k, v in meta["params"].items()}
         summary = {**meta, **halfspace_modes.failure_summary(rows, silent)}
-        with open(os.path.join(args.out, OUTPUT_FILES[1]), "w") as fh:
-            json.dump(summary, fh, indent=1, default=str)
+        with _cli.atomic_open(os.path.join(args.out, OUTPUT_FILES[1]), "w") as fh:
+            _cli.json_dump(summary, fh, indent=1, default=str)
         what = f"half-space on mu2={p.mu2:g}, H2={p.H2:g}" if p.two_body else args.family
         title = (f"{what} family, f={p.f}, gamma={p.gamma}, beta={p.beta}, "
                  f"Delta={p.Delta}, P{args.degree}")

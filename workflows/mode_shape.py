@@ -28,7 +28,6 @@ Example (the README picture)::
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import time
@@ -213,20 +212,21 @@ def _write_outputs(args: argparse.Namespace, meta: dict, title: str, mode: strip
     """XDMF/PVD files (collective), then CSV, PNGs and JSON on rank 0."""
     u, lam, comm = mode.u, mode.eigenvalue, strip.comm
     # ParaView: a period of phases (vertex values) and the full-degree complex mode.
-    with dolfinx.io.XDMFFile(comm, os.path.join(args.out, "mode.xdmf"), "w") as f:
-        f.write_mesh(strip.mesh)
-        for t, u_phase in strip_mode.phase_snapshots(u, lam, args.phases):
-            f.write_function(u_phase, t=t)
-    with dolfinx.io.VTKFile(comm, os.path.join(args.out, "mode_p2.pvd"), "w") as f:
-        f.write_function(u, 0.0)
+    with _cli.atomic_files(args.out, ("mode.xdmf", "mode_p2.pvd"), comm) as tmp:
+        with dolfinx.io.XDMFFile(comm, os.path.join(tmp, "mode.xdmf"), "w") as f:
+            f.write_mesh(strip.mesh)
+            for t, u_phase in strip_mode.phase_snapshots(u, lam, args.phases):
+                f.write_function(u_phase, t=t)
+        with dolfinx.io.VTKFile(comm, os.path.join(tmp, "mode_p2.pvd"), "w") as f:
+            f.write_function(u, 0.0)
     data = strip_mode.interface_of(u, params)
     gathered = None if args.no_render else strip_mode.gather_mode(
         u, *strip_mode.stress_coefficients(u, params))
     if comm.rank != 0:
         return
-    np.savetxt(os.path.join(args.out, "interface.csv"), strip_mode.interface_table(data),
-               fmt="%.12g", delimiter=",", header=",".join(strip_mode.INTERFACE_COLUMNS),
-               comments="")
+    with _cli.atomic_open(os.path.join(args.out, "interface.csv"), "w") as fh:
+        np.savetxt(fh, strip_mode.interface_table(data), fmt="%.12g", delimiter=",",
+                   header=",".join(strip_mode.INTERFACE_COLUMNS), comments="")
     _plots.plot_interface(data, os.path.join(args.out, "interface_tractions.png"), title,
                           meta)
     if gathered is not None:
@@ -296,8 +296,7 @@ def _run(comm, args: argparse.Namespace, params, branch: tuple[int, int], k_scan
     _write_outputs(args, meta, title, mode, params, strip)
     if comm.rank == 0:
         meta["timings"]["total"] = time.perf_counter() - t_start
-        with open(os.path.join(args.out, "mode.json"), "w") as f:
-            json.dump(meta, f, indent=2)
+        _cli.write_json(os.path.join(args.out, "mode.json"), meta, indent=2)
         print(f"{meta['source']}\nLambda = {lam:.10g} (relative residual"
               f" {meta['residual']:.1e}); wrote {args.out}/", flush=True)
     return 0

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import math
 import os
 import sys
@@ -133,7 +132,7 @@ def _run(comm: MPI.Comm, opts: argparse.Namespace, rows: list[tuple[float, float
     if comm.rank != 0:
         return 0
     records, dropped = pd.sort_records([r for part in gathered for r in part])
-    with open(os.path.join(opts.out, "boundaries.csv"), "w", newline="") as fh:
+    with _cli.atomic_open(os.path.join(opts.out, "boundaries.csv"), "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=["boundary", "source", "f", "beta", "Gamma", "Delta"])
         w.writeheader()
         for r in records:
@@ -151,8 +150,8 @@ def _run(comm: MPI.Comm, opts: argparse.Namespace, rows: list[tuple[float, float
                "closed_form_vs_numerical": pd.measured_differences(records, rows),
                "dropped_numerical_points": dropped,
                "closed_form_points": pd.closed_form_points(rows)}
-    with open(os.path.join(opts.out, "phase_diagram.json"), "w") as fh:
-        json.dump(summary, fh, indent=2)
+    with _cli.atomic_open(os.path.join(opts.out, "phase_diagram.json"), "w") as fh:
+        _cli.json_dump(summary, fh, indent=2)
     _plots.plot_phase_diagram(rows, records, window,
                               os.path.join(opts.out, "phase_diagram.png"), parameters)
     print(f"phase diagram: {len(records)} boundary points, {elapsed:.1f} s on {comm.size} "

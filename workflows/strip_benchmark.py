@@ -90,7 +90,7 @@ def _run(comm, args: argparse.Namespace) -> int:
             print(f"{row[0]:>13d} " + " ".join(f"{v:13.3e}" for v in row[1:]), flush=True)
     if comm.rank == 0:
         path = os.path.join(args.out, f"strip_benchmark_np{comm.size}.csv")
-        with open(path, "w") as f:
+        with _cli.atomic_open(path, "w") as f:
             f.write(",".join(header) + "\n")
             for r in rows:
                 f.write(",".join(f"{v:.6g}" for v in r) + "\n")

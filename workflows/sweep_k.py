@@ -138,6 +138,7 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
         region = Region(args.re_min, args.re_max, args.c_max, args.omega0 or None)
     except _cli.ParameterError as err:
         raise _cli.ParameterError("--" + str(err).replace("_", "-", 1)) from None
+    _cli.check_sweep_limits(params, k, region)
     return params, k, len(k_all) - len(k), region
 
 
@@ -222,7 +223,8 @@ def plot_dispersion(path: str, params: Params, region: Region, results: list[KRe
         title += f", alpha_pc={p.alpha_pc:g}, alpha_ld={p.alpha_ld:g}"
     ax1.set_title(title, fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=130, metadata=_cli.png_metadata(parameters, "certified dispersion"))
+    _cli.save_figure(fig, path, dpi=130,
+                     metadata=_cli.png_metadata(parameters, "certified dispersion"))
     plt.close(fig)
 
 
@@ -249,13 +251,16 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         if not args.quiet:
             _cli.say(f"following {len(items)} root families (continuation in k) ...", err=True)
         # cost ~ number of requested k the family is followed to: about equal; LPT keeps it even
-        fams = sweep.follow_families(comm, params, region, plan, items, k,
-                                     _cli.my_share(comm, [1.0] * len(items)))
+        fam_share = _cli.my_share(comm, [1.0] * len(items))
+        if comm.rank == 0 and not args.quiet:  # progress from the first second (issue 18)
+            fam_share = tqdm(fam_share, desc=f"root families (rank 0 of {comm.size})",
+                             unit=" families", file=sys.stderr)
+        fams = sweep.follow_families(comm, params, region, plan, items, k, fam_share)
         t_fam = time.perf_counter() - t_fam
         mine = [todo[j] for j in _cli.my_share(comm, sweep.k_costs(params, region, k, todo))]
         bar = None
         if comm.rank == 0 and not args.quiet and mine:
-            bar = tqdm(total=len(mine), desc=f"k values (rank 0 of {comm.size})", unit="k",
+            bar = tqdm(total=len(mine), desc=f"k values (rank 0 of {comm.size})", unit=" k values",
                        file=sys.stderr)
         share = sweep.solve_k_values(params, region, disc, args.rtol, k, mine, fams, out,
                                      bar.update if bar is not None else None, args.material)
@@ -279,7 +284,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
             wall = time.perf_counter() - t_start
             summary["timing_s"] = {"wall": wall, "post_processing_rank0": time.perf_counter()
                                    - t2}
-            sweep.write_json(os.path.join(out, "summary.json"), summary)
+            _cli.write_json(os.path.join(out, "summary.json"), summary)  # strict JSON
             code = report(summary, len(k), wall, comm.size, out, args.quiet)
         code = comm.bcast(code)
     return code
@@ -295,7 +300,7 @@ def report(summary: dict, n_k: int, wall: float, ranks: int, out: str, quiet: bo
               f"eigenvalue(s) flagged, count not closed at {len(cert['k_not_closed'])}"
               f" of {n_k} k value(s); see status in {out}/spectrum.csv", file=sys.stderr)
     best = summary["most_unstable"]
-    if best is not None and not quiet:
+    if best is not None:  # the result line, also with --quiet (it removes progress only)
         sure = "certified" if best["certificate"]["certified"] else "NOT certified"
         print(f"most unstable ({sure}): {best['branch']} at k = {best['k']:.6g}: "
               f"Lambda = {best['re_lambda']:.10g} {best['im_lambda']:+.10g}i "

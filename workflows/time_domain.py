@@ -32,7 +32,6 @@ Example (the README pictures)::
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import sys
@@ -200,7 +199,8 @@ def _run(args: argparse.Namespace, comm: object, params: object, law: object) ->
                               args.frame_every or max(1, int(round(period / 32 / td.dt))),
                               args.linear_limit, args.friction_theta, theta_switch,
                               progress=bar.update if bar is not None else None)
-    if bar is not None:
+    if bar is not None:  # progress comes every 50 steps: the bar ends at the steps done
+        bar.total = bar.n = td.step
         bar.close()
     if comm.rank == 0:
         _summarise(args, params, td, mode, label, exact, period, t_end, outcome, setup_time)
@@ -220,25 +220,24 @@ def _summarise(args: argparse.Namespace, params: object, td: object, mode: objec
                          nx=args.wavelengths * args.cells_per_wavelength, ny=args.ny,
                          cell=args.cell, friction_theta=args.friction_theta, t_end=t_end,
                          inputs={"amplitude": args.amplitude, "linear_limit": args.linear_limit},
-                         setup_time=setup_time, command=" ".join([sys.executable] + sys.argv),
+                         setup_time=setup_time, command=_cli.command(),
                          versions=_cli.versions())
-    with open(os.path.join(args.out, "summary.json"), "w") as fh:
-        json.dump(summary, fh, indent=1)
+    with _cli.atomic_open(os.path.join(args.out, "summary.json"), "w") as fh:
+        _cli.json_dump(summary, fh, indent=1)
     if not args.no_plots:
         plot_all(args.out, figure_data(data, frames, exact, summary["window"],
                                        summary["measured"]), frames, summary, exact,
                  f"{label}, k = {args.k:g}, bc = {args.bc}, f = {args.f:g},"
                  f" gamma = {args.gamma:g}, Delta = {args.Delta:g}, H = {args.H:g}")
-    print(json.dumps({"predicted": summary["predicted"], "measured": summary["measured"],
+    print(_cli.dumps({"predicted": summary["predicted"], "measured": summary["measured"],
                       "relative_difference": summary["relative_difference"],
                       "end": summary["end"]}, indent=1))
 
 
 def _plot_save(fig, path: str, summary: dict) -> None:  # noqa: ANN001
     """Save ``fig`` with the run's command and parameters as PNG metadata."""
-    meta = {"Title": os.path.basename(path), "Description": summary["command"],
-            "Comment": json.dumps(summary["parameters"], default=str)}
-    fig.savefig(path, dpi=120, metadata=meta)
+    meta = _cli.png_metadata(summary["parameters"], os.path.basename(path))
+    _cli.save_figure(fig, path, dpi=120, metadata=meta)
 
 
 def plot_all(out: str, fig_data: dict, frames: dict, summary: dict, exact: complex,

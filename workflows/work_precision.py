@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import math
 import os
 
@@ -105,7 +104,7 @@ def plot(rows: list[dict], path: str, meta: dict) -> None:
     fig.suptitle(f"{meta['machine']}, {meta['ranks']} rank(s); errors clipped at 1e-16",
                  fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110, metadata=_cli.png_metadata(meta, "work-precision"))
+    _cli.save_figure(fig, path, dpi=110, metadata=_cli.png_metadata(meta, "work-precision"))
     plt.close(fig)
 
 
@@ -131,7 +130,7 @@ def _run(comm, args: argparse.Namespace) -> int:
     parts = comm.gather(mine, root=0)
     if comm.rank == 0:
         rows = wp.merge_rows(parts)
-        with open(os.path.join(args.out, OUTPUT_FILES[0]), "w", newline="") as fh:
+        with _cli.atomic_open(os.path.join(args.out, OUTPUT_FILES[0]), "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=COLUMNS)
             w.writeheader()
             for r in rows:
@@ -143,9 +142,9 @@ def _run(comm, args: argparse.Namespace) -> int:
                 "halfspace": {"params": "paper defaults, H=inf", "k": K_HALF,
                               "target": str(cases.target_half),
                               "reference": str(cases.lam_half)}}
-        with open(os.path.join(args.out, OUTPUT_FILES[1]), "w") as fh:
-            json.dump({**meta, "fastest_seconds": wp.fastest_seconds(rows), "points": len(rows)},
-                      fh, indent=1)
+        with _cli.atomic_open(os.path.join(args.out, OUTPUT_FILES[1]), "w") as fh:
+            _cli.json_dump({**meta, "fastest_seconds": wp.fastest_seconds(rows),
+                            "points": len(rows)}, fh, indent=1)
         plot(rows, os.path.join(args.out, OUTPUT_FILES[2]), meta)
         print(f"{len(rows)} points -> {args.out}", flush=True)
     comm.Barrier()

@@ -1,0 +1,80 @@
+"""Grids of the scenes' options (``--k``, ``--mu2-grid``, ...): :func:`parse_grid`."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from analytic.cli import parse_k
+from analytic.params import ParameterError
+
+__all__ = ["SWEEP_DELTA_MAX", "SWEEP_WH_MAX", "SWEEP_W_MAX", "check_sweep_limits", "parse_grid"]
+
+
+def parse_grid(spec: str, name: str = "--k", max_count: int = 100000) -> np.ndarray:
+    """A sorted grid without duplicates: ``start:stop:countlog`` (geometric) or :func:`parse_k`.
+
+    Raises:
+        ParameterError: One line naming ``name`` (malformed, ``start >= stop``, a count outside
+            ``2 .. max_count``, a value that is not finite and positive).
+    """
+    if spec.endswith("log") and spec.count(":") == 2:
+        a, b, n = spec[:-3].split(":")
+        try:
+            a, b, n = float(a), float(b), int(n)
+        except ValueError:
+            raise ParameterError(f"{name} = {spec!r} is not start:stop:countlog") from None
+        if not (0 < a < b and math.isfinite(b) and 2 <= n <= max_count):
+            raise ParameterError(f"{name} = {spec!r}: need 0 < start < stop, "
+                                 f"2 <= count <= {max_count}")
+        return np.geomspace(a, b, n)
+    return np.unique(parse_k(spec, name=name))
+
+
+#: Limits of the certified sweep (sweep_k.py) on its region R (height ``W = Region.im_max`` at
+#: the largest k), measured on this project's 2-core machine: the region holds about
+#: ``1.3 W H`` roots (21 at the defaults, W H = 16.6, 5 s per k value); W H = 52.6 (k = 10) took
+#: 35 s per k value, W H = 63.6 (k = 51, --c-max 1) 13-32 s, W H = 92.6 (H = 10) and 132.6
+#: (k = 30) more than 90 s. W = 427 (H = 0.03) took 30 s; W = 1257 (H = 0.01) left the root
+#: count open and W = 12574 (H = 0.001) found no contour: the contour cannot resolve taller
+#: regions.
+SWEEP_WH_MAX = 70.0
+SWEEP_W_MAX = 500.0
+#: |Delta| at k = 1: Delta = -10 took 13 s, -1000 took 45 s with 4 of 13 roots flagged, -1e6
+#: more than 150 s without a line (issue 18): the friction law's rate term stiffens the roots.
+SWEEP_DELTA_MAX = 1000.0
+
+
+def check_sweep_limits(params: Any, k: np.ndarray, region: Any) -> None:
+    """Refuse a sweep the certified solver cannot finish in bounded time; say when it is long.
+
+    Args:
+        params: The run's :class:`analytic.params.Params`.
+        k: The wavenumbers.
+        region: The :class:`analytic.numerics.spectrum.Region`.
+
+    Raises:
+        ParameterError: One line naming the limit (:data:`SWEEP_WH_MAX`, :data:`SWEEP_W_MAX`)
+            and why.
+    """
+    if abs(params.Delta) > SWEEP_DELTA_MAX:
+        raise ParameterError(f"Delta = {params.Delta:g} is outside [-{SWEEP_DELTA_MAX:g}, "
+                             f"{SWEEP_DELTA_MAX:g}], the range in which the certified sweep "
+                             "closes its root counts in bounded time")
+    kmax = float(np.max(k))
+    w = region.im_max(params, kmax)
+    if w > SWEEP_W_MAX:
+        raise ParameterError(
+            f"the region's height |Im Lambda| <= {w:.4g} at k = {kmax:g} (c_max k/beta + "
+            f"omega0, omega0 = 2 pi/(beta H)) is above {SWEEP_W_MAX:g}, the tallest region "
+            "whose roots the contour integrals resolve; use a larger H, a smaller --c-max or "
+            "k, or give --omega0")
+    wh = w * params.H
+    if wh > SWEEP_WH_MAX:
+        raise ParameterError(
+            f"the region would hold about {1.3 * wh:.0f} roots at k = {kmax:g} (k*H = "
+            f"{kmax * params.H:g}), above {1.3 * SWEEP_WH_MAX:.0f}, the most the certified "
+            "sweep follows in about a minute per k value; use a smaller k or H, or a smaller "
+            "--c-max")

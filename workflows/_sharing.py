@@ -1,0 +1,63 @@
+"""Ranks and work sharing of the scenes: :func:`rank`, :func:`say`, :func:`map_shared`.
+
+:func:`rank` and :func:`world_size` are :mod:`analytic.cli`'s (one definition in the project).
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from analytic.cli import rank, world_size
+
+__all__ = ["map_shared", "my_share", "quiet_jit", "rank", "say", "share_by_cost", "world_size"]
+
+
+def say(*parts: object, err: bool = False) -> None:
+    """Print on rank 0 only (stdout, or stderr with ``err``), flushed."""
+    if rank() == 0:
+        print(*parts, file=sys.stderr if err else sys.stdout, flush=True)
+
+
+def quiet_jit() -> None:
+    """Silence the INFO lines of the form compiler (FFCx/UFL/dolfinx JIT) and friends."""
+    logging.disable(logging.INFO)
+
+
+def share_by_cost(costs: Sequence[float], size: int) -> list[list[int]]:
+    """Indices of ``costs`` split over ``size`` ranks, longest first onto the least loaded rank.
+
+    Greedy LPT (longest processing time first): the largest load is at most 4/3 of the optimum.
+    Deterministic (ties by index), so every rank computes the same split. Each rank's indices
+    are returned in increasing order.
+    """
+    if size < 1:
+        raise ValueError("size must be >= 1")
+    load = [0.0] * size
+    share: list[list[int]] = [[] for _ in range(size)]
+    for i in sorted(range(len(costs)), key=lambda j: (-float(costs[j]), j)):
+        r = min(range(size), key=lambda q: (load[q], q))
+        load[r] += float(costs[i])
+        share[r].append(i)
+    return [sorted(s) for s in share]
+
+
+def my_share(comm: Any, costs: Sequence[float]) -> list[int]:
+    """This rank's indices of :func:`share_by_cost` over ``comm``."""
+    return share_by_cost(costs, comm.size)[comm.rank]
+
+
+def map_shared(comm: Any, costs: Sequence[float], fn: Callable[[int], Any]) -> dict[int, Any]:
+    """``{i: fn(i)}`` for every index of ``costs``, each computed on one rank, on every rank.
+
+    This rank computes its :func:`my_share`; the results are gathered on every rank
+    (collective: every rank calls it).
+    """
+    local = {i: fn(i) for i in my_share(comm, costs)}
+    merged: dict[int, Any] = {}
+    for part in comm.allgather(local):
+        merged.update(part)
+    return merged
+

@@ -14,7 +14,8 @@ arbitrary, so the phase shifts ``k^2 H / omega`` are covered). The first-order s
 
 With ``L = i omega``: ``ch = cos(H omega) = a``, ``sh = i sin(H omega) = i s``, ``|sd| = 1`` at a
 resonance, ``F_0/L = (1 + e)/gamma`` with ``|e| = |(Delta - 1)/(L + 1)| <= |Delta - 1|/omega``,
-``|f_eff| <= f + alpha_ld (1 + 1/omega)``. For ``alpha_pc = 0``::
+``|f_eff| = |f - alpha_ld + alpha_ld/(L + 1)| <= |f - alpha_ld| + alpha_ld/omega``. For
+``alpha_pc = 0``::
 
     |Re Lambda| <= k |f_eff| G / (beta^2 H omega),
     G_velocity = sup_s |a| / (sqrt(a^2 + s^2/gamma^2) - eps |s|/gamma)
@@ -112,6 +113,6 @@ def tail_bound(p: Params, k: float, W: float) -> float | None:
     W = float(W)
     if not (W > max(k, 1.0, abs(p.Delta - 1.0))):
         return math.inf
-    f_eff = p.f + p.alpha_ld * (1.0 + 1.0 / W)
+    f_eff = abs(p.f - p.alpha_ld) + p.alpha_ld / W
     G = phase_factor(p, W)
     return k * f_eff * G * (1.0 + k / W) / (p.beta**2 * p.H * W)

@@ -75,6 +75,8 @@ def test_velocity_scale_is_the_largest_c_d():
     # stiff substrate: c_d2 = sqrt(mu2/rho2)/beta2 = sqrt(9)/0.5
     assert velocity_scale(Params(beta=0.5, mu2=9.0, rho2=1.0)) == pytest.approx(6.0)
     assert velocity_scale(Params(beta=0.5, mu2=0.25, rho2=1.0)) == 2.0
+    # capped at 4 slider c_d (a nearly rigid substrate)
+    assert velocity_scale(Params(beta=0.5, mu2=1e6, rho2=1.0)) == pytest.approx(8.0)
 
 
 def test_provable_region_climbs_until_the_bound_is_below():

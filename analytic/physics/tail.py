@@ -49,15 +49,21 @@ from analytic.params import Params
 _N_PHASE = 4001
 
 
+#: Cap on :func:`velocity_scale`, in units of the slider's ``c_d``.
+SCALE_CAP = 4.0
+
+
 def velocity_scale(p: Params) -> float:
     """The largest dilatational wave speed of the stack, in units of the slider's ``c_s``.
 
     ``1/beta`` for the rigid substrate; with a deformable substrate also the substrate's
-    ``c_d2 = sqrt(mu2/rho2)/beta2``.
+    ``c_d2 = sqrt(mu2/rho2)/beta2``, capped at :data:`SCALE_CAP` times the slider's ``c_d``
+    (not derived: a nearly rigid substrate, ``mu2 -> inf``, would otherwise ask for its own
+    thickness resonances at ``c_d2 pi / H2``, coupled to the interface only at ``O(1/mu2)``).
     """
     c = 1.0 / p.beta
     if p.two_body:
-        c = max(c, math.sqrt(p.mu2 / p.rho2) / p.substrate_beta)
+        c = min(max(c, math.sqrt(p.mu2 / p.rho2) / p.substrate_beta), SCALE_CAP / p.beta)
     return c
 
 

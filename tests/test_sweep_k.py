@@ -300,7 +300,7 @@ def test_alpha_pc_2_branch_0plus_followed_through_its_brief_instability(tmp_path
         assert len(ex) == 1 and abs(ex[0].value - z) < 1e-8 * abs(z)
 
 
-@pytest.mark.slow  # measured 13-32 s on the loaded 2-core machine
+@pytest.mark.slow  # velocity 34 s, stress 5 min (region up to 24 c_d), loaded 2-core machine
 @pytest.mark.serial
 @pytest.mark.parametrize("bc", ["velocity", "stress"])
 def test_most_unstable_is_the_maximum_of_the_exact_roots(tmp_path, bc):
@@ -310,9 +310,10 @@ def test_most_unstable_is_the_maximum_of_the_exact_roots(tmp_path, bc):
     assert proc.returncode == 0, proc.stderr[-2000:]
     summary = json.loads((out / "summary.json").read_text())
     best = summary["most_unstable"]
-    # independent: every exact root of a wider fixed region (16 c_d, beyond any bound used here)
-    p, region = Params(H=0.5, bc=bc), Region(c_max=16.0)
-    assert max(d["c_max"] for d in summary["per_k"]) < 16.0
+    # independent: every exact root of a wider fixed region (48 c_d, beyond any bound used here:
+    # the stress top climbs to 24 c_d at some k)
+    p, region = Params(H=0.5, bc=bc), Region(c_max=48.0)
+    assert max(d["c_max"] for d in summary["per_k"]) < 48.0
     exact = [(k, r.value) for k in np.linspace(0.5, 6, 12)
              for r in roots_in_box(p, k, region.box(p, k))]
     k_ex, z_ex = max(exact, key=lambda t: t[1].real)

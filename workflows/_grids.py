@@ -64,6 +64,10 @@ def check_sweep_limits(params: Any, k: np.ndarray, region: Any) -> None:
                              f"{SWEEP_DELTA_MAX:g}], the range in which the certified sweep "
                              "closes its root counts in bounded time")
     kmax = float(np.max(k))
+    if region.c_max is None:  # adaptive: the first rung is what every k value needs at least
+        from analytic.numerics.spectrum import C_LADDER
+
+        region = region.fixed(C_LADDER[0])
     w = region.im_max(params, kmax)
     if w > SWEEP_W_MAX:
         raise ParameterError(

@@ -3,8 +3,11 @@
     mpirun -n N python workflows/sweep_k.py [options]        # paper defaults, bc=velocity
 
 At every requested k the sweep reports *every* eigenvalue of the cross-section FE model in the
-region R = {re_min <= Re Lambda <= re_max, |Im Lambda| <= c_max k / beta + omega0}, and checks
-that nothing is missing or counted twice (docs/design.md section 8):
+region R = {re_min <= Re Lambda <= re_max, |Im Lambda| <= c_max k c_d + omega0}, and checks
+that nothing is missing or counted twice (docs/design.md section 8). With ``--c-max auto``
+(default) the phase-velocity bound grows per k (4, 6, 8, 12, 16, 24, 32 c_d; c_d the largest of
+the stack) until the tail bound (docs/design.md 8.1) shows that no root outside R grows faster
+than the fastest root in R; summary.json states the bound and the tail bound at every k:
 
 - labels: every family that can reach R is followed in k by exact continuation, from the
   waveguide cut-offs (``0+``, ``0-``, ``1+``, ...) and from the other roots present at small k
@@ -67,8 +70,10 @@ def build_parser() -> argparse.ArgumentParser:
                     help="region R: smallest growth rate Re Lambda reported (> -1)")
     ap.add_argument("--re-max", type=float, default=reg.re_max,
                     help="region R: largest growth rate searched")
-    ap.add_argument("--c-max", type=float, default=reg.c_max,
-                    help="region R: largest phase velocity |Im Lambda|/k, in units of c_d")
+    ap.add_argument("--c-max", default="auto",
+                    help="region R: largest phase velocity |Im Lambda|/k, in units of the "
+                    "largest c_d, or 'auto': per k, until the region provably holds the fastest "
+                    "mode")
     ap.add_argument("--omega0", type=float, default=0.0,
                     help="region R: |Im Lambda| allowance at k -> 0 (0: 2 pi/(beta H))")
     ap.add_argument("--rtol", type=float, default=1e-8,
@@ -135,7 +140,12 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
     if not (math.isfinite(args.omega0) and args.omega0 >= 0):
         raise _cli.ParameterError(f"--omega0 = {args.omega0} is outside its allowed range >= 0")
     try:
-        region = Region(args.re_min, args.re_max, args.c_max, args.omega0 or None)
+        c_max = None if args.c_max == "auto" else float(args.c_max)
+    except ValueError:
+        raise _cli.ParameterError(f"--c-max = {args.c_max!r} is outside its allowed range: a "
+                                  "number > 0 or auto") from None
+    try:
+        region = Region(args.re_min, args.re_max, c_max, args.omega0 or None)
     except _cli.ParameterError as err:
         raise _cli.ParameterError("--" + str(err).replace("_", "-", 1)) from None
     _cli.check_sweep_limits(params, k, region)
@@ -143,7 +153,8 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
 
 
 def write_outputs(out: str, params: Params, region: Region, k: np.ndarray,
-                  results: list[KResult], fams: list, meta: dict, plot: bool) -> dict:
+                  results: list[KResult], fams: list, meta: dict, plot: bool,
+                  c_max_at_k: list[float]) -> dict:
     """Rank 0: spectrum.csv and dispersion.png; returns the summary.
 
     The caller adds the timings and writes ``summary.json`` once.
@@ -155,9 +166,10 @@ def write_outputs(out: str, params: Params, region: Region, k: np.ndarray,
         for r in (r for res in results for r in res.rows):
             w.writerow({f: (repr(r[f]) if isinstance(r[f], float) else r[f]) for f in ROW_FIELDS})
     os.replace(tmp, os.path.join(out, "spectrum.csv"))
-    summary = meta | sweep.summarise(params, region, k, results, fams)
+    summary = meta | sweep.summarise(params, region, k, results, fams, c_max_at_k)
     if plot:
-        plot_dispersion(os.path.join(out, "dispersion.png"), params, region, results, fams,
+        plot_dispersion(os.path.join(out, "dispersion.png"), params,
+                        sweep.largest_region(region, c_max_at_k), results, fams,
                         summary["most_unstable"], meta["parameters"])
     return summary
 
@@ -216,7 +228,7 @@ def plot_dispersion(path: str, params: Params, region: Region, results: list[KRe
     ax2.set_xlabel("k")
     ax1.legend(fontsize=7.5, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     p = params
-    title = (f"every eigenvalue in R: Re >= {region.re_min:g}, |Im| <= {region.c_max:g} k c_d "
+    title = (f"every eigenvalue in R: Re >= {region.re_min:g}, |Im| <= c_max k c_d "
              f"+ {region.omega_0(p):.3g}\nf={p.f:g}, gamma={p.gamma:g}, beta={p.beta:g}, "
              f"Delta={p.Delta:g}, H={p.H:g}, bc={p.bc}")
     if p.generalized:
@@ -232,10 +244,14 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     """Run the sweep on ``comm`` (every rank calls this)."""
     args, comm = _cli.start(build_parser(), argv, comm)
     params, k, merged, region = validate(args)  # every rank, before any collective or file
-    degree, cells, ratio = default_discretisation(params, region, float(k[-1]), args.rtol)
+    c_at_k = _cli.map_shared(comm, list(k), lambda i: sweep.region_at_k(params, region, k[i]))
+    c_at_k = [c_at_k[i] for i in range(len(k))]
+    big = sweep.largest_region(region, c_at_k)  # the family plan and the mesh cover it
+    degree, cells, ratio = default_discretisation(params, big, float(k[-1]), args.rtol)
     disc = (args.degree or degree, args.cells or cells, ratio)
     config = {"params": params.as_dict(), "k": [float(v) for v in k],
-              "region": region.as_dict(params), "rtol": args.rtol, "degree": disc[0],
+              "region": region.as_dict(params), "c_max_at_k": c_at_k, "rtol": args.rtol,
+              "degree": disc[0],
               "cells": disc[1], "grading_ratio": ratio}
     if args.material is not None:
         config["material"] = args.material.as_dict()
@@ -247,23 +263,24 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
             _cli.say(f"note: {merged} duplicate k value(s) merged", err=True)
         todo = sweep.pending_k(comm, out, len(k), run.resumed)
         t_fam = time.perf_counter()
-        plan, items = sweep.family_plan(comm, params, region, float(k[-1]))
+        plan, items = sweep.family_plan(comm, params, big, float(k[-1]))
         if not args.quiet:
             _cli.say(f"following {len(items)} root families (continuation in k) ...", err=True)
         # cost ~ number of requested k the family is followed to: about equal; LPT keeps it even
         fam_share = _cli.my_share(comm, [1.0] * len(items))
-        if comm.rank == 0 and not args.quiet:  # progress from the first second (issue 18)
+        if comm.rank == 0 and not args.quiet:  # progress from the first second
             fam_share = tqdm(fam_share, desc=f"root families (rank 0 of {comm.size})",
                              unit=" families", file=sys.stderr)
-        fams = sweep.follow_families(comm, params, region, plan, items, k, fam_share)
+        fams = sweep.follow_families(comm, params, big, plan, items, k, fam_share)
         t_fam = time.perf_counter() - t_fam
-        mine = [todo[j] for j in _cli.my_share(comm, sweep.k_costs(params, region, k, todo))]
+        mine = [todo[j] for j in _cli.my_share(comm, sweep.k_costs(params, big, k, todo))]
         bar = None
         if comm.rank == 0 and not args.quiet and mine:
             bar = tqdm(total=len(mine), desc=f"k values (rank 0 of {comm.size})", unit=" k values",
                        file=sys.stderr)
-        share = sweep.solve_k_values(params, region, disc, args.rtol, k, mine, fams, out,
-                                     bar.update if bar is not None else None, args.material)
+        share = sweep.solve_k_values(params, big, disc, args.rtol, k, mine, fams, out,
+                                     bar.update if bar is not None else None, args.material,
+                                     c_at_k)
         if bar is not None:
             bar.close()
         times = comm.gather({"rank": comm.rank, "families_s": t_fam, "solve_s": share.seconds,
@@ -280,7 +297,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                     "resumed": run.resumed, "computed_this_run": len(todo),
                     "versions": _cli.versions(), "command": _cli.command()}
             summary = write_outputs(out, params, region, k, sweep.load_results(out, len(k)),
-                                    fams, meta, not args.no_plot)
+                                    fams, meta, not args.no_plot, c_at_k)
             wall = time.perf_counter() - t_start
             summary["timing_s"] = {"wall": wall, "post_processing_rank0": time.perf_counter()
                                    - t2}

@@ -5,9 +5,11 @@ certify
 its finite-element eigenvalues:
 
 - :class:`Region`: the part of the ``Lambda`` plane where *every* eigenvalue is reported,
-  ``re_min <= Re Lambda <= re_max``, ``|Im Lambda| <= c_max k / beta + omega0``: all phase
-  velocities up to ``c_max`` times ``c_d`` at every ``k``, plus the first few cut-off
-  frequencies at small ``k``.
+  ``re_min <= Re Lambda <= re_max``, ``|Im Lambda| <= c_max k c_d,max + omega0``: all phase
+  velocities up to ``c_max`` times the largest ``c_d`` of the stack at every ``k``, plus the
+  first few cut-off frequencies at small ``k``. With ``c_max = None`` the bound is chosen per
+  ``k`` (:func:`provable_region`) until the tail bound of :mod:`analytic.physics.tail` shows
+  that no root beyond grows faster than the fastest root inside (:func:`fastest_mode`).
 - :func:`exact_roots`: every root in the region at one ``k``, certified by the argument
   principle (the edges are nudged if a root sits on one; the rectangle actually used is
   returned so that the FE count uses the same one).
@@ -27,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import TypeVar
 
 import numpy as np
@@ -35,6 +37,7 @@ import numpy as np
 from analytic.numerics.branches import BranchResult, branch_cutoff, follow_branch, follow_root
 from analytic.numerics.roots import Box, ContourError, Root, zeros_in_box
 from analytic.params import ParameterError, Params
+from analytic.physics.tail import tail_bound, velocity_scale
 
 T = TypeVar("T")
 
@@ -42,6 +45,10 @@ T = TypeVar("T")
 SAME_ROOT_RTOL = 1e-7
 #: Seed wavenumber of the non-waveguide families, times H.
 SEED_KH = 0.02
+
+
+#: Phase-velocity bounds tried by the adaptive region, in units of the largest ``c_d``.
+C_LADDER = (4.0, 6.0, 8.0, 12.0, 16.0, 24.0, 32.0)
 
 
 @dataclass(frozen=True)
@@ -52,18 +59,22 @@ class Region:
         re_min: Smallest growth rate reported (default slightly below 0: modes at the
             stability threshold are kept, and the contour stays off ``Lambda = 0``).
         re_max: Largest growth rate searched.
-        c_max: Largest phase velocity ``|Im Lambda| / k`` reported, in units of ``c_d``.
+        c_max: Largest phase velocity ``|Im Lambda| / k`` reported, in units of the largest
+            ``c_d`` of the stack (:func:`analytic.physics.tail.velocity_scale`: ``c_d`` of the
+            slider for the rigid substrate). ``None``: adaptive, chosen per ``k`` from
+            :data:`C_LADDER` by :func:`provable_region` so that the region provably holds the
+            fastest mode; resolve it with :meth:`fixed` before asking for a box.
         omega0: Frequency allowance at ``k -> 0``; ``None``: ``2 pi / (beta H)`` (the first two
             dilatational cut-offs of either top).
     """
 
     re_min: float = -0.01
     re_max: float = 2.0
-    c_max: float = 4.0
+    c_max: float | None = 4.0
     omega0: float | None = None
 
     def __post_init__(self) -> None:
-        for name in ("re_min", "re_max", "c_max"):
+        for name in ("re_min", "re_max") + (("c_max",) if self.c_max is not None else ()):
             v = getattr(self, name)
             if not math.isfinite(v):
                 raise ParameterError(f"{name} = {v!r} must be a finite number")
@@ -73,18 +84,34 @@ class Region:
             raise ParameterError(
                 f"re_min = {self.re_min} is outside its allowed range -1 < re_min: the "
                 "polynomial FE form has a spurious root at Lambda = -1")
-        if self.c_max <= 0:
+        if self.c_max is not None and self.c_max <= 0:
             raise ParameterError(f"c_max = {self.c_max} is outside its allowed range c_max > 0")
         if self.omega0 is not None and not (math.isfinite(self.omega0) and self.omega0 > 0):
             raise ParameterError(f"omega0 = {self.omega0!r} must be a finite number > 0")
+
+    @property
+    def adaptive(self) -> bool:
+        """True when ``c_max`` is chosen per ``k`` (:func:`provable_region`)."""
+        return self.c_max is None
+
+    def fixed(self, c_max: float) -> Region:
+        """This region with the phase-velocity bound ``c_max`` (a resolved adaptive region)."""
+        return replace(self, c_max=float(c_max))
 
     def omega_0(self, p: Params) -> float:
         """The frequency allowance at ``k -> 0`` for parameters ``p``."""
         return self.omega0 if self.omega0 is not None else 2.0 * math.pi / (p.beta * p.H)
 
     def im_max(self, p: Params, k: float) -> float:
-        """``|Im Lambda|`` bound at wavenumber ``k``."""
-        return self.c_max * float(k) / p.beta + self.omega_0(p)
+        """``|Im Lambda|`` bound at wavenumber ``k``.
+
+        Raises:
+            ParameterError: If the region is adaptive (resolve ``c_max`` first).
+        """
+        if self.c_max is None:
+            raise ParameterError("c_max = None (adaptive): resolve it per k with "
+                                 "provable_region and Region.fixed first")
+        return self.c_max * float(k) * velocity_scale(p) + self.omega_0(p)
 
     def box(self, p: Params, k: float) -> Box:
         """The region at ``k`` as a rectangle ``(re_min, re_max, -W, W)``."""
@@ -95,9 +122,55 @@ class Region:
         """Description for summaries (with the resolved ``omega0``)."""
         d = asdict(self)
         d["omega0"] = self.omega_0(p)
-        d["definition"] = ("re_min <= Re Lambda <= re_max and |Im Lambda| <= c_max * k / beta"
-                           " + omega0 (phase velocities up to c_max c_d)")
+        d["c_max"] = "auto" if self.c_max is None else self.c_max
+        d["velocity_scale"] = velocity_scale(p)
+        d["definition"] = ("re_min <= Re Lambda <= re_max and |Im Lambda| <= c_max * k * "
+                           "velocity_scale + omega0 (phase velocities up to c_max times the "
+                           "largest c_d of the stack, velocity_scale; c_max = auto: chosen per k "
+                           f"from {list(C_LADDER)} until the tail bound, "
+                           "analytic.physics.tail, is below the fastest root inside)")
         return d
+
+
+def provable_region(p: Params, k: float, region: Region,
+                    fastest_inside: Callable[[float], float | None]
+                    ) -> tuple[float, float | None]:
+    """The smallest phase-velocity bound that provably holds the fastest mode at ``k``.
+
+    Climbs :data:`C_LADDER` (or uses ``region.c_max`` alone when it is fixed): at each rung
+    ``c``, ``fastest_inside(c)`` is the largest ``Re Lambda`` in ``region.fixed(c)`` (``None``:
+    no root there), found by any method (exact roots, FE eigenvalues); the rung is accepted when
+    :func:`analytic.physics.tail.tail_bound` at ``W = region.fixed(c).im_max(p, k)`` is below it
+    (below ``re_min`` when there is no root). Rungs whose tail bound is not below the current
+    fastest value are skipped without calling ``fastest_inside``.
+
+    Returns:
+        ``(c_max_used, tail_bound)``. The fastest mode is proven to be inside
+        ``region.fixed(c_max_used)`` iff ``tail_bound`` is not ``None`` and below the fastest
+        root's ``Re`` there (:func:`proven`). ``tail_bound`` is ``None`` when no bound is
+        derived for ``p`` (then ``c_max_used`` is the first rung); at the top rung the tail
+        bound may still be too large (not proven).
+    """
+    ladder = (region.c_max,) if region.c_max is not None else C_LADDER
+    i = 0
+    while True:
+        c = ladder[i]
+        re = fastest_inside(c)
+        target = re if re is not None else region.re_min
+        tb = tail_bound(p, k, region.fixed(c).im_max(p, k))
+        if tb is None or tb < target or i == len(ladder) - 1:
+            return c, tb
+        # skip the rungs whose bound is not below the fastest value found so far
+        i += 1
+        while (i < len(ladder) - 1
+               and not tail_bound(p, k, region.fixed(ladder[i]).im_max(p, k)) < target):
+            i += 1
+
+
+def proven(tail: float | None, fastest: float | None, region: Region) -> bool:
+    """The fastest mode is in the region: ``tail`` below the fastest ``Re`` (or ``re_min``)."""
+    target = fastest if fastest is not None else region.re_min
+    return tail is not None and tail < target
 
 
 def nudged_boxes(box: Box) -> list[Box]:
@@ -326,12 +399,29 @@ def certified_roots(p: Params, k: float, region: Region, fams: list[BranchResult
     return sorted(out, key=lambda r: (-r.value.real, r.value.imag)), bx, n
 
 
-def fastest_root(p: Params, k: float, region: Region) -> tuple[complex | None, int, Box]:
-    """The fastest-growing exact root in the region at ``k`` (no labels): ``(root, count, box)``.
+@dataclass
+class FastestMode:
+    """The fastest-growing exact root at one ``k`` and what proves it is the fastest.
 
-    ``root`` is ``None`` when the region holds no root. The count is the argument principle's,
-    so the maximum is over *every* root in the region.
+    Attributes:
+        root: The root (``None``: the region holds none).
+        count: Roots in the region (argument principle).
+        box: The rectangle actually used.
+        c_max: The phase-velocity bound used (:func:`provable_region`).
+        tail_bound: Bound on ``Re Lambda`` beyond the region (``None``: none derived).
+        proven: ``tail_bound`` is below ``root``'s growth rate (or ``re_min``): no root outside
+            the region grows faster.
     """
+
+    root: complex | None
+    count: int
+    box: Box
+    c_max: float
+    tail_bound: float | None
+    proven: bool
+
+
+def _fastest_in(p: Params, k: float, region: Region) -> tuple[complex | None, int, Box]:
     roots, bx = exact_roots(p, k, region.box(p, k))
     # a nudged box may reach slightly below re_min: report the region's roots only
     roots = [r for r in roots if r.value.real >= region.re_min]
@@ -339,6 +429,62 @@ def fastest_root(p: Params, k: float, region: Region) -> tuple[complex | None, i
         return None, 0, bx
     best = max(roots, key=lambda r: r.value.real)
     return complex(best.value), len(roots), bx
+
+
+def fastest_mode(p: Params, k: float, region: Region) -> FastestMode:
+    """The fastest-growing exact root at ``k`` with the region of :func:`provable_region`.
+
+    For a fixed ``region.c_max`` the region is used as it is (the tail bound is still reported).
+    An adaptive region is searched incrementally: every root of the first rung, then for each
+    larger rung only the two bands ``W_prev < |Im| < W`` at ``Re >=`` the fastest value so far
+    (one contour when they hold nothing faster); the count is one argument principle on the
+    final region.
+
+    Raises:
+        ContourError: If no nudged copy of a box gives a usable contour.
+    """
+    from analytic.numerics.branches import _n_initial, spectrum_function
+    from analytic.numerics.roots import count_zeros
+
+    fun = spectrum_function(p, float(k))
+    state: dict = {"z": None, "w": None, "n": 0, "box": None}
+
+    def inside(c: float) -> float | None:
+        w = region.fixed(c).im_max(p, k)
+        if state["w"] is None:
+            state["z"], state["n"], state["box"] = _fastest_in(p, k, region.fixed(c))
+        else:
+            z = state["z"]
+            lo = region.re_min if z is None else max(region.re_min, z.real)
+            for band in ((lo, region.re_max, state["w"], w), (lo, region.re_max, -w, -state["w"])):
+                roots, _ = on_usable_box(band, k, lambda b: zeros_in_box(
+                    fun, b, n_initial=_n_initial(p, b)))
+                for r in roots:
+                    if r.value.real >= lo and (state["z"] is None
+                                               or r.value.real > state["z"].real):
+                        state["z"] = complex(r.value)
+            state["box"] = None  # counted at the end
+        state["w"] = w
+        return None if state["z"] is None else state["z"].real
+
+    c, tail = provable_region(p, k, region, inside)
+    z = state["z"]
+    n, bx = state["n"], state["box"]
+    if bx is None:
+        n, bx = on_usable_box(region.fixed(c).box(p, k), k,
+                              lambda b: count_zeros(fun, b, n_initial=_n_initial(p, b)))
+    return FastestMode(z, n, bx, c, tail, proven(tail, None if z is None else z.real, region))
+
+
+def fastest_root(p: Params, k: float, region: Region) -> tuple[complex | None, int, Box]:
+    """The fastest-growing exact root in the region at ``k`` (no labels): ``(root, count, box)``.
+
+    ``root`` is ``None`` when the region holds no root. The count is the argument principle's,
+    so the maximum is over *every* root in the region. An adaptive region (``c_max = None``)
+    is resolved by :func:`provable_region` (see :func:`fastest_mode` for the proof's data).
+    """
+    m = fastest_mode(p, k, region)
+    return m.root, m.count, m.box
 
 
 def family_peak(p: Params, k0: float, z0: complex, lo: float, hi: float, *, steps: int = 40,

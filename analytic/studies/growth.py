@@ -1,7 +1,9 @@
 """The largest growth rate over every mode: maxima over ``k`` and curves (exact roots, counted).
 
 The fastest root in a region at one ``k`` comes from the argument principle
-(:func:`analytic.numerics.spectrum.fastest_root`); here it is maximised over ``k``:
+(:func:`analytic.numerics.spectrum.fastest_root`); here it is maximised over ``k``. Pass
+``Region(c_max=None)`` for the region that provably holds the fastest mode at each ``k``
+(:func:`analytic.numerics.spectrum.provable_region`; docs/design.md 8.1):
 
 - :func:`refine_envelope` and :func:`envelope_maximum`: the envelope ``max Re Lambda(k)``
   sampled on a grid, its largest local maxima refined along their root's family

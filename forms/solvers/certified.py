@@ -155,13 +155,17 @@ class CertifiedSolver:
         """Unknowns of the degree-``p`` model."""
         return self.models[0].size
 
-    def solve(self, k: float, fams: list[BranchResult]) -> KResult:
-        """The certified spectrum at ``k`` (see the module docstring)."""
+    def solve(self, k: float, fams: list[BranchResult], region: Region | None = None
+              ) -> KResult:
+        """The certified spectrum at ``k`` (module docstring) in ``region`` (default: own).
+
+        A per-``k`` region: see :func:`forms.studies.sweep.region_at_k`.
+        """
         t0 = time.perf_counter()
         p, rtol = self.params, self.rtol
         out = KResult(float(k))
         try:
-            labelled, box, n_exact = certified_roots(p, k, self.region, fams)
+            labelled, box, n_exact = certified_roots(p, k, region or self.region, fams)
         except ContourError as err:
             out.note = f"exact count failed: {err}"
             out.seconds = time.perf_counter() - t0

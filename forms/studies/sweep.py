@@ -5,6 +5,9 @@ docs/design.md section 8. The steps of a sweep, each a call of the scene:
 1. :func:`pending_k`: the per-``k`` result files ``DIR/raw/k#####.json`` (one per requested
    ``k``, written as soon as it is finished) tell which ``k`` are still to compute, so that a
    resumed sweep continues where it stopped;
+1b. :func:`region_at_k` (adaptive region, ``c_max = None``): at each ``k`` the phase-velocity
+   bound that provably holds the fastest mode (:func:`analytic.numerics.spectrum.fastest_mode`,
+   exact roots); the largest of them (:func:`largest_region`) sets the family plan and the mesh;
 2. :func:`family_plan` and :func:`follow_families`: every root family that can reach the region
    is followed in ``k`` by exact continuation; the families are shared over the ranks and
    gathered on all of them;
@@ -32,8 +35,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from analytic.numerics.branches import BranchResult
-from analytic.numerics.spectrum import FamilyPlan, Region, follow_family, plan_families, plan_items
+from analytic.numerics.roots import ContourError
+from analytic.numerics.spectrum import (
+    C_LADDER,
+    FamilyPlan,
+    Region,
+    fastest_mode,
+    follow_family,
+    plan_families,
+    plan_items,
+)
 from analytic.params import Params
+from analytic.physics.tail import tail_bound, why_no_tail_bound
 from forms.models.profiles import SliderMaterial
 from forms.solvers.certified import CertifiedSolver, KResult
 
@@ -45,6 +58,11 @@ CERTIFICATE_STATEMENT = (
 #: How the sweep's values are obtained (``summary.json``, key ``method``).
 METHOD = ("exact continuation labels; FE Newton on the discrete NEP from the exact roots; FE "
           "and exact argument-principle counts in R")
+#: What ``most_unstable.certificate.fastest_mode`` states.
+FASTEST_STATEMENT = (
+    "at every swept k, every root outside R (|Im Lambda| > W(k)) has Re Lambda below the tail "
+    "bound (analytic.physics.tail, docs/design.md 8.1), and the largest tail bound is below the "
+    "most unstable value: no mode outside R grows faster")
 #: Flagged rows listed in the summary at most (all of them are in the CSV).
 MAX_FLAGGED_LISTED = 200
 
@@ -82,6 +100,27 @@ def pending_k(comm: object, folder: str, count: int, resumed: bool) -> list[int]
     comm.Barrier()
     todo = [i for i in range(count) if not os.path.exists(raw_file(folder, i))]
     return comm.bcast(todo)
+
+
+def region_at_k(params: Params, region: Region, k: float) -> float:
+    """The phase-velocity bound used at ``k`` (not collective).
+
+    ``region.c_max``, or for an adaptive region the
+    rung of :func:`analytic.numerics.spectrum.provable_region` found with the exact roots (the
+    first rung if the exact search fails; the sweep's tail bound then says whether it proves).
+    Share the ``k`` over the ranks as for :func:`k_costs`.
+    """
+    if region.c_max is not None:
+        return region.c_max
+    try:
+        return fastest_mode(params, float(k), region).c_max
+    except ContourError:
+        return C_LADDER[0]
+
+
+def largest_region(region: Region, c_max_at_k: Sequence[float]) -> Region:
+    """The region with the largest bound used at any ``k``: the family plan and the mesh."""
+    return region.fixed(max(c_max_at_k)) if region.c_max is None else region
 
 
 def family_plan(comm: object, params: Params, region: Region, k_max: float
@@ -150,7 +189,8 @@ class ShareRun:
 def solve_k_values(params: Params, region: Region, discretisation: tuple[int, int, float],
                    rtol: float, k: np.ndarray, mine: Sequence[int], fams: list[BranchResult],
                    folder: str, progress: Callable[[], object] | None = None,
-                   material: SliderMaterial | None = None) -> ShareRun:
+                   material: SliderMaterial | None = None,
+                   c_max_at_k: Sequence[float] | None = None) -> ShareRun:
     """The certified spectrum at ``k[i]`` for each ``i`` of ``mine``, each written to its file.
 
     One :class:`forms.solvers.certified.CertifiedSolver` (on ``COMM_SELF``, for ``k`` up to
@@ -170,13 +210,16 @@ def solve_k_values(params: Params, region: Region, discretisation: tuple[int, in
         progress: Called after every finished ``k`` (e.g. a progress bar's update).
         material: The slider's layers/profiles (``None``: homogeneous), see
             :func:`forms.models.section.section_stack`.
+        c_max_at_k: The bound used at each ``k`` (:func:`region_at_k`, indexed like ``k``);
+            ``region`` must then be the largest of them (:func:`largest_region`).
     """
     t0 = time.perf_counter()
     degree, cells, ratio = discretisation
     solver = CertifiedSolver(params, region, degree, cells, ratio, float(k[-1]), rtol, material)
     try:
         for i in mine:
-            write_json(raw_file(folder, i), solver.solve(float(k[i]), fams).as_dict())
+            reg = region.fixed(c_max_at_k[i]) if c_max_at_k is not None else region
+            write_json(raw_file(folder, i), solver.solve(float(k[i]), fams, reg).as_dict())
             if progress is not None:
                 progress()
         unknowns, cells2 = solver.unknowns, solver.cells2
@@ -209,8 +252,22 @@ def describe_discretisation(params: Params, discretisation: tuple[int, int, floa
             "method": METHOD}
 
 
+def tail_at_k(params: Params, region: Region, res: KResult, c_max: float) -> dict:
+    """``per_k`` keys of the region proof at one ``k``.
+
+    The bound used, the tail bound at its ``W`` (:func:`analytic.physics.tail.tail_bound`) and
+    whether it is below the fastest row.
+    """
+    tb = tail_bound(params, res.k, region.fixed(c_max).im_max(params, res.k))
+    fastest = max((r["re_lambda"] for r in res.rows), default=None)
+    target = fastest if fastest is not None else region.re_min
+    return {"c_max": c_max, "tail_bound": tb,
+            "fastest_proven": bool(tb is not None and tb < target)}
+
+
 def most_unstable(rows: list[dict], results: list[KResult], k: np.ndarray,
-                  open_k: list[dict]) -> dict | None:
+                  open_k: list[dict], tails: list[dict] | None = None,
+                  why_not: str = "") -> dict | None:
     """The row with the largest ``Re Lambda`` and its certificate (``None``: no rows).
 
     Args:
@@ -218,10 +275,15 @@ def most_unstable(rows: list[dict], results: list[KResult], k: np.ndarray,
         results: The per-``k`` results the rows come from.
         k: The requested wavenumbers, sorted.
         open_k: The ``k`` whose count did not close (see :func:`summarise`).
+        tails: :func:`tail_at_k` of every ``k``: the most unstable value is the fastest mode of
+            the swept ``k`` when every tail bound is below it.
+        why_not: Why no tail bound exists for these parameters ("" if it does).
     """
     if not rows:
         return None
     best = max(rows, key=lambda r: r["re_lambda"])
+    tb = [t["tail_bound"] for t in tails or []]
+    beyond = None if (not tb or any(v is None for v in tb)) else max(tb)
     res_best = next((res for res in results if res.k == best["k"]), None)
     return {"k": best["k"], "re_lambda": best["re_lambda"], "im_lambda": best["im_lambda"],
             "branch": best["label"], "status": best["status"],
@@ -232,11 +294,14 @@ def most_unstable(rows: list[dict], results: list[KResult], k: np.ndarray,
                 "all_k_closed": not open_k,
                 "region_at_k": list(res_best.box) if res_best else None,
                 "count_at_k": res_best.n_exact if res_best else None,
-                "certified": bool(best["status"] == "ok" and not open_k)}}
+                "certified": bool(best["status"] == "ok" and not open_k),
+                "largest_tail_bound": beyond,
+                "fastest_mode": bool(beyond is not None and beyond < best["re_lambda"]),
+                "fastest_mode_statement": why_not or FASTEST_STATEMENT}}
 
 
 def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResult],
-              fams: list[BranchResult]) -> dict:
+              fams: list[BranchResult], c_max_at_k: Sequence[float] | None = None) -> dict:
     """The sweep's summary: region, certificate, accuracy, families, most unstable, per ``k``.
 
     Pure data (no files). The keys, in order: ``region``, ``certificate`` (``k`` values closed
@@ -250,6 +315,8 @@ def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResu
               for res in results if not res.closed]
     errs = [r["rel_error"] for r in rows if math.isfinite(r["rel_error"])]
     ests = [r["error_estimate"] for r in rows if math.isfinite(r["error_estimate"])]
+    cs = list(c_max_at_k) if c_max_at_k is not None else [region.c_max] * len(results)
+    tails = [tail_at_k(params, region, res, c) for res, c in zip(results, cs, strict=True)]
     return {
         "region": region.as_dict(params),
         "certificate": {"k_values": len(results), "k_closed": len(results) - len(open_k),
@@ -259,9 +326,10 @@ def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResu
         "accuracy": {"max_rel_error_vs_exact": max(errs) if errs else None,
                      "max_error_estimate": max(ests) if ests else None},
         "families": {"count": len(fams), "notes": {f.label: f.note for f in fams if f.note}},
-        "most_unstable": most_unstable(rows, results, k, open_k),
+        "most_unstable": most_unstable(rows, results, k, open_k, tails,
+                                       why_no_tail_bound(params)),
         "per_k": [{"k": res.k, "n_fe": res.n_fe, "n_exact": res.n_exact, "closed": res.closed,
-                   "box": list(res.box), "seconds": res.seconds,
+                   "box": list(res.box), **tail, "seconds": res.seconds,
                    "factorizations": res.factorizations}
-                  for res in results],
+                  for res, tail in zip(results, tails, strict=True)],
     }

@@ -9,6 +9,7 @@ import pytest
 from _workflows import run_workflow
 
 from analytic import Params, roots_in_box
+from analytic.numerics.branches import polish_root
 from analytic.numerics.spectrum import Region, fastest_root
 from analytic.studies.growth import (
     best_over_k,
@@ -194,3 +195,34 @@ def test_extremum_midpoints_resolve_a_dip_between_samples(k_dip):
 
 def test_local_extrema_interior_only():
     assert local_extrema([0.0, 1.0, 0.5, 0.7, np.nan, 0.2, 0.1]) == [1, 2]
+
+
+def _follow(p, k, z, name, value, steps=20):
+    """The root z of p at k, continued in one parameter to value (Newton, equal steps)."""
+    v0 = getattr(p, name)
+    for s in np.linspace(0.0, 1.0, steps + 1)[1:]:
+        r = polish_root(p.replace(**{name: v0 + s * (value - v0)}), k, z)
+        assert r.converged
+        z = r.value
+    return z
+
+
+@pytest.mark.parametrize("bc, guess", [("velocity", 0.32989 - 169.740j),
+                                       ("stress", 0.35103 - 308.390j)])
+def test_plateau_scales_as_one_over_H(bc, guess):
+    """docs/envelope.md section 2: at |Lambda| >> 1 the roots are F(kH) / H, independent of
+    Delta; the growth needs f > 0, rises with gamma and vanishes with alpha_pc. The root is the
+    envelope's local maximum at kH = 22.27, H = 0.5 (workflows/results/envelope_*; the guess is
+    only Newton's start). Tolerances: measured changes of H Lambda were <= 2.4e-5 (H = 0.5 -> 2)
+    and of Re Lambda <= 1.8e-4 (Delta = 0.7 -> 5 or -0.5), the O(1/|Lambda|) corrections;
+    with alpha_pc = 1, Re Lambda was 1.1e-5 (velocity) and 3.3e-6 (stress)."""
+    p, k = Params(bc=bc, H=0.5), 44.54783436305254
+    z = polish_root(p, k, guess).value
+    for h in (1.0, 2.0):
+        r = polish_root(p.replace(H=h), k * p.H / h, z * p.H / h)
+        assert r.converged and abs(r.value.real * h - z.real * p.H) <= 1e-4
+    for delta in (5.0, -0.5):
+        assert abs(_follow(p, k, z, "Delta", delta).real - z.real) <= 1e-3
+    assert _follow(p, k, z, "gamma", 1.0).real < z.real < _follow(p, k, z, "gamma", 10.0).real
+    assert abs(_follow(p, k, z, "alpha_pc", 1.0).real) <= 1e-4 * z.real
+    assert _follow(p, k, z, "f", 0.0).real < 0

@@ -136,6 +136,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                 _cli.say(f"warning: the count failed at {len(failed)} of {len(ks)} k value(s) "
                          "(no value there; the maximum is over the others); see "
                          "failed_counts_k in summary.json", err=True)
+        comm.Barrier()  # a rank leaving with code 1 first would make mpirun stop rank 0's writing
     return 1 if failed else 0
 
 

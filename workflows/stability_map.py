@@ -140,6 +140,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
             if failed:
                 _cli.say(f"warning: {failed} root count(s) failed (see failed_counts in "
                          "stability_map.csv)", err=True)
+        comm.Barrier()  # a rank leaving with code 1 first would make mpirun stop rank 0's writing
     return 1 if failed else 0
 
 
@@ -163,8 +164,17 @@ def plot(path: str, rows: list[dict], x: tuple, y: tuple, base: object, meta: di
         g[r["iy"], r["ix"]] = r["re_lambda"] if r["re_lambda"] is not None else 0.0
         dcf[r["iy"], r["ix"]] = r["delta_closed_form"]
     fig, ax = plt.subplots(figsize=(7, 5.5))
-    m = ax.pcolormesh(x[1], y[1], g, shading="nearest", cmap="magma_r")
-    fig.colorbar(m, ax=ax, label=r"max Re $\Lambda$ over modes and k H (0: stable)")
+    from matplotlib.colors import LogNorm
+
+    norm = LogNorm(g[g > 0].min(), g.max()) if (g > 0).sum() > 1 else None
+    m = ax.pcolormesh(x[1], y[1], np.where(g > 0, g, np.nan), shading="nearest", cmap="magma_r",
+                      norm=norm)
+    fig.colorbar(m, ax=ax, label=r"max Re $\Lambda$ over modes and k H (blank: stable)")
+    fast = [(x[1][r["ix"]], y[1][r["iy"]]) for r in rows
+            if (r.get("phase_velocity_over_c_d") or 0.0) > 1.0]
+    if fast:
+        ax.plot(*zip(*fast, strict=True), "o", ms=3, mfc="none", mec="tab:blue",
+                label="fastest mode: phase velocity > c_d (waves trapped in the strip)")
     stable = np.array([[0.0] * nx for _ in range(ny)])
     for r in rows:
         stable[r["iy"], r["ix"]] = 1.0 if r["stable_on_grid"] else 0.0

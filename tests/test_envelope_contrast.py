@@ -17,6 +17,7 @@ from analytic.studies.growth import (
     envelope_maximum,
     extremum_midpoints,
     local_extrema,
+    plateau_dependence,
 )
 
 pytestmark = pytest.mark.serial  # subprocesses (their own mpirun) and pure numpy
@@ -226,3 +227,19 @@ def test_plateau_scales_as_one_over_H(bc, guess):
     assert _follow(p, k, z, "gamma", 1.0).real < z.real < _follow(p, k, z, "gamma", 10.0).real
     assert abs(_follow(p, k, z, "alpha_pc", 1.0).real) <= 1e-4 * z.real
     assert _follow(p, k, z, "f", 0.0).real < 0
+
+
+def test_plateau_dependence_panels():
+    """The three panels of envelope.py --dependence for the velocity top's plateau mode at
+    kH = 22.27: H Re Lambda constant in H (to 1e-4, as test_plateau_scales_as_one_over_H),
+    falling to below 1e-4 of its value at alpha_pc = 1, rising with f gamma above f gamma = 0.3
+    (measured: -0.004 at gamma = 1, 0.23 at gamma = 10)."""
+    p, k = Params(), 44.54783436305254
+    z = polish_root(p, k, 0.32989 - 169.740j).value
+    dep = plateau_dependence(p, k, z)
+    h = [w for _, w in dep["H"]]
+    assert None not in h and max(h) - min(h) <= 1e-4
+    apc = dict((round(v, 6), w) for v, w in dep["alpha_pc"])
+    assert apc[0.0] == pytest.approx(z.real * p.H, rel=1e-12) and abs(apc[1.0]) <= 1e-4 * apc[0]
+    fg = [(v, w) for v, w in dep["f_gamma"] if v >= 0.3]
+    assert all(b[1] > a[1] for a, b in zip(fg, fg[1:], strict=False))

@@ -27,16 +27,23 @@ import math
 import os
 
 import _cli
+import _plots
 import numpy as np
 
 from analytic.numerics.roots import ContourError
 from analytic.numerics.spectrum import Region, fastest_root
 from analytic.params import require_rigid
 from analytic.physics import halfspace
-from analytic.studies.growth import envelope_maximum, local_extrema, refinement_points
+from analytic.studies.growth import (
+    envelope_maximum,
+    local_extrema,
+    plateau_dependence,
+    refinement_points,
+)
 
 PETSC_PREFIXES: tuple[str, ...] = ()
-OUTPUTS = ("envelope.csv", "summary.json", "envelope.png", "run.json", "run.lock")
+OUTPUTS = ("envelope.csv", "summary.json", "envelope.png", "dependence.png", "run.json",
+           "run.lock")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -52,6 +59,9 @@ def build_parser() -> argparse.ArgumentParser:
                     "are within this k ratio")
     ap.add_argument("--refine-rounds", type=int, default=8,
                     help="refinement: at most this many rounds of new samples (0: the grid)")
+    ap.add_argument("--dependence", action="store_true",
+                    help="also follow the fastest sample at k H >= 5 (a plateau mode) in "
+                    "alpha_pc, f gamma and H: dependence.png, summary.json plateau_dependence")
     ap.add_argument("--out", default=os.path.join("out", "envelope"), help="output folder")
     return ap
 
@@ -121,6 +131,12 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                                         if re[j] <= min(re[j - 1], re[j + 1])],
                        "failed_counts_k": [ks[i] for i in failed],
                        "versions": _cli.versions(), "command": _cli.command()}
+            large = [i for i in range(len(ks)) if ks[i] * p.H >= 5 and np.isfinite(re[i])]
+            if args.dependence and large:
+                i = max(large, key=lambda j: re[j])
+                summary["plateau_dependence"] = plateau_dependence(p, ks[i], rows[i][0])
+                plot_dependence(run.file("dependence.png"), p, summary["plateau_dependence"],
+                                config)
             with open(run.file("summary.json"), "w") as fh:
                 json.dump(summary, fh, indent=1)
             plot(run.file("envelope.png"), p, np.array(ks), re, best, hs.growth, config)
@@ -163,6 +179,32 @@ def plot(path: str, p: object, k: np.ndarray, re: np.ndarray, best: dict | None,
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=130, metadata=_cli.png_metadata(meta, "growth-rate envelope"))
+    plt.close(fig)
+
+
+def plot_dependence(path: str, p: object, dep: dict, meta: dict) -> None:
+    """dependence.png: H Re Lambda of one plateau mode against alpha_pc, f gamma and H."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axs = plt.subplots(1, 3, figsize=(11, 3.6), sharey=True)
+    for ax, key, label, log in zip(axs, ("alpha_pc", "f_gamma", "H"),
+                                   ("alpha_pc (Prakash-Clifton)", "f gamma (gamma varied)",
+                                    "H (same k H)"), (False, True, True), strict=True):
+        pts = [(v, w) for v, w in dep[key] if w is not None]
+        ax.plot(*zip(*pts, strict=True), "o-", ms=4, color="k")
+        ax.axhline(0, color="0.5", lw=0.6)
+        ax.set_xlabel(label)
+        if log:
+            ax.set_xscale("log")
+    axs[0].set_ylabel(r"$H$ Re $\Lambda$ of the plateau mode")
+    fig.suptitle(f"bc={p.bc}: mode at k H = {dep['kH']:.4g} (Lambda = {dep['Lambda'][0]:.4g} "
+                 f"{dep['Lambda'][1]:+.4g} i), followed; f={p.f:g}, gamma={p.gamma:g}, "
+                 f"Delta={p.Delta:g}, H={p.H:g}", fontsize=9)
+    fig.tight_layout()
+    _plots.save_png(fig, path, meta)
     plt.close(fig)
 
 

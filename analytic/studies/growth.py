@@ -231,3 +231,66 @@ def curve_shape(x: Sequence[float], growth: Sequence[float], name: str = "x") ->
     return {"max_growth": float(g.max()), f"{name}_at_max": float(x[int(np.argmax(g))]),
             "monotonic": bool(np.all(d >= 0) or np.all(d <= 0)),
             "direction_changes": int(np.sum(d[1:] != d[:-1]))}
+
+
+def follow_parameter(p: Params, k: float, z: complex, name: str, values: Sequence[float],
+                     substeps: int = 10) -> list[complex | None]:
+    """The root ``z`` of ``p`` at ``k``, continued in one parameter to each of ``values``.
+
+    Newton continuation from ``p``'s value outwards (values below it in decreasing order, above
+    it in increasing order), ``substeps`` equal steps between successive values; ``None`` from
+    the first Newton failure on (that side).
+    """
+    from analytic.numerics.branches import polish_root
+
+    v0 = float(getattr(p, name))
+    out: dict[float, complex | None] = {}
+    for side in (sorted(v for v in values if v < v0)[::-1], sorted(v for v in values if v >= v0)):
+        zz: complex | None = complex(z)
+        prev = v0
+        for v in side:
+            for s in range(1, substeps + 1):
+                if zz is None:
+                    break
+                r = polish_root(p.replace(**{name: prev + (v - prev) * s / substeps}), k, zz)
+                zz = complex(r.value) if r.converged else None
+            out[float(v)] = zz
+            prev = v
+    return [out[float(v)] for v in values]
+
+
+def plateau_dependence(p: Params, k: float, z: complex) -> dict:
+    """``H Re Lambda`` of one plateau mode against ``alpha_pc``, ``f gamma`` and ``H``.
+
+    The root ``z`` at ``k`` (a local maximum of the envelope at large ``k H``) is followed in
+    ``alpha_pc`` (0 to 1), in ``gamma`` (``f gamma`` from 0.03 to 3, ``f`` fixed) and in ``H``
+    at fixed ``k H`` (``Lambda H`` is invariant at ``|Lambda| >> 1``, docs/envelope.md).
+
+    Returns:
+        ``{"alpha_pc": [[value, H Re Lambda], ...], "f_gamma": ..., "H": ...}`` (``None``
+        where the continuation failed), plus ``kH`` and ``Lambda`` of the mode.
+    """
+    apc = [float(v) for v in np.linspace(0.0, 1.0, 11)]
+    gam = [float(v) for v in np.geomspace(0.1, 10.0, 11)]
+    hs = [float(v) for v in np.geomspace(0.25, 4.0, 9)]
+
+    def h_re(zz: complex | None, h: float) -> float | None:
+        return None if zz is None else zz.real * h
+
+    out = {"kH": k * p.H, "Lambda": [z.real, z.imag]}
+    out["alpha_pc"] = [[v, h_re(w, p.H)] for v, w in
+                       zip(apc, follow_parameter(p, k, z, "alpha_pc", apc), strict=True)]
+    out["f_gamma"] = [[v * p.f, h_re(w, p.H)] for v, w in
+                      zip(gam, follow_parameter(p, k, z, "gamma", gam), strict=True)]
+    kh = k * p.H
+    out["H"] = [[h, h_re(w, h)] for h, w in
+                zip(hs, [_polished(p.replace(H=h), kh / h, z * p.H / h) for h in hs],
+                    strict=True)]
+    return out
+
+
+def _polished(p: Params, k: float, guess: complex) -> complex | None:
+    from analytic.numerics.branches import polish_root
+
+    r = polish_root(p, k, guess)
+    return complex(r.value) if r.converged else None

@@ -141,6 +141,7 @@ def test_envelope_maximum_refines_the_grid_maximum():
                if pk["fastest_in_region"])
 
 
+@pytest.mark.slow  # 22-35 s: 14 root counts up to k = 6
 def test_envelope_refines_every_extremum(tmp_path):
     """The grid 2, 3.46, 6 (velocity top, H = 0.5) is monotone; the envelope has a dip near
     k = 2.76 (a change of family) and a peak near k = 3.97 (measured with --k 0.5:6:4log

@@ -28,6 +28,7 @@ def _rows(out):
         return list(csv.DictReader(fh))
 
 
+@pytest.mark.slow  # 25 s serial on a quiet machine, 80-90 s with 7 helpers running
 @pytest.mark.parametrize("nproc", [1, 2])
 def test_small_map_matches_exact_roots(tmp_path, nproc):
     out = tmp_path / "m"
@@ -54,6 +55,7 @@ def test_small_map_matches_exact_roots(tmp_path, nproc):
     assert (out / "stability_map.png").stat().st_size > 10000
 
 
+@pytest.mark.slow  # three runs of the scene: 48 s on the loaded machine
 def test_resume_keeps_done_points_and_recomputes_missing(tmp_path):
     out = tmp_path / "m"
     args = ["--x", "Delta:1:2:2", "--y", "f:0.01:0.02:2", "--kH-max", "0.5", "--nk", "2",

@@ -192,13 +192,15 @@ def plot_dependence(path: str, p: object, dep: dict, meta: dict) -> None:
     fig, axs = plt.subplots(1, 3, figsize=(11, 3.6), sharey=True)
     for ax, key, label, log in zip(axs, ("alpha_pc", "f_gamma", "H"),
                                    ("alpha_pc (Prakash-Clifton)", "f gamma (gamma varied)",
-                                    "H (same k H)"), (False, True, True), strict=True):
+                                    "H (same k H)"), ("symlog", "log", "log"), strict=True):
         pts = [(v, w) for v, w in dep[key] if w is not None]
         ax.plot(*zip(*pts, strict=True), "o-", ms=4, color="k")
         ax.axhline(0, color="0.5", lw=0.6)
         ax.set_xlabel(label)
-        if log:
-            ax.set_xscale("log")
+        if log == "symlog":
+            ax.set_xscale("symlog", linthresh=1e-4)
+        else:
+            ax.set_xscale(log)
     axs[0].set_ylabel(r"$H$ Re $\Lambda$ of the plateau mode")
     fig.suptitle(f"bc={p.bc}: mode at k H = {dep['kH']:.4g} (Lambda = {dep['Lambda'][0]:.4g} "
                  f"{dep['Lambda'][1]:+.4g} i), followed; f={p.f:g}, gamma={p.gamma:g}, "

@@ -263,14 +263,15 @@ def plateau_dependence(p: Params, k: float, z: complex) -> dict:
     """``H Re Lambda`` of one plateau mode against ``alpha_pc``, ``f gamma`` and ``H``.
 
     The root ``z`` at ``k`` (a local maximum of the envelope at large ``k H``) is followed in
-    ``alpha_pc`` (0 to 1), in ``gamma`` (``f gamma`` from 0.03 to 3, ``f`` fixed) and in ``H``
-    at fixed ``k H`` (``Lambda H`` is invariant at ``|Lambda| >> 1``, docs/envelope.md).
+    ``alpha_pc`` (0, then 1e-4 to 1: the filter acts from ``alpha_pc ~ 1/|Lambda|``), in
+    ``gamma`` (``f gamma`` from 0.03 to 3, ``f`` fixed) and in ``H`` at fixed ``k H``
+    (``Lambda H`` is invariant at ``|Lambda| >> 1``, docs/envelope.md).
 
     Returns:
         ``{"alpha_pc": [[value, H Re Lambda], ...], "f_gamma": ..., "H": ...}`` (``None``
         where the continuation failed), plus ``kH`` and ``Lambda`` of the mode.
     """
-    apc = [float(v) for v in np.linspace(0.0, 1.0, 11)]
+    apc = [0.0] + [float(v) for v in np.geomspace(1e-4, 1.0, 13)]
     gam = [float(v) for v in np.geomspace(0.1, 10.0, 11)]
     hs = [float(v) for v in np.geomspace(0.25, 4.0, 9)]
 

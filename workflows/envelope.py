@@ -199,6 +199,7 @@ def plot_dependence(path: str, p: object, dep: dict, meta: dict) -> None:
         ax.set_xlabel(label)
         if log == "symlog":
             ax.set_xscale("symlog", linthresh=1e-4)
+            ax.set_xlim(0.0, 1.5)
         else:
             ax.set_xscale(log)
     axs[0].set_ylabel(r"$H$ Re $\Lambda$ of the plateau mode")

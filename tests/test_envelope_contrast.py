@@ -9,8 +9,16 @@ import pytest
 from _workflows import run_workflow
 
 from analytic import Params, roots_in_box
+from analytic.numerics.branches import polish_root
 from analytic.numerics.spectrum import Region, fastest_root
-from analytic.studies.growth import best_over_k, curve_shape, envelope_maximum
+from analytic.studies.growth import (
+    best_over_k,
+    curve_shape,
+    envelope_maximum,
+    extremum_midpoints,
+    local_extrema,
+    plateau_dependence,
+)
 
 pytestmark = pytest.mark.serial  # subprocesses (their own mpirun) and pure numpy
 
@@ -18,7 +26,8 @@ pytestmark = pytest.mark.serial  # subprocesses (their own mpirun) and pure nump
 @pytest.mark.parametrize("nproc", [1, 2])
 def test_envelope_is_the_fastest_exact_root(tmp_path, nproc):
     out = tmp_path / "env"
-    proc = run_workflow("envelope.py", ["--k", "1,3,6", "--out", str(out)], nproc=nproc)
+    proc = run_workflow("envelope.py", ["--k", "1,3,6", "--refine-rounds", "0", "--out",
+                                        str(out)], nproc=nproc)
     assert proc.returncode == 0, proc.stderr[-2000:]
     with open(out / "envelope.csv") as fh:
         rows = list(csv.DictReader(fh))
@@ -55,6 +64,10 @@ def test_contrast_rigid_limit_and_rows(tmp_path, nproc):
 @pytest.mark.parametrize("script, bad, word", [("contrast.py", ["--H2s", "0"], "--H2s"),
                                                ("contrast.py", ["--mu2", "-1"], "mu2"),
                                                ("envelope.py", ["--k", "2:1:10log"], "--k"),
+                                               ("envelope.py", ["--min-ratio", "1"],
+                                                "--min-ratio"),
+                                               ("envelope.py", ["--refine-rounds", "-1"],
+                                                "--refine-rounds"),
                                                ("envelope.py", ["--mu2", "3", "--H2", "0.5"],
                                                 "mu2")])
 def test_bad_input_one_line(tmp_path, script, bad, word):
@@ -126,3 +139,108 @@ def test_envelope_maximum_refines_the_grid_maximum():
     # the maximum is the largest of the refined peaks that are the fastest in the region
     assert all(pk["re_lambda"] <= best["re_lambda"] for pk in best["local_peaks"]
                if pk["fastest_in_region"])
+
+
+@pytest.mark.slow  # 22-35 s: 14 root counts up to k = 6
+def test_envelope_refines_every_extremum(tmp_path):
+    """The grid 2, 3.46, 6 (velocity top, H = 0.5) is monotone; the envelope has a dip near
+    k = 2.76 (a change of family) and a peak near k = 3.97 (measured with --k 0.5:6:4log
+    --min-ratio 1.05: 0.2546 and 0.2871). The refinement must find both, every extremum resolved
+    to the ratio, and every value an exact fastest root."""
+    out = tmp_path / "env"
+    proc = run_workflow("envelope.py", ["--k", "2:6:3log", "--min-ratio", "1.1", "--out",
+                                        str(out)])
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    with open(out / "envelope.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    ks = [float(r["k"]) for r in rows]
+    re = [float(r["re_lambda_max"]) for r in rows]
+    ext = local_extrema(re)
+    grid = np.geomspace(2.0, 6.0, 3)
+
+    def bracket(j):  # the envelope at the two grid samples around ks[j]
+        i = int(np.searchsorted(grid, ks[j]))
+        return [re[ks.index(float(g))] for g in grid[max(i - 1, 0):i + 1]]
+
+    assert any(re[j] < min(bracket(j)) for j in ext)  # a dip the grid does not show
+    assert any(re[j] > max(bracket(j)) for j in ext)  # a peak the grid does not show
+    assert extremum_midpoints(ks, re, 1.1) == []
+    s = json.loads((out / "summary.json").read_text())
+    assert s["local_minima"] and s["samples"] == len(rows) > s["grid_samples"] == 3
+    p, region = Params(), Region()
+    for j in ext[:2]:
+        assert re[j] == pytest.approx(fastest_root(p, ks[j], region)[0].real, rel=1e-10)
+
+
+@pytest.mark.parametrize("k_dip", [1.7, 3.3, 7.9])
+def test_extremum_midpoints_resolve_a_dip_between_samples(k_dip):
+    """An envelope of two crossing families, max(a, b), has a kink dip at k_dip that the grid
+    k_dip * exp(-1.6, 0.7, 2.5) jumps over (it shows only the peak of b): repeated midpoints
+    around every extremum find the dip, to the ratio."""
+
+    def env(k):
+        x = np.log(k / k_dip)
+        return np.maximum(1.0 - 0.05 * x, 1.0 + 0.5 * x - 0.3 * x**2)
+
+    ks = list(k_dip * np.exp([-1.6, 0.7, 2.5]))
+    assert local_extrema(env(np.array(ks))) == [1]  # the grid shows the peak only
+    for _ in range(60):
+        new = extremum_midpoints(ks, list(env(np.array(ks))), 1.01)
+        if not new:
+            break
+        ks = sorted(set(ks) | set(new))
+    vals = env(np.array(ks))
+    dips = [j for j in local_extrema(vals) if vals[j] <= min(vals[j - 1], vals[j + 1])]
+    assert new == [] and len(dips) == 1
+    assert abs(np.log(ks[dips[0]] / k_dip)) <= np.log(1.01)
+
+
+def test_local_extrema_interior_only():
+    assert local_extrema([0.0, 1.0, 0.5, 0.7, np.nan, 0.2, 0.1]) == [1, 2]
+
+
+def _follow(p, k, z, name, value, steps=20):
+    """The root z of p at k, continued in one parameter to value (Newton, equal steps)."""
+    v0 = getattr(p, name)
+    for s in np.linspace(0.0, 1.0, steps + 1)[1:]:
+        r = polish_root(p.replace(**{name: v0 + s * (value - v0)}), k, z)
+        assert r.converged
+        z = r.value
+    return z
+
+
+@pytest.mark.parametrize("bc, guess", [("velocity", 0.32989 - 169.740j),
+                                       ("stress", 0.35103 - 308.390j)])
+def test_plateau_scales_as_one_over_H(bc, guess):
+    """docs/envelope.md section 2: at |Lambda| >> 1 the roots are F(kH) / H, independent of
+    Delta; the growth needs f > 0, rises with gamma and vanishes with alpha_pc. The root is the
+    envelope's local maximum at kH = 22.27, H = 0.5 (workflows/results/envelope_*; the guess is
+    only Newton's start). Tolerances: measured changes of H Lambda were <= 2.4e-5 (H = 0.5 -> 2)
+    and of Re Lambda <= 1.8e-4 (Delta = 0.7 -> 5 or -0.5), the O(1/|Lambda|) corrections;
+    with alpha_pc = 1, Re Lambda was 1.1e-5 (velocity) and 3.3e-6 (stress)."""
+    p, k = Params(bc=bc, H=0.5), 44.54783436305254
+    z = polish_root(p, k, guess).value
+    for h in (1.0, 2.0):
+        r = polish_root(p.replace(H=h), k * p.H / h, z * p.H / h)
+        assert r.converged and abs(r.value.real * h - z.real * p.H) <= 1e-4
+    for delta in (5.0, -0.5):
+        assert abs(_follow(p, k, z, "Delta", delta).real - z.real) <= 1e-3
+    assert _follow(p, k, z, "gamma", 1.0).real < z.real < _follow(p, k, z, "gamma", 10.0).real
+    assert abs(_follow(p, k, z, "alpha_pc", 1.0).real) <= 1e-4 * z.real
+    assert _follow(p, k, z, "f", 0.0).real < 0
+
+
+def test_plateau_dependence_panels():
+    """The three panels of envelope.py --dependence for the velocity top's plateau mode at
+    kH = 22.27: H Re Lambda constant in H (to 1e-4, as test_plateau_scales_as_one_over_H),
+    falling to below 1e-4 of its value at alpha_pc = 1, rising with f gamma above f gamma = 0.3
+    (measured: -0.004 at gamma = 1, 0.23 at gamma = 10)."""
+    p, k = Params(), 44.54783436305254
+    z = polish_root(p, k, 0.32989 - 169.740j).value
+    dep = plateau_dependence(p, k, z)
+    h = [w for _, w in dep["H"]]
+    assert None not in h and max(h) - min(h) <= 1e-4
+    apc = dict((round(v, 6), w) for v, w in dep["alpha_pc"])
+    assert apc[0.0] == pytest.approx(z.real * p.H, rel=1e-12) and abs(apc[1.0]) <= 1e-4 * apc[0]
+    fg = [(v, w) for v, w in dep["f_gamma"] if v >= 0.3]
+    assert all(b[1] > a[1] for a, b in zip(fg, fg[1:], strict=False))

@@ -3,15 +3,19 @@
     mpirun -n N python workflows/envelope.py [--bc velocity] [--k 0.05:100:48log] [--out DIR]
 
 At every k the argument principle counts every exact root in the region R of the sweep
-(``analytic.numerics.spectrum.Region``: phase velocities up to ``--c-max`` c_d) and the fastest one
-is
-kept; the largest local maxima of the samples are refined along their root's family.
+(``analytic.numerics.spectrum.Region``: phase velocities up to ``--c-max`` c_d) and the fastest
+one is kept. The grid is refined around every local extremum of the samples, maxima and dips alike,
+and wherever the fastest root changes family (geometric midpoints until neighbours there are
+within ``--min-ratio``, at most ``--refine-rounds`` rounds:
+``analytic.studies.growth.refinement_points``), and the largest local maxima are refined
+along their root's family.
 Answers: where is the global maximum of the growth rate over k, and what does the envelope do
-as k H grows? The half-space (k H -> infinity) maximum of the dilatational family
-(``analytic.physics.halfspace``) is drawn for comparison. Writes ``envelope.csv``, ``summary.json``,
-``envelope.png``. ``--k`` accepts ``start:stop:count`` (linear), ``start:stop:countlog``
-(geometric) or a comma list. Exit code 1 if the root count failed at some k (each is reported,
-and left out of the maximum).
+as k H grows (the trapped-wave plateau, about 0.17 / H: docs/envelope.md)? The half-space
+maximum of the dilatational family (``analytic.physics.halfspace``: H -> infinity at fixed k, a
+different limit from k H -> infinity at fixed H) is drawn for comparison. Writes
+``envelope.csv``, ``summary.json``, ``envelope.png``. ``--k`` accepts ``start:stop:count``
+(linear), ``start:stop:countlog`` (geometric) or a comma list. Exit code 1 if the root count
+failed at some k (each is reported, and left out of the maximum).
 """
 
 from __future__ import annotations
@@ -22,16 +26,23 @@ import math
 import os
 
 import _cli
+import _plots
 import numpy as np
 
 from analytic.numerics.roots import ContourError
 from analytic.numerics.spectrum import Region, fastest_root
 from analytic.params import require_rigid
 from analytic.physics import halfspace
-from analytic.studies.growth import envelope_maximum
+from analytic.studies.growth import (
+    envelope_maximum,
+    local_extrema,
+    plateau_dependence,
+    refinement_points,
+)
 
 PETSC_PREFIXES: tuple[str, ...] = ()
-OUTPUTS = ("envelope.csv", "summary.json", "envelope.png", "run.json", "run.lock")
+OUTPUTS = ("envelope.csv", "summary.json", "envelope.png", "dependence.png", "run.json",
+           "run.lock")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -42,6 +53,14 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--c-max", type=float, default=Region().c_max,
                     help="region: largest phase velocity, in units of c_d")
     ap.add_argument("--re-min", type=float, default=Region().re_min, help="region: smallest Re")
+    ap.add_argument("--min-ratio", type=float, default=1.02,
+                    help="refinement: samples around every local extremum until neighbours "
+                    "are within this k ratio")
+    ap.add_argument("--refine-rounds", type=int, default=8,
+                    help="refinement: at most this many rounds of new samples (0: the grid)")
+    ap.add_argument("--dependence", action="store_true",
+                    help="also follow the fastest sample at k H >= 5 (a plateau mode) in "
+                    "alpha_pc, f gamma and H: dependence.png, summary.json plateau_dependence")
     ap.add_argument("--out", default=os.path.join("out", "envelope"), help="output folder")
     return ap
 
@@ -54,26 +73,44 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         raise _cli.ParameterError("H = inf is outside its allowed range here (a finite strip)")
     require_rigid(p, "envelope.py")
     k = _cli.parse_grid(args.k)
+    if not (args.min_ratio > 1.0 and math.isfinite(args.min_ratio)):
+        raise _cli.ParameterError(f"--min-ratio = {args.min_ratio} is outside its allowed range "
+                                  "> 1")
+    if not 0 <= args.refine_rounds <= 50:
+        raise _cli.ParameterError(f"--refine-rounds = {args.refine_rounds} is outside its "
+                                  "allowed range 0 .. 50")
     region = Region(args.re_min, 2.0, args.c_max)
-    config = {"params": p.as_dict(), "k": args.k, "region": region.as_dict(p)}
+    config = {"params": p.as_dict(), "k": args.k, "region": region.as_dict(p),
+              "min_ratio": args.min_ratio, "refine_rounds": args.refine_rounds}
     with _cli.RunFolder(comm, args.out, "envelope", config, outputs=OUTPUTS) as run:
 
-        def fastest(i: int) -> tuple[complex | None, int, str]:
+        def fastest(kk: float) -> tuple[complex | None, int, str]:
             try:
-                z, n, _ = fastest_root(p, float(k[i]), region)
+                z, n, _ = fastest_root(p, kk, region)
             except ContourError as err:  # reported (by rank 0, below), the run goes on
                 return None, -1, str(err)
             return z, n, ""
 
-        rows = _cli.map_shared(comm, [region.im_max(p, kk) ** 1.5 for kk in k], fastest)
-        failed = [i for i in range(len(k)) if rows[i][1] < 0]
+        def sample(ks_new: list[float]) -> dict[float, tuple]:
+            costs = [region.im_max(p, kk) ** 1.5 for kk in ks_new]
+            got = _cli.map_shared(comm, costs, lambda i: fastest(float(ks_new[i])))
+            return {float(ks_new[i]): got[i] for i in range(len(ks_new))}
+
+        found = sample([float(v) for v in k])
+        for _ in range(args.refine_rounds):  # no grid hides an extremum (growth.py)
+            ks = sorted(found)
+            new = refinement_points(p, ks, [found[kk][0] for kk in ks], args.min_ratio)
+            if not new:
+                break
+            found.update(sample(new))
+        ks = sorted(found)
+        rows = [found[kk] for kk in ks]
+        failed = [i for i in range(len(ks)) if rows[i][1] < 0]
         for i in failed:
-            _cli.say(f"k = {k[i]:g}: no count ({rows[i][2]})", err=True)
-        ks = [float(v) for v in k]
-        re = np.array([rows[i][0].real if rows[i][0] is not None else np.nan
-                       for i in range(len(k))])
+            _cli.say(f"k = {ks[i]:g}: no count ({rows[i][2]})", err=True)
+        re = np.array([r[0].real if r[0] is not None else np.nan for r in rows])
         if comm.rank == 0:
-            best = envelope_maximum(p, region, ks, [rows[i][0] for i in range(len(k))])
+            best = envelope_maximum(p, region, ks, [r[0] for r in rows])
             hs = halfspace.max_growth("dilatational", p.replace(H=math.inf))
             with _cli.atomic_open(run.file("envelope.csv"), "w", newline="") as fh:
                 w = csv.writer(fh)
@@ -87,8 +124,18 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                        "halfspace_dilatational_max": {"growth": hs.growth, "q": hs.q_growth},
                        "large_kH": {"kH": ks[-1] * p.H, "re_lambda_max":
                                     float(re[-1]) if np.isfinite(re[-1]) else None},
+                       "samples": len(ks), "grid_samples": len(k),
+                       "local_minima": [{"k": ks[j], "kH": ks[j] * p.H, "re_lambda": re[j]}
+                                        for j in local_extrema(re)
+                                        if re[j] <= min(re[j - 1], re[j + 1])],
                        "failed_counts_k": [ks[i] for i in failed],
                        "versions": _cli.versions(), "command": _cli.command()}
+            large = [i for i in range(len(ks)) if ks[i] * p.H >= 5 and np.isfinite(re[i])]
+            if args.dependence and large:
+                i = max(large, key=lambda j: re[j])
+                summary["plateau_dependence"] = plateau_dependence(p, ks[i], rows[i][0])
+                plot_dependence(run.file("dependence.png"), p, summary["plateau_dependence"],
+                                config)
             with _cli.atomic_open(run.file("summary.json"), "w") as fh:
                 _cli.json_dump(summary, fh, indent=1)
             plot(run.file("envelope.png"), p, np.array(ks), re, best, hs.growth, config)
@@ -104,6 +151,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                 _cli.say(f"warning: the count failed at {len(failed)} of {len(ks)} k value(s) "
                          "(no value there; the maximum is over the others); see "
                          "failed_counts_k in summary.json", err=True)
+        comm.Barrier()  # a rank leaving with code 1 first would make mpirun stop rank 0's writing
     return 1 if failed else 0
 
 
@@ -130,6 +178,35 @@ def plot(path: str, p: object, k: np.ndarray, re: np.ndarray, best: dict | None,
     ax.legend(fontsize=8)
     fig.tight_layout()
     _cli.save_figure(fig, path, dpi=130, metadata=_cli.png_metadata(meta, "growth-rate envelope"))
+    plt.close(fig)
+
+
+def plot_dependence(path: str, p: object, dep: dict, meta: dict) -> None:
+    """dependence.png: H Re Lambda of one plateau mode against alpha_pc, f gamma and H."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axs = plt.subplots(1, 3, figsize=(11, 3.6), sharey=True)
+    for ax, key, label, log in zip(axs, ("alpha_pc", "f_gamma", "H"),
+                                   ("alpha_pc (Prakash-Clifton)", "f gamma (gamma varied)",
+                                    "H (same k H)"), ("symlog", "log", "log"), strict=True):
+        pts = [(v, w) for v, w in dep[key] if w is not None]
+        ax.plot(*zip(*pts, strict=True), "o-", ms=4, color="k")
+        ax.axhline(0, color="0.5", lw=0.6)
+        ax.set_xlabel(label)
+        if log == "symlog":
+            ax.set_xscale("symlog", linthresh=1e-4)
+            ax.set_xlim(0.0, 1.5)
+        else:
+            ax.set_xscale(log)
+    axs[0].set_ylabel(r"$H$ Re $\Lambda$ of the plateau mode")
+    fig.suptitle(f"bc={p.bc}: mode at k H = {dep['kH']:.4g} (Lambda = {dep['Lambda'][0]:.4g} "
+                 f"{dep['Lambda'][1]:+.4g} i), followed; f={p.f:g}, gamma={p.gamma:g}, "
+                 f"Delta={p.Delta:g}, H={p.H:g}", fontsize=9)
+    fig.tight_layout()
+    _plots.save_png(fig, path, meta)
     plt.close(fig)
 
 

@@ -5,8 +5,9 @@ The fastest root in a region at one ``k`` comes from the argument principle
 ``Region(c_max=None)`` for the region that provably holds the fastest mode at each ``k``
 (:func:`analytic.numerics.spectrum.provable_region`; docs/design.md 8.1):
 
-- :func:`refine_envelope` and :func:`envelope_maximum`: the envelope ``max Re Lambda(k)``
-  sampled on a grid, its largest local maxima refined along their root's family
+- :func:`extremum_midpoints`, :func:`refine_envelope` and :func:`envelope_maximum`: the envelope
+  ``max Re Lambda(k)`` sampled on a grid, the grid refined around every local extremum of the
+  samples (maxima and dips alike) and its largest local maxima refined along their root's family
   (``workflows/envelope.py``);
 - :func:`best_over_k`: the fastest root over ``k`` for one parameter set, refined by sampling
   between the best grid values (``workflows/contrast.py``);
@@ -15,6 +16,7 @@ The fastest root in a region at one ``k`` comes from the argument principle
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -24,8 +26,98 @@ from analytic.numerics.spectrum import Region, family_peak, fastest_root
 from analytic.params import Params
 
 #: What ``workflows/envelope.py`` reports about its refinement.
-REFINEMENT = ("each of the 6 largest local maxima of the samples: golden-section on its root's "
-              "family, checked to be the fastest in R")
+REFINEMENT = ("the grid: geometric midpoints inserted on both sides of every local extremum of "
+              "the samples (maxima and minima) and in every interval where the fastest root "
+              "changes family, until neighbours there are within the stated ratio; "
+              "then each of the 6 largest local maxima of the samples: golden-section on its "
+              "root's family, checked to be the fastest in R")
+
+
+def local_extrema(re: Sequence[float]) -> list[int]:
+    """Indices of the interior local extrema (maxima and minima) of sampled values.
+
+    A sample counts when it is ``>=`` or ``<=`` both neighbours; the ends and samples without a
+    value (NaN), or next to one, are left out.
+    """
+    v = np.asarray(re, dtype=float)
+    return [j for j in range(1, len(v) - 1) if np.isfinite(v[j - 1:j + 2]).all()
+            and (v[j] >= max(v[j - 1], v[j + 1]) or v[j] <= min(v[j - 1], v[j + 1]))]
+
+
+def same_family(p: Params, ka: float, za: complex, kb: float, zb: complex, dk: float = 0.05
+                ) -> bool:
+    """Whether the root ``zb`` at ``kb`` is the continuation of ``za`` at ``ka``.
+
+    ``za`` is followed to ``kb`` by Newton in steps of at most ``dk`` (as
+    :func:`analytic.numerics.spectrum.family_peak` does); same family when it lands on ``zb``
+    (relative ``1e-6``). A failed Newton step counts as another family (the interval is then
+    refined, never skipped).
+    """
+    from analytic.numerics.branches import polish_root
+
+    n = max(1, int(math.ceil(abs(kb - ka) / dk)))
+    z = complex(za)
+    for i in range(1, n + 1):
+        r = polish_root(p, ka + (kb - ka) * i / n, z)
+        if not r.converged:
+            return False
+        z = complex(r.value)
+    return abs(z - zb) <= 1e-6 * max(1.0, abs(zb))
+
+
+def handovers(p: Params, ks: Sequence[float], zs: Sequence[complex | None]) -> list[int]:
+    """Indices ``j`` where the fastest root changes family between ``ks[j]`` and ``ks[j + 1]``.
+
+    A change of family is where the envelope has a kink, usually a dip; an interval with no
+    root (``None``) on one side counts as a change.
+    """
+    return [j for j in range(len(ks) - 1)
+            if zs[j] is None or zs[j + 1] is None
+            or not same_family(p, ks[j], zs[j], ks[j + 1], zs[j + 1])]
+
+
+def refinement_points(p: Params, ks: Sequence[float], zs: Sequence[complex | None],
+                      min_ratio: float) -> list[float]:
+    """New ``k`` samples around every extremum and every change of family.
+
+    :func:`extremum_midpoints` plus the midpoint of every interval with a change of family
+    (:func:`handovers`) wider than ``min_ratio``. Repeated until it returns nothing, every
+    local extremum of the samples and every change of family are bracketed by samples within
+    ``min_ratio`` of each other. Not excluded: a maximum
+    and a minimum of *one* family's smooth ``Re Lambda(k)`` both hidden between two samples.
+    """
+    re = [z.real if z is not None else np.nan for z in zs]
+    new = set(extremum_midpoints(ks, re, min_ratio))
+    new.update(float(np.sqrt(ks[j] * ks[j + 1])) for j in handovers(p, ks, zs)
+               if ks[j + 1] / ks[j] > min_ratio)
+    return sorted(new)
+
+
+def extremum_midpoints(ks: Sequence[float], re: Sequence[float], min_ratio: float) -> list[float]:
+    """New ``k`` samples around every local extremum of the sampled envelope.
+
+    The envelope is a maximum over root families: a dip (where one family hands over to the
+    next) or a peak can lie between two samples and be jumped over. On each side of every local
+    extremum (:func:`local_extrema`) the geometric midpoint is added when the two samples are
+    more than ``min_ratio`` apart; repeating until nothing is added resolves every extremum to
+    that ratio.
+
+    Args:
+        ks: Sorted, positive sample points.
+        re: The envelope at each (NaN: no value).
+        min_ratio: Neighbouring samples closer than this ratio (> 1) are not split.
+
+    Returns:
+        The new points, sorted, without duplicates (empty when every extremum is resolved).
+    """
+    if not min_ratio > 1.0:
+        raise ValueError(f"min_ratio = {min_ratio} must be > 1")
+    new: set[float] = set()
+    for j in local_extrema(re):
+        for a, b in ((j - 1, j), (j, j + 1)):
+            if ks[b] / ks[a] > min_ratio:
+                new.add(float(np.sqrt(ks[a] * ks[b])))
+    return sorted(new)
 
 
 def refine_envelope(p: Params, region: Region, ks: list[float], zs: list, top: int = 6) -> dict:
@@ -141,3 +233,67 @@ def curve_shape(x: Sequence[float], growth: Sequence[float], name: str = "x") ->
     return {"max_growth": float(g.max()), f"{name}_at_max": float(x[int(np.argmax(g))]),
             "monotonic": bool(np.all(d >= 0) or np.all(d <= 0)),
             "direction_changes": int(np.sum(d[1:] != d[:-1]))}
+
+
+def follow_parameter(p: Params, k: float, z: complex, name: str, values: Sequence[float],
+                     substeps: int = 10) -> list[complex | None]:
+    """The root ``z`` of ``p`` at ``k``, continued in one parameter to each of ``values``.
+
+    Newton continuation from ``p``'s value outwards (values below it in decreasing order, above
+    it in increasing order), ``substeps`` equal steps between successive values; ``None`` from
+    the first Newton failure on (that side).
+    """
+    from analytic.numerics.branches import polish_root
+
+    v0 = float(getattr(p, name))
+    out: dict[float, complex | None] = {}
+    for side in (sorted(v for v in values if v < v0)[::-1], sorted(v for v in values if v >= v0)):
+        zz: complex | None = complex(z)
+        prev = v0
+        for v in side:
+            for s in range(1, substeps + 1):
+                if zz is None:
+                    break
+                r = polish_root(p.replace(**{name: prev + (v - prev) * s / substeps}), k, zz)
+                zz = complex(r.value) if r.converged else None
+            out[float(v)] = zz
+            prev = v
+    return [out[float(v)] for v in values]
+
+
+def plateau_dependence(p: Params, k: float, z: complex) -> dict:
+    """``H Re Lambda`` of one plateau mode against ``alpha_pc``, ``f gamma`` and ``H``.
+
+    The root ``z`` at ``k`` (a local maximum of the envelope at large ``k H``) is followed in
+    ``alpha_pc`` (0, then 1e-4 to 1: the filter acts from ``alpha_pc ~ 1/|Lambda|``), in
+    ``gamma`` (``f gamma`` from 0.03 to 3, ``f`` fixed) and in ``H`` at fixed ``k H``
+    (``Lambda H`` is invariant at ``|Lambda| >> 1``, docs/envelope.md).
+
+    Returns:
+        ``{"alpha_pc": [[value, H Re Lambda], ...], "f_gamma": ..., "H": ...}`` (``None``
+        where the continuation failed), plus ``kH`` and ``Lambda`` of the mode.
+    """
+    apc = [0.0] + [float(v) for v in np.geomspace(1e-4, 1.0, 13)]
+    gam = [float(v) for v in np.geomspace(0.1, 10.0, 11)]
+    hs = [float(v) for v in np.geomspace(0.25, 4.0, 9)]
+
+    def h_re(zz: complex | None, h: float) -> float | None:
+        return None if zz is None else zz.real * h
+
+    out = {"kH": k * p.H, "Lambda": [z.real, z.imag]}
+    out["alpha_pc"] = [[v, h_re(w, p.H)] for v, w in
+                       zip(apc, follow_parameter(p, k, z, "alpha_pc", apc), strict=True)]
+    out["f_gamma"] = [[v * p.f, h_re(w, p.H)] for v, w in
+                      zip(gam, follow_parameter(p, k, z, "gamma", gam), strict=True)]
+    kh = k * p.H
+    out["H"] = [[h, h_re(w, h)] for h, w in
+                zip(hs, [_polished(p.replace(H=h), kh / h, z * p.H / h) for h in hs],
+                    strict=True)]
+    return out
+
+
+def _polished(p: Params, k: float, guess: complex) -> complex | None:
+    from analytic.numerics.branches import polish_root
+
+    r = polish_root(p, k, guess)
+    return complex(r.value) if r.converged else None

@@ -1,0 +1,139 @@
+"""workflows/stability_map.py (serial and mpirun -n 2) and analytic.studies.stability_map, checked
+against independent root counts and roots of det_M."""
+
+import csv
+import json
+import os
+
+import numpy as np
+import pytest
+from _workflows import run_workflow
+
+from analytic import Params, roots_in_box
+from analytic.numerics.branches import spectrum_function
+from analytic.numerics.roots import count_zeros
+from analytic.numerics.spectrum import Region, fastest_root
+from analytic.studies.stability_map import closed_form_delta, kh_grid, map_point, parse_axis
+
+pytestmark = pytest.mark.serial  # subprocesses (their own mpirun) and pure numpy
+
+#: A 3 x 3 map that is cheap (k H <= 1) and holds stable and unstable points: gamma = 0.01 with
+#: Delta >= 0.75 is stable, gamma >= 0.1 or Delta = -0.5 unstable (measured with the scene).
+SMALL = ["--x", "Delta:-0.5:2:3", "--y", "gamma:0.01:1:3log", "--H", "1", "--kH-max", "1",
+         "--nk", "3"]
+
+
+def _rows(out):
+    with open(out / "stability_map.csv") as fh:
+        return list(csv.DictReader(fh))
+
+
+@pytest.mark.slow  # 25 s serial on a quiet machine, 80-90 s with 7 helpers running
+@pytest.mark.parametrize("nproc", [1, 2])
+def test_small_map_matches_exact_roots(tmp_path, nproc):
+    out = tmp_path / "m"
+    proc = run_workflow("stability_map.py", [*SMALL, "--out", str(out)], nproc=nproc)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    rows = _rows(out)
+    assert len(rows) == 9 and len(proc.stdout.strip().splitlines()) == 1  # rank 0 only
+    s = json.loads((out / "summary.json").read_text())
+    assert s["points"] == 9 and s["stable_on_grid"] == sum(r["stable_on_grid"] == "True"
+                                                           for r in rows)
+    assert 0 < s["stable_on_grid"] < 9  # the grid crosses the boundary
+    region = Region(1e-6, 2.0, 4.0)
+    for r in rows:
+        p = Params(H=1.0, Delta=float(r["x"]), gamma=float(r["y"]))
+        if r["stable_on_grid"] == "True":
+            assert r["re_lambda"] == ""
+            continue
+        k, z = float(r["k"]), complex(float(r["re_lambda"]), float(r["im_lambda"]))
+        zf = fastest_root(p, k, region)[0]  # the reported root is the fastest at its k
+        assert abs(zf - z) <= 1e-8 * abs(z)
+        for kh in kh_grid(0.05, 1.0, 3):  # and at least every grid sample's fastest root
+            roots = roots_in_box(p, kh, region.box(p, kh))
+            assert z.real >= max((w.value.real for w in roots), default=0.0) - 1e-12
+    assert (out / "stability_map.png").stat().st_size > 10000
+
+
+@pytest.mark.slow  # three runs of the scene: 48 s on the loaded machine
+def test_resume_keeps_done_points_and_recomputes_missing(tmp_path):
+    out = tmp_path / "m"
+    args = ["--x", "Delta:1:2:2", "--y", "f:0.01:0.02:2", "--kH-max", "0.5", "--nk", "2",
+            "--gamma", "1", "--H", "1", "--out", str(out)]
+    assert run_workflow("stability_map.py", args).returncode == 0
+    raw = sorted(os.listdir(out / "raw"))
+    assert raw == [f"p{i:05d}.json" for i in range(4)]
+    marked = json.loads((out / "raw" / raw[0]).read_text())
+    marked["unstable_k_count"] = 99  # a value no computation gives: shows it was not redone
+    (out / "raw" / raw[0]).write_text(json.dumps(marked))
+    first = _rows(out)
+    os.remove(out / "raw" / raw[1])
+    proc = run_workflow("stability_map.py", [*args, "--resume"])
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    rows = _rows(out)
+    assert rows[0]["unstable_k_count"] == "99" and rows[1:] == first[1:]
+    proc = run_workflow("stability_map.py", [*args[:-2], "--nk", "3", "--out", str(out),
+                                             "--resume"])
+    assert proc.returncode == 2, proc.stderr  # --resume continues only the same parameters
+
+
+@pytest.mark.parametrize("bad, word", [(["--x", "Delta:1:0:3"], "--x"),
+                                       (["--y", "nu:0:1:3"], "--y"),
+                                       (["--x", "H:0.1:1:3", "--y", "H:1:2:3"], "--x"),
+                                       (["--kH-max", "0"], "--kH-max"),
+                                       (["--nk", "1"], "--nk"),
+                                       (["--re-min", "0"], "--re-min"),
+                                       (["--y", "f:-1:1:3"], "f")])
+@pytest.mark.parametrize("nproc", [1, 2])
+def test_bad_input_one_line(tmp_path, bad, word, nproc):
+    proc = run_workflow("stability_map.py", [*bad, "--out", str(tmp_path / "o")], nproc=nproc)
+    assert proc.returncode == 2
+    lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and word in lines[0], proc.stderr
+    assert not (tmp_path / "o").exists()
+
+
+# ------------------------------------------------------- analytic.studies.stability_map (direct)
+def test_stable_point_has_no_root_in_a_wider_region():
+    """gamma = 0.01, Delta = 2, H = 1: stable on the k H grid; checked independently with a
+    wider count (Re Lambda >= 1e-6 up to 5, phase velocities up to 12 c_d) at the grid and
+    half-way between its points."""
+    p = Params(gamma=0.01, Delta=2.0, H=1.0)
+    khs = kh_grid(0.05, 3.0, 5)
+    res = map_point(p, khs, Region(1e-6, 2.0, 4.0))
+    assert res["stable_on_grid"] and res["re_lambda"] is None and res["failed_counts"] == 0
+    wide = Region(1e-6, 5.0, 12.0)
+    for k in np.sort(np.concatenate([khs, np.sqrt(khs[1:] * khs[:-1])])):
+        fun = spectrum_function(p, float(k))
+        assert count_zeros(fun, wide.box(p, k)) == 0
+
+
+def test_unstable_point_is_the_fastest_root_at_least_the_grid():
+    """The paper's defaults (velocity top, H = 0.5): unstable; the value is an exact root, the
+    fastest in a wider region at its k, and at least the fastest root at every grid k."""
+    p = Params()
+    khs = kh_grid(0.2, 2.0, 4)
+    res = map_point(p, khs, Region(1e-6, 2.0, 4.0))
+    assert not res["stable_on_grid"] and res["unstable_k_count"] == 4
+    z = complex(res["re_lambda"], res["im_lambda"])
+    wide = Region(1e-6, 5.0, 12.0)
+    assert fastest_root(p, res["k"], wide)[0] == pytest.approx(z, rel=1e-8)
+    for kh in khs:
+        k = kh / p.H
+        assert res["re_lambda"] >= max(w.value.real for w in roots_in_box(p, k, wide.box(p, k)))
+
+
+@pytest.mark.parametrize("spec, values", [("Delta:-1:1:3", [-1.0, 0.0, 1.0]),
+                                          ("H:0.1:10:3log", [0.1, 1.0, 10.0])])
+def test_parse_axis(spec, values):
+    name, v = parse_axis(spec, "--x")
+    assert name == spec.split(":")[0] and np.allclose(v, values, rtol=1e-14)
+
+
+def test_closed_form_delta_is_the_largest_family_boundary():
+    from analytic.physics import phase_diagram as pd
+
+    p = Params()
+    vals = [pd.closed_form(f, p.Gamma, p.f, p.beta) for f in pd.FAMILIES]
+    assert closed_form_delta(p) == max(v for v in vals if np.isfinite(v))
+    assert np.isnan(closed_form_delta(p.replace(f=0.0)))

@@ -6,16 +6,21 @@ At every requested k the sweep reports *every* eigenvalue of the cross-section F
 region R = {re_min <= Re Lambda <= re_max, |Im Lambda| <= c_max k / beta + omega0}, and checks
 that nothing is missing or counted twice (docs/design.md section 8):
 
-- labels: every family that can reach R is followed in k by exact continuation, from the
-  waveguide cut-offs (``0+``, ``0-``, ``1+``, ...) and from the other roots present at small k
-  (``s0+``, ``r0``, ...), with adaptive steps and a root count at every step, so the labels
-  and values do not depend on the k grid;
-- FE: each exact root is the predictor of a Newton iteration on the discrete nonlinear
-  eigenproblem (a few banded factorisations); the FE count in R (argument principle on the
-  discrete determinant) must equal the exact count, each FE value matched to a distinct
-  exact root; one Newton solve on the P(p+1) model gives the error estimate of every value.
+- FE first (``--solver moments``, default): the FE count in R (argument principle on the
+  discrete determinant, adaptive contour points) and, from contour-integral moments on the
+  same points (Beyn's method), every FE eigenvalue inside, each polished by Newton on the
+  discrete nonlinear eigenproblem; the values found must be as many as counted and distinct.
+  No exact root is an input. One Newton solve on the P(p+1) model gives the error estimate;
+- exact check (``--check-exact yes``, default): every exact root family that can reach R is
+  followed in k by exact continuation (from the waveguide cut-offs ``0+``, ``0-``, ``1+``, ...
+  and the other roots present at small k, ``s0+``, ``r0``, ...); the exact count in R must
+  equal the FE count and each FE value is matched to a distinct exact root, whose family
+  gives its label. ``--check-exact no``: analytic's roots are never consulted, the labels are
+  ``fe0, fe1, ...`` by increasing ``|Im Lambda|`` at each k (no tracking in k);
+- ``--solver newton``: the former path, FE Newton from each exact root (needs the check).
 
-``status = ok`` means: label certified, count closed, error and estimate within ``--rtol``.
+``status = ok`` means: count closed, estimate (and, when checked, label and error) within
+``--rtol``; the column ``certificate`` says what a row carries (``fe``, ``exact``).
 The families are shared over the ranks, then the k values (balanced by cost); every finished k
 is written at once to ``DIR/raw/k#####.json`` (``--resume`` continues); rank 0 writes
 ``spectrum.csv``, ``summary.json`` (``most_unstable`` with its certificate) and
@@ -46,7 +51,12 @@ from tqdm import tqdm  # noqa: E402
 
 from analytic.numerics.spectrum import Region  # noqa: E402
 from analytic.params import Params  # noqa: E402
-from forms.solvers.certified import ROW_FIELDS, KResult, default_discretisation  # noqa: E402
+from forms.solvers.certified import (  # noqa: E402
+    ROW_FIELDS,
+    SOLVERS,
+    KResult,
+    default_discretisation,
+)
 from forms.studies import sweep  # noqa: E402
 
 #: Default k grid: the paper's range (k H up to 3 at H = 0.5).
@@ -76,6 +86,10 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--degree", type=int, default=0, help="Lagrange degree 1..6 (0: auto, P4)")
     ap.add_argument("--cells", type=int, default=0,
                     help="cells of the interval mesh (0: chosen from the region and --rtol)")
+    ap.add_argument("--solver", default="moments",
+                    help="moments (FE first, contour moments) or newton (FE from exact roots)")
+    ap.add_argument("--check-exact", default="yes",
+                    help="yes: match the FE values to the exact roots; no: never consult them")
     ap.add_argument("--out", default=os.path.join("out", "sweep_k"), help="output directory")
     ap.add_argument("--resume", action="store_true",
                     help="continue a sweep in --out with the same settings")
@@ -105,6 +119,15 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
     if not (math.isfinite(args.rtol) and 1e-13 <= args.rtol <= 1e-2):
         raise _cli.ParameterError(f"--rtol = {args.rtol} is outside its allowed range "
                                   "1e-13 <= rtol <= 1e-2")
+    if args.solver not in SOLVERS:
+        raise _cli.ParameterError(f"--solver = {args.solver} is outside its allowed values "
+                                  + " | ".join(SOLVERS))
+    if args.check_exact not in ("yes", "no"):
+        raise _cli.ParameterError(f"--check-exact = {args.check_exact} is outside its allowed "
+                                  "values yes | no")
+    if args.solver == "newton" and args.check_exact == "no":
+        raise _cli.ParameterError("--check-exact = no is outside its allowed values with "
+                                  "--solver newton (it starts from the exact roots): yes")
     if not (math.isfinite(args.omega0) and args.omega0 >= 0):
         raise _cli.ParameterError(f"--omega0 = {args.omega0} is outside its allowed range >= 0")
     try:
@@ -125,9 +148,10 @@ def write_outputs(out: str, params: Params, region: Region, k: np.ndarray,
         w = csv.DictWriter(fh, fieldnames=list(ROW_FIELDS))
         w.writeheader()
         for r in (r for res in results for r in res.rows):
-            w.writerow({f: (repr(r[f]) if isinstance(r[f], float) else r[f]) for f in ROW_FIELDS})
+            w.writerow({f: (repr(v) if isinstance(v, float) else v)
+                        for f in ROW_FIELDS for v in [r.get(f, "")]})
     os.replace(tmp, os.path.join(out, "spectrum.csv"))
-    summary = meta | sweep.summarise(params, region, k, results, fams)
+    summary = meta | sweep.summarise(params, region, k, results, fams, meta["check_exact"])
     if plot:
         plot_dispersion(os.path.join(out, "dispersion.png"), params, region, results, fams,
                         summary["most_unstable"], meta["parameters"])
@@ -205,9 +229,11 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     params, k, merged, region = validate(args)  # every rank, before any collective or file
     degree, cells, ratio = default_discretisation(params, region, float(k[-1]), args.rtol)
     disc = (args.degree or degree, args.cells or cells, ratio)
+    check = args.check_exact == "yes"
     config = {"params": params.as_dict(), "k": [float(v) for v in k],
               "region": region.as_dict(params), "rtol": args.rtol, "degree": disc[0],
-              "cells": disc[1], "grading_ratio": ratio}
+              "cells": disc[1], "grading_ratio": ratio, "solver": args.solver,
+              "check_exact": check}
     with _cli.RunFolder(comm, args.out, "sweep_k", config, resume=args.resume, resumable=True,
                         outputs=OUTPUTS) as run:
         out = run.path
@@ -215,13 +241,15 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         if merged and not args.quiet:
             _cli.say(f"note: {merged} duplicate k value(s) merged", err=True)
         todo = sweep.pending_k(comm, out, len(k), run.resumed)
-        t_fam = time.perf_counter()
-        plan, items = sweep.family_plan(comm, params, region, float(k[-1]))
-        if not args.quiet:
-            _cli.say(f"following {len(items)} root families (continuation in k) ...", err=True)
-        # cost ~ number of requested k the family is followed to: about equal; LPT keeps it even
-        fams = sweep.follow_families(comm, params, region, plan, items, k,
-                                     _cli.my_share(comm, [1.0] * len(items)))
+        t_fam, fams = time.perf_counter(), []
+        if check:
+            plan, items = sweep.family_plan(comm, params, region, float(k[-1]))
+            if not args.quiet:
+                _cli.say(f"following {len(items)} root families (continuation in k) ...",
+                         err=True)
+            # cost ~ number of requested k the family is followed to: about equal (LPT)
+            fams = sweep.follow_families(comm, params, region, plan, items, k,
+                                         _cli.my_share(comm, [1.0] * len(items)))
         t_fam = time.perf_counter() - t_fam
         mine = [todo[j] for j in _cli.my_share(comm, sweep.k_costs(params, region, k, todo))]
         bar = None
@@ -229,7 +257,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
             bar = tqdm(total=len(mine), desc=f"k values (rank 0 of {comm.size})", unit="k",
                        file=sys.stderr)
         share = sweep.solve_k_values(params, region, disc, args.rtol, k, mine, fams, out,
-                                     bar.update if bar is not None else None)
+                                     bar.update if bar is not None else None,
+                                     check_exact=check, solver=args.solver)
         if bar is not None:
             bar.close()
         times = comm.gather({"rank": comm.rank, "families_s": t_fam, "solve_s": share.seconds,
@@ -241,7 +270,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
             meta = {"parameters": params.as_dict(),
                     "k": {"spec": args.k, "count": len(k), "merged_duplicates": merged,
                           "min": float(k[0]), "max": float(k[-1])},
-                    **sweep.describe_discretisation(params, disc, share, args.rtol),
+                    **sweep.describe_discretisation(params, disc, share, args.rtol,
+                                                    args.solver, check),
                     "mpi": {"ranks": comm.size, "per_rank": times},
                     "resumed": run.resumed, "computed_this_run": len(todo),
                     "versions": _cli.versions(), "command": _cli.command()}

@@ -5,12 +5,13 @@ docs/design.md section 8. The steps of a sweep, each a call of the scene:
 1. :func:`pending_k`: the per-``k`` result files ``DIR/raw/k#####.json`` (one per requested
    ``k``, written as soon as it is finished) tell which ``k`` are still to compute, so that a
    resumed sweep continues where it stopped;
-2. :func:`family_plan` and :func:`follow_families`: every root family that can reach the region
-   is followed in ``k`` by exact continuation; the families are shared over the ranks and
-   gathered on all of them;
+2. :func:`family_plan` and :func:`follow_families` (only when the exact roots are checked,
+   ``--check-exact yes``): every root family that can reach the region is followed in ``k`` by
+   exact continuation; the families are shared over the ranks and gathered on all of them;
 3. :func:`k_costs` and :func:`solve_k_values`: each rank solves its share of the pending ``k``
-   with one :class:`forms.solvers.certified.CertifiedSolver` (its models live on ``COMM_SELF``) and
-   writes each :class:`forms.solvers.certified.KResult` to its raw file;
+   with one :class:`forms.solvers.certified.CertifiedSolver` (its models live on ``COMM_SELF``;
+   FE first by default) and writes each :class:`forms.solvers.certified.KResult` to its raw
+   file;
 4. :func:`load_results` and :func:`summarise` (rank 0): the rows of every ``k`` and the summary:
    certificate (counts closed, rows ok or flagged), accuracy, families, the most unstable
    eigenvalue with its certificate, per-``k`` counts and costs.
@@ -36,14 +37,24 @@ from analytic.numerics.spectrum import FamilyPlan, Region, follow_family, plan_f
 from analytic.params import Params
 from forms.solvers.certified import CertifiedSolver, KResult
 
-#: What ``summary.json`` says the certificate of the most unstable eigenvalue states.
-CERTIFICATE_STATEMENT = (
-    "largest Re Lambda over every eigenvalue in the region R at every swept k; at each k the "
-    "FE count in R equals the exact argument-principle count and every FE value is matched to "
-    "a distinct exact root")
-#: How the sweep's values are obtained (``summary.json``, key ``method``).
-METHOD = ("exact continuation labels; FE Newton on the discrete NEP from the exact roots; FE "
-          "and exact argument-principle counts in R")
+#: What ``summary.json`` says the certificate of the most unstable eigenvalue states, per mode
+#: ``(solver, check_exact)``.
+CERTIFICATE_STATEMENTS = {
+    True: ("largest Re Lambda over every eigenvalue in the region R at every swept k; at each k "
+           "the FE eigenvalues found in R are as many as, and distinct, the FE argument-principle"
+           " count of det T_h in R, which equals the exact argument-principle count, and every "
+           "FE value is matched to a distinct exact root"),
+    False: ("largest Re Lambda over every eigenvalue in the region R at every swept k; at each k "
+            "the FE eigenvalues found in R are as many as, and distinct, the FE "
+            "argument-principle count of det T_h in R (no exact reference consulted)"),
+}
+#: How the sweep's values are obtained (``summary.json``, key ``method``), per ``--solver``.
+METHODS = {
+    "moments": ("FE first: argument-principle count of det T_h in R and contour-integral moments"
+                " (Beyn) on the same contour points, Newton-polished; no exact root as input"),
+    "newton": ("exact continuation labels; FE Newton on the discrete NEP from the exact roots; "
+               "FE and exact argument-principle counts in R"),
+}
 #: Flagged rows listed in the summary at most (all of them are in the CSV).
 MAX_FLAGGED_LISTED = 200
 
@@ -148,7 +159,8 @@ class ShareRun:
 
 def solve_k_values(params: Params, region: Region, discretisation: tuple[int, int, float],
                    rtol: float, k: np.ndarray, mine: Sequence[int], fams: list[BranchResult],
-                   folder: str, progress: Callable[[], object] | None = None) -> ShareRun:
+                   folder: str, progress: Callable[[], object] | None = None, *,
+                   check_exact: bool = True, solver: str = "moments") -> ShareRun:
     """The certified spectrum at ``k[i]`` for each ``i`` of ``mine``, each written to its file.
 
     One :class:`forms.solvers.certified.CertifiedSolver` (on ``COMM_SELF``, for ``k`` up to
@@ -166,18 +178,21 @@ def solve_k_values(params: Params, region: Region, discretisation: tuple[int, in
         fams: The followed families (:func:`follow_families`).
         folder: The run folder (``folder/raw`` exists).
         progress: Called after every finished ``k`` (e.g. a progress bar's update).
+        check_exact: Match the FE values to the exact roots (``fams``; else ``fams`` is unused).
+        solver: ``"moments"`` (FE first) or ``"newton"`` (exact-seeded).
     """
     t0 = time.perf_counter()
     degree, cells, ratio = discretisation
-    solver = CertifiedSolver(params, region, degree, cells, ratio, float(k[-1]), rtol)
+    cs = CertifiedSolver(params, region, degree, cells, ratio, float(k[-1]), rtol,
+                         check_exact=check_exact, solver=solver)
     try:
         for i in mine:
-            write_json(raw_file(folder, i), solver.solve(float(k[i]), fams).as_dict())
+            write_json(raw_file(folder, i), cs.solve(float(k[i]), fams).as_dict())
             if progress is not None:
                 progress()
-        unknowns, cells2 = solver.unknowns, solver.cells2
+        unknowns, cells2 = cs.unknowns, cs.cells2
     finally:
-        solver.destroy()
+        cs.destroy()
     return ShareRun(time.perf_counter() - t0, len(mine), unknowns, cells2)
 
 
@@ -191,7 +206,8 @@ def load_results(folder: str, count: int) -> list[KResult]:
 
 
 def describe_discretisation(params: Params, discretisation: tuple[int, int, float],
-                            share: ShareRun, rtol: float) -> dict:
+                            share: ShareRun, rtol: float, solver: str = "newton",
+                            check_exact: bool = True) -> dict:
     """``summary.json`` keys ``discretisation`` and ``method``: the model, mesh and estimate."""
     degree, cells, ratio = discretisation
     model = "cross-section (1D in y), polynomial form"
@@ -202,11 +218,11 @@ def describe_discretisation(params: Params, discretisation: tuple[int, int, floa
                                "unknowns": share.unknowns, "rtol": rtol,
                                "error_estimate": f"P{degree + 1} on the same mesh, one Newton "
                                f"solve from the P{degree} value"},
-            "method": METHOD}
+            "method": METHODS[solver], "solver": solver, "check_exact": check_exact}
 
 
 def most_unstable(rows: list[dict], results: list[KResult], k: np.ndarray,
-                  open_k: list[dict]) -> dict | None:
+                  open_k: list[dict], check_exact: bool = True) -> dict | None:
     """The row with the largest ``Re Lambda`` and its certificate (``None``: no rows).
 
     Args:
@@ -214,6 +230,7 @@ def most_unstable(rows: list[dict], results: list[KResult], k: np.ndarray,
         results: The per-``k`` results the rows come from.
         k: The requested wavenumbers, sorted.
         open_k: The ``k`` whose count did not close (see :func:`summarise`).
+        check_exact: The exact roots were consulted (the certificate's statement).
     """
     if not rows:
         return None
@@ -224,21 +241,24 @@ def most_unstable(rows: list[dict], results: list[KResult], k: np.ndarray,
             "rel_error": best["rel_error"], "error_estimate": best["error_estimate"],
             "at_edge_of_k_range": best["k"] in (float(k[0]), float(k[-1])),
             "certificate": {
-                "statement": CERTIFICATE_STATEMENT,
+                "statement": CERTIFICATE_STATEMENTS[check_exact],
+                "carries": best.get("certificate", ""),
                 "all_k_closed": not open_k,
                 "region_at_k": list(res_best.box) if res_best else None,
-                "count_at_k": res_best.n_exact if res_best else None,
+                "count_at_k": (res_best.n_exact if check_exact else res_best.n_fe)
+                if res_best else None,
                 "certified": bool(best["status"] == "ok" and not open_k)}}
 
 
 def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResult],
-              fams: list[BranchResult]) -> dict:
+              fams: list[BranchResult], check_exact: bool = True) -> dict:
     """The sweep's summary: region, certificate, accuracy, families, most unstable, per ``k``.
 
     Pure data (no files). The keys, in order: ``region``, ``certificate`` (``k`` values closed
     or not, rows ok or flagged), ``accuracy`` (largest error against the exact roots and
     largest error estimate), ``families`` (count, notes), ``most_unstable``
-    (:func:`most_unstable`), ``per_k`` (counts, box, seconds, factorisations).
+    (:func:`most_unstable`), ``per_k`` (counts, box, seconds, factorisations, and the
+    certificate each row carries: ``fe`` and/or ``exact``).
     """
     rows = [r for res in results for r in res.rows]
     flagged = [r for r in rows if r["status"] != "ok"]
@@ -255,9 +275,10 @@ def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResu
         "accuracy": {"max_rel_error_vs_exact": max(errs) if errs else None,
                      "max_error_estimate": max(ests) if ests else None},
         "families": {"count": len(fams), "notes": {f.label: f.note for f in fams if f.note}},
-        "most_unstable": most_unstable(rows, results, k, open_k),
+        "most_unstable": most_unstable(rows, results, k, open_k, check_exact),
         "per_k": [{"k": res.k, "n_fe": res.n_fe, "n_exact": res.n_exact, "closed": res.closed,
                    "box": list(res.box), "seconds": res.seconds,
-                   "factorizations": res.factorizations}
+                   "factorizations": res.factorizations,
+                   "certificate": [r.get("certificate", "") for r in res.rows]}
                   for res in results],
     }

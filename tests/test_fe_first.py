@@ -246,3 +246,19 @@ def test_sweep_flags_a_hidden_root(tmp_path, nproc):
     assert len(summary["certificate"]["k_not_closed"]) == 2
     assert rows and all("count not closed" in r["status"] for r in rows)
     assert [d["n_fe"] - len(d["certificate"]) for d in summary["per_k"]] == [1, 1]
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("nproc", [1, 2])
+@pytest.mark.parametrize("args, name", [(["--solver", "dense"], "--solver"),
+                                        (["--check-exact", "maybe"], "--check-exact"),
+                                        (["--solver", "newton", "--check-exact", "no"],
+                                         "--check-exact")])
+def test_bad_mode_is_one_line_exit_2_nothing_written(tmp_path, args, name, nproc):
+    from _workflows import run_workflow
+
+    out = tmp_path / "o"
+    res = run_workflow("sweep_k.py", [*args, "--out", str(out)], nproc, 120)
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert res.returncode == 2 and len(lines) == 1 and name in lines[0], res.stderr
+    assert not out.exists()

@@ -26,9 +26,9 @@ from forms.studies import sweep
 CHECK_VALUE = 0.2716852879456 - 6.5866951866228j
 
 
-def _solver(p, region, k_max):
+def _solver(p, region, k_max, solver="moments"):
     deg, cells, ratio = default_discretisation(p, region, k_max, 1e-8)
-    return CertifiedSolver(p, region, deg, cells, ratio, k_max, 1e-8)
+    return CertifiedSolver(p, region, deg, cells, ratio, k_max, 1e-8, solver=solver)
 
 
 def _solve_and_match(p, k, region=None):
@@ -96,7 +96,7 @@ def test_count_check_fails_when_a_root_is_removed(monkeypatch):
         return lab[1:], box, n
 
     monkeypatch.setattr(fc, "certified_roots", drop_one)
-    solver = _solver(p, region, k)
+    solver = _solver(p, region, k, "newton")  # the exact-seeded path (FE first: test_fe_first)
     try:
         res = solver.solve(k, fams)
     finally:

@@ -9,16 +9,21 @@ that nothing is missing or counted twice (docs/design.md section 8). With ``--c-
 the stack) until the tail bound (docs/design.md 8.1) shows that no root outside R grows faster
 than the fastest root in R; summary.json states the bound and the tail bound at every k:
 
-- labels: every family that can reach R is followed in k by exact continuation, from the
-  waveguide cut-offs (``0+``, ``0-``, ``1+``, ...) and from the other roots present at small k
-  (``s0+``, ``r0``, ...), with adaptive steps and a root count at every step, so the labels
-  and values do not depend on the k grid;
-- FE: each exact root is the predictor of a Newton iteration on the discrete nonlinear
-  eigenproblem (a few banded factorisations); the FE count in R (argument principle on the
-  discrete determinant) must equal the exact count, each FE value matched to a distinct
-  exact root; one Newton solve on the P(p+1) model gives the error estimate of every value.
+- FE first (``--solver moments``, default): the FE count in R (argument principle on the
+  discrete determinant, adaptive contour points) and, from contour-integral moments on the
+  same points (Beyn's method), every FE eigenvalue inside, each polished by Newton on the
+  discrete nonlinear eigenproblem; the values found must be as many as counted and distinct.
+  No exact root is an input. One Newton solve on the P(p+1) model gives the error estimate;
+- exact check (``--check-exact yes``, default): every exact root family that can reach R is
+  followed in k by exact continuation (from the waveguide cut-offs ``0+``, ``0-``, ``1+``, ...
+  and the other roots present at small k, ``s0+``, ``r0``, ...); the exact count in R must
+  equal the FE count and each FE value is matched to a distinct exact root, whose family
+  gives its label. ``--check-exact no``: analytic's roots are never consulted, the labels are
+  ``fe0, fe1, ...`` by increasing ``|Im Lambda|`` at each k (no tracking in k);
+- ``--solver newton``: the former path, FE Newton from each exact root (needs the check).
 
-``status = ok`` means: label certified, count closed, error and estimate within ``--rtol``.
+``status = ok`` means: count closed, estimate (and, when checked, label and error) within
+``--rtol``; the column ``certificate`` says what a row carries (``fe``, ``exact``).
 The families are shared over the ranks, then the k values (balanced by cost); every finished k
 is written at once to ``DIR/raw/k#####.json`` (``--resume`` continues); rank 0 writes
 ``spectrum.csv``, ``summary.json`` (``most_unstable`` with its certificate) and
@@ -50,7 +55,12 @@ from tqdm import tqdm  # noqa: E402
 from analytic.numerics.spectrum import Region  # noqa: E402
 from analytic.params import Params  # noqa: E402
 from forms.models.profiles import SliderMaterial, homogeneous_params, slider_material  # noqa: E402
-from forms.solvers.certified import ROW_FIELDS, KResult, default_discretisation  # noqa: E402
+from forms.solvers.certified import (  # noqa: E402
+    ROW_FIELDS,
+    SOLVERS,
+    KResult,
+    default_discretisation,
+)
 from forms.studies import sweep  # noqa: E402
 
 #: Default k grid: the paper's range (k H up to 3 at H = 0.5).
@@ -82,6 +92,10 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--degree", type=int, default=0, help="Lagrange degree 1..6 (0: auto, P4)")
     ap.add_argument("--cells", type=int, default=0,
                     help="cells of the interval mesh (0: chosen from the region and --rtol)")
+    ap.add_argument("--solver", default="moments",
+                    help="moments (FE first, contour moments) or newton (FE from exact roots)")
+    ap.add_argument("--check-exact", default="yes",
+                    help="yes: match the FE values to the exact roots; no: never consult them")
     m = ap.add_argument_group("slider (1D model; forms.models.profiles)")
     m.add_argument("--model", default="section", help="section (homogeneous, default) or "
                    "layers (--layers and/or profiles)")
@@ -137,6 +151,15 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
     if not (math.isfinite(args.rtol) and 1e-13 <= args.rtol <= 1e-2):
         raise _cli.ParameterError(f"--rtol = {args.rtol} is outside its allowed range "
                                   "1e-13 <= rtol <= 1e-2")
+    if args.solver not in SOLVERS:
+        raise _cli.ParameterError(f"--solver = {args.solver} is outside its allowed values "
+                                  + " | ".join(SOLVERS))
+    if args.check_exact not in ("yes", "no"):
+        raise _cli.ParameterError(f"--check-exact = {args.check_exact} is outside its allowed "
+                                  "values yes | no")
+    if args.solver == "newton" and args.check_exact == "no":
+        raise _cli.ParameterError("--check-exact = no is outside its allowed values with "
+                                  "--solver newton (it starts from the exact roots): yes")
     if not (math.isfinite(args.omega0) and args.omega0 >= 0):
         raise _cli.ParameterError(f"--omega0 = {args.omega0} is outside its allowed range >= 0")
     try:
@@ -159,14 +182,12 @@ def write_outputs(out: str, params: Params, region: Region, k: np.ndarray,
 
     The caller adds the timings and writes ``summary.json`` once.
     """
-    tmp = os.path.join(out, ".spectrum.csv.tmp")
-    with open(tmp, "w", newline="") as fh:
+    with _cli.atomic_open(os.path.join(out, "spectrum.csv"), "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(ROW_FIELDS))
         w.writeheader()
-        for r in (r for res in results for r in res.rows):
-            w.writerow({f: (repr(r[f]) if isinstance(r[f], float) else r[f]) for f in ROW_FIELDS})
-    os.replace(tmp, os.path.join(out, "spectrum.csv"))
-    summary = meta | sweep.summarise(params, region, k, results, fams, c_max_at_k)
+        w.writerows(sweep.csv_rows(results, ROW_FIELDS))
+    summary = meta | sweep.summarise(params, region, k, results, fams, c_max_at_k,
+                                     meta["check_exact"])
     if plot:
         plot_dispersion(os.path.join(out, "dispersion.png"), params,
                         sweep.largest_region(region, c_max_at_k), results, fams,
@@ -244,34 +265,33 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     """Run the sweep on ``comm`` (every rank calls this)."""
     args, comm = _cli.start(build_parser(), argv, comm)
     params, k, merged, region = validate(args)  # every rank, before any collective or file
-    c_at_k = _cli.map_shared(comm, list(k), lambda i: sweep.region_at_k(params, region, k[i]))
-    c_at_k = [c_at_k[i] for i in range(len(k))]
-    big = sweep.largest_region(region, c_at_k)  # the family plan and the mesh cover it
+    check = args.check_exact == "yes"
+    # the region at each k; the largest sets the family plan and the mesh
+    c_at_k, big = sweep.regions_at_k(params, region, k, check,
+                                     lambda c, fn: _cli.map_shared(comm, c, fn))
     degree, cells, ratio = default_discretisation(params, big, float(k[-1]), args.rtol)
     disc = (args.degree or degree, args.cells or cells, ratio)
     config = {"params": params.as_dict(), "k": [float(v) for v in k],
               "region": region.as_dict(params), "c_max_at_k": c_at_k, "rtol": args.rtol,
-              "degree": disc[0],
-              "cells": disc[1], "grading_ratio": ratio}
-    if args.material is not None:
-        config["material"] = args.material.as_dict()
+              "degree": disc[0], "cells": disc[1], "grading_ratio": ratio,
+              "solver": args.solver, "check_exact": check,
+              **({"material": args.material.as_dict()} if args.material is not None else {})}
     with _cli.RunFolder(comm, args.out, "sweep_k", config, resume=args.resume, resumable=True,
                         outputs=OUTPUTS) as run:
-        out = run.path
-        t_start = time.perf_counter()
+        out, t_start = run.path, time.perf_counter()
         if merged and not args.quiet:
             _cli.say(f"note: {merged} duplicate k value(s) merged", err=True)
         todo = sweep.pending_k(comm, out, len(k), run.resumed)
-        t_fam = time.perf_counter()
-        plan, items = sweep.family_plan(comm, params, big, float(k[-1]))
-        if not args.quiet:
-            _cli.say(f"following {len(items)} root families (continuation in k) ...", err=True)
-        # cost ~ number of requested k the family is followed to: about equal; LPT keeps it even
-        fam_share = _cli.my_share(comm, [1.0] * len(items))
-        if comm.rank == 0 and not args.quiet:  # progress from the first second
-            fam_share = tqdm(fam_share, desc=f"root families (rank 0 of {comm.size})",
-                             unit=" families", file=sys.stderr)
-        fams = sweep.follow_families(comm, params, big, plan, items, k, fam_share)
+        t_fam, fams = time.perf_counter(), []
+        if check:
+            def fam_share(n: int) -> object:  # progress from the first second
+                if not args.quiet:
+                    _cli.say(f"following {n} root families (continuation in k) ...", err=True)
+                mine = _cli.my_share(comm, [1.0] * n)  # about equal costs (LPT)
+                return mine if comm.rank or args.quiet else tqdm(
+                    mine, desc=f"root families (rank 0 of {comm.size})", unit=" families",
+                    file=sys.stderr)
+            fams = sweep.follow_all(comm, params, big, k, fam_share)
         t_fam = time.perf_counter() - t_fam
         mine = [todo[j] for j in _cli.my_share(comm, sweep.k_costs(params, big, k, todo))]
         bar = None
@@ -280,7 +300,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                        file=sys.stderr)
         share = sweep.solve_k_values(params, big, disc, args.rtol, k, mine, fams, out,
                                      bar.update if bar is not None else None, args.material,
-                                     c_at_k)
+                                     c_at_k, check_exact=check, solver=args.solver)
         if bar is not None:
             bar.close()
         times = comm.gather({"rank": comm.rank, "families_s": t_fam, "solve_s": share.seconds,
@@ -289,13 +309,10 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         code = 0
         if comm.rank == 0:
             t2 = time.perf_counter()
-            meta = {"parameters": params.as_dict(),
-                    "k": {"spec": args.k, "count": len(k), "merged_duplicates": merged,
-                          "min": float(k[0]), "max": float(k[-1])},
-                    **sweep.describe_discretisation(params, disc, share, args.rtol),
-                    "mpi": {"ranks": comm.size, "per_rank": times},
-                    "resumed": run.resumed, "computed_this_run": len(todo),
-                    "versions": _cli.versions(), "command": _cli.command()}
+            meta = sweep.run_meta(params, args.k, k, merged, disc, share, args.rtol, args.solver,
+                                  check, {"ranks": comm.size, "per_rank": times}, run.resumed,
+                                  len(todo)) | {"versions": _cli.versions(),
+                                                "command": _cli.command()}
             summary = write_outputs(out, params, region, k, sweep.load_results(out, len(k)),
                                     fams, meta, not args.no_plot, c_at_k)
             wall = time.perf_counter() - t_start

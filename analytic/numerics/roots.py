@@ -283,14 +283,17 @@ def winding_number(
 def winding_numbers(fun: Callable[[np.ndarray], np.ndarray], box: Sequence[float], m: int, *,
                     n_initial: int = 32, max_dphase: float = math.pi / 3,
                     max_rel: float = 0.8, max_points: int = 50000,
-                    zero_tol: float = 1e-12, log: bool = False) -> list[int]:
+                    zero_tol: float = 1e-12, log: bool = False,
+                    samples: bool = False) -> list[int] | tuple[list[int], np.ndarray]:
     """:func:`winding_number` of ``m`` functions on one contour, sampled together.
 
     ``fun(z)`` returns an array of shape ``(m, len(z))`` (e.g. one determinant at ``m``
     wavenumbers in one vectorised call). The samples are refined where *any* row needs it, with
     the rules and the verification pass of :func:`winding_number` (which is this with
     ``m = 1``), so each row's count is as reliable; the point is one call of ``fun`` per
-    refinement instead of ``m``.
+    refinement instead of ``m``. With ``samples=True`` the final contour parameters ``t``
+    (sorted, in ``[0, 4)``; ``t = 0, 1, 2, 3`` are the corners, the points of odd index are
+    those of the verification pass) are returned too, as ``(counts, t)``.
 
     Raises:
         ContourError: As :func:`winding_number`, if any row's contour is unusable.
@@ -327,7 +330,7 @@ def winding_numbers(fun: Callable[[np.ndarray], np.ndarray], box: Sequence[float
                 for v, c in zip(totals, counts, strict=True):
                     if abs(v - c) > 1e-6:  # cannot happen for a closed sampled loop; a guard
                         raise ContourError(f"winding number {v} is not an integer")
-                return counts
+                return (counts, t) if samples else counts
             # Verification pass: bisect every interval once more. A function that turned by
             # about 2 pi between two samples (aliasing) shows up as a bad interval here.
             bad = dt > 2 * min_dt

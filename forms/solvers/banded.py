@@ -31,8 +31,11 @@ import scipy.sparse as sp
 from scipy.linalg import lapack
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
-from analytic.numerics.roots import Box, ContourError, winding_number
+from analytic.numerics.roots import Box, ContourError, _perimeter_point, winding_numbers
 from forms.friction import FrictionOperator, ScalarFunction
+
+#: Points whose band matrices are assembled in one matrix product (memory: rows x n x CHUNK).
+CHUNK = 32
 
 
 @dataclass
@@ -103,6 +106,7 @@ class BandedOperator:
             ab = np.zeros((2 * kl + ku + 1, n), dtype=complex)
             ab[kl + ku + c.row - c.col, c.col] = c.data
             self.bands.append(ab)
+        self._stack = np.stack(self.bands).reshape(len(self.bands), -1)  # for _bands_many
         self.norms = np.array([sp.linalg.norm(m) for m in self.mats])
         self.factorizations = 0  #: banded LU factorisations so far (cost measure)
 
@@ -111,6 +115,20 @@ class BandedOperator:
         for fn, b in zip(self.functions, self.bands, strict=True):
             ab += fn.value_and_derivative(z)[0] * b
         return ab
+
+    def _phis(self, z: np.ndarray) -> np.ndarray:
+        """``phi_i(z_j)`` for every point (rows) and scalar function (columns), vectorised."""
+        z = np.asarray(z, dtype=complex)
+        pv = np.polynomial.polynomial
+        cols = [z ** fn.power_index if fn.power_index is not None else
+                pv.polyval(z, np.asarray(fn.num, dtype=complex))
+                / pv.polyval(z, np.asarray(fn.den, dtype=complex)) for fn in self.functions]
+        return np.stack(cols, axis=1)
+
+    def _bands_many(self, z: np.ndarray) -> np.ndarray:
+        """Band storage of ``T(z_j)`` for every point at once, shape ``(len(z), rows, n)``."""
+        rows = self.bands[0].shape[0]
+        return (self._phis(z) @ self._stack).reshape(len(z), rows, self.n)
 
     def _factor(self, z: complex) -> tuple[np.ndarray, np.ndarray, int]:
         self.factorizations += 1
@@ -127,8 +145,26 @@ class BandedOperator:
         return complex(np.sum(np.log(diag.astype(complex))) + 1j * math.pi * (swaps % 2))
 
     def log_det_many(self, z: np.ndarray) -> np.ndarray:
-        """Vectorised :meth:`log_det` (for :func:`analytic.numerics.roots.winding_number`)."""
-        return np.array([self.log_det(v) for v in np.ravel(z)], dtype=complex).reshape(np.shape(z))
+        """Vectorised :meth:`log_det` (for :func:`analytic.numerics.roots.winding_number`).
+
+        The band matrices of :data:`CHUNK` points are assembled in one matrix product; one
+        ``zgbtrf`` per point remains.
+        """
+        flat = np.ravel(np.asarray(z, dtype=complex))
+        out = np.empty(flat.size, dtype=complex)
+        d = self.kl + self.ku
+        idx = np.arange(self.n)
+        for lo in range(0, flat.size, CHUNK):
+            for j, ab in enumerate(self._bands_many(flat[lo:lo + CHUNK])):
+                self.factorizations += 1
+                lu, piv, info = lapack.zgbtrf(ab, self.kl, self.ku, overwrite_ab=True)
+                diag = lu[d]
+                if info > 0 or not np.all(np.isfinite(diag)):
+                    out[lo + j] = -np.inf
+                    continue
+                swaps = int(np.count_nonzero(piv != idx))
+                out[lo + j] = np.sum(np.log(diag)) + 1j * math.pi * (swaps % 2)
+        return out.reshape(np.shape(z))
 
     def count(self, box: Box, n_initial: int = 32) -> int:
         """Number of eigenvalues of ``T`` inside ``box`` (argument principle on ``det T``).
@@ -136,7 +172,108 @@ class BandedOperator:
         Raises:
             ContourError: An eigenvalue on or too near the contour (move the box edge).
         """
-        return winding_number(self.log_det_many, box, n_initial=n_initial, log=True)
+        return self.count_and_samples(box, n_initial)[0]
+
+    def count_and_samples(self, box: Box, n_initial: int = 32) -> tuple[int, np.ndarray]:
+        """:meth:`count` and the contour parameters ``t`` of the points it used.
+
+        The points are those of :func:`analytic.numerics.roots.winding_numbers` (adaptive
+        refinement where the argument of ``det T`` turns fast or ``|det T|`` changes fast,
+        i.e. a spacing below the distance to the nearest eigenvalue, then a verification pass
+        that bisects every interval).
+
+        Raises:
+            ContourError: An eigenvalue on or too near the contour (move the box edge).
+        """
+        def one_row(z: np.ndarray) -> np.ndarray:
+            return self.log_det_many(z)[None, :]
+
+        counts, t = winding_numbers(one_row, box, 1, n_initial=n_initial, log=True,
+                                    samples=True)
+        return counts[0], t
+
+    def moment_eigs(self, box: Box, count: int, t: np.ndarray, *, moments: int = 2,
+                    extra: int | None = None, seed: int = 2024) -> list[Eigen]:
+        """The eigenvalues inside ``box`` by contour-integral moments, each Newton-polished.
+
+        Beyn's method with higher moments (Beyn 2012, section 5): with a random ``n x L`` block
+        ``V``, ``A_p = (1/2 pi i) oint s^p T(z)^{-1} V dz``, ``s = (z - c)/rho`` (box centre
+        ``c``, half-size ``rho``), ``p < 2K``, by :func:`contour_rule` on the count's contour
+        points ``t`` (one ``zgbtrf`` and one ``zgbtrs`` with ``L`` columns per point); the
+        block Hankel matrices ``B0 = [A_{i+j}]``, ``B1 = [A_{i+j+1}]`` (``i, j < K``), the SVD
+        ``B0 = U S W^H`` truncated to ``count + extra``, and the eigenvalues of ``U^H B1 W S^-1``
+        give predictors (with eigenvectors) of every eigenvalue inside the box and of the
+        strongest ones outside. Each predictor inside the box (widened by 10 %) starts
+        :meth:`newton`. Nothing here is counted: the argument-principle count stays an
+        independent check of what is returned.
+
+        Args:
+            box: The rectangle.
+            count: Number of eigenvalues inside (sets the block size).
+            t: Contour parameters of the quadrature nodes (from :meth:`count_and_samples`).
+            moments: Number ``K`` of block rows (``L = ceil((count + extra) / K)`` columns).
+            extra: Subspace dimension beyond ``count`` (default ``max(4, count // 2)``).
+            seed: Seed of the random block ``V``.
+
+        Returns:
+            The distinct converged eigenpairs strictly inside ``box``.
+        """
+        if count <= 0:
+            return []
+        if not all(fn.power_index is not None for fn in self.functions):
+            raise NotImplementedError("moment_eigs needs the polynomial form (power functions)")
+        bx = tuple(float(v) for v in box)
+        z, w = contour_rule(bx, t)
+        c = complex(0.5 * (bx[0] + bx[1]), 0.5 * (bx[2] + bx[3]))
+        rho = 0.5 * max(bx[1] - bx[0], bx[3] - bx[2])
+        s = (z - c) / rho
+        dim = count + (extra if extra is not None else max(4, count // 2))
+        k_mom = max(1, min(moments, dim))
+        cols = int(math.ceil(dim / k_mom))
+        rng = np.random.default_rng(seed)
+        v = rng.standard_normal((self.n, cols)) + 1j * rng.standard_normal((self.n, cols))
+        acc = np.zeros((2 * k_mom, self.n, cols), dtype=complex)
+        weights = w[:, None] * s[:, None] ** np.arange(2 * k_mom)[None, :]  # (points, 2K)
+        for lo in range(0, z.size, CHUNK):
+            for j, ab in enumerate(self._bands_many(z[lo:lo + CHUNK])):
+                self.factorizations += 1
+                lu, piv, info = lapack.zgbtrf(ab, self.kl, self.ku, overwrite_ab=True)
+                if info != 0:
+                    continue  # exactly singular on the contour: the count fails there anyway
+                y, _ = lapack.zgbtrs(lu, self.kl, self.ku, v, piv)
+                acc += weights[lo + j][:, None, None] * y[None]
+        # block Hankel matrices B0[i, j] = A_{i+j}, B1[i, j] = A_{i+j+1} (Beyn 2012, sec. 5)
+        b0 = np.block([[acc[i + j] for j in range(k_mom)] for i in range(k_mom)])
+        b1 = np.block([[acc[i + j + 1] for j in range(k_mom)] for i in range(k_mom)])
+        u, sv, vh = np.linalg.svd(b0, full_matrices=False)
+        rank = int(min(dim, np.count_nonzero(sv > 1e-13 * sv[0]))) if sv[0] > 0 else 0
+        if rank == 0:
+            return []
+        u, sv, vh = u[:, :rank], sv[:rank], vh[:rank]
+        small = u.conj().T @ b1 @ vh.conj().T / sv[None, :]
+        mu, y = np.linalg.eig(small)
+        lam = c + rho * mu
+        vecs = (u[:self.n] @ y)  # eigenvector approximations (permuted order)
+        return self._polish(lam, vecs, bx)
+
+    def _polish(self, lam: np.ndarray, vecs: np.ndarray, bx: Box) -> list[Eigen]:
+        """Newton from each approximation inside ``bx`` (widened 10 %); distinct, inside."""
+        a0, b0, c0, d0 = bx
+        mw, mh = 0.1 * (b0 - a0), 0.1 * (d0 - c0)
+        found: list[Eigen] = []
+        for i in np.argsort(lam.real):
+            z0 = lam[i]
+            if not (np.isfinite(z0) and a0 - mw <= z0.real <= b0 + mw
+                    and c0 - mh <= z0.imag <= d0 + mh):
+                continue
+            x0 = np.empty(self.n, dtype=complex)
+            x0[self.perm] = vecs[:, i]
+            e = self.newton(z0, x0)
+            inside = a0 < e.value.real < b0 and c0 < e.value.imag < d0
+            if e.converged and inside and all(
+                    abs(e.value - f.value) > 1e-9 * max(1.0, abs(e.value)) for f in found):
+                found.append(e)
+        return found
 
     def _apply(self, coeffs: np.ndarray, x: np.ndarray) -> np.ndarray:
         y = np.zeros(self.n, dtype=complex)
@@ -201,6 +338,32 @@ class BandedOperator:
         # backward error at rounding level also counts as converged.
         converged = (converged and res < 1e-10) or res < 1e-13
         return Eigen(z, out, res, it, converged, step)
+
+
+def contour_rule(box: Box, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and weights of ``oint f(z) dz`` on the boundary of ``box`` from the points ``t``.
+
+    ``t`` are contour parameters (:func:`analytic.numerics.roots.winding_numbers` with
+    ``samples=True``). Its points of odd index are the midpoints of their neighbours (the
+    verification pass bisects every interval) and the corners ``t = 1, 2, 3`` have even index:
+    then composite Simpson on the panels ``(t_{2i}, t_{2i+1}, t_{2i+2})`` (error ``O(h^4)``),
+    otherwise the trapezoidal rule on the polygon through the points and the corners.
+    """
+    t = np.union1d(np.asarray(t, dtype=float), np.arange(4.0))
+    z = _perimeter_point(box, t)
+    t4 = np.append(t, 4.0)
+    even = t4[0::2]
+    if t.size % 2 == 0 and np.allclose(t4[1::2], 0.5 * (even[:-1] + even[1:]), rtol=0,
+                                       atol=1e-13) and np.all(np.isin(np.arange(4.0), t[::2])):
+        zz = np.append(z, z[0])
+        d = zz[2::2] - zz[0:-2:2]
+        w = np.zeros(z.size, dtype=complex)
+        w[1::2] = 4.0 * d / 6.0
+        w[0::2] += d / 6.0
+        w[2::2] += d[:-1] / 6.0
+        w[0] += d[-1] / 6.0
+        return z, w
+    return z, 0.5 * (np.roll(z, -1) - np.roll(z, 1))
 
 
 def _csr(a: object) -> sp.csr_matrix:

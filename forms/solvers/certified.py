@@ -1,28 +1,34 @@
-"""The certified complete spectrum at one ``k``: FE eigenvalues, exact roots, and the checks.
+"""The certified complete spectrum at one ``k``: FE eigenvalues, their count, exact roots.
 
-docs/design.md section 8. For every requested ``k`` and the
-:class:`analytic.numerics.spectrum.Region`
-``R``:
+docs/design.md section 8. For every requested ``k`` and a rectangle ``R`` (by default the
+:class:`analytic.numerics.spectrum.Region` at ``k``), with the default ``solver="moments"``:
 
-1. exact: the argument-principle count ``N_exact`` of ``det_M`` in ``R`` and every root in ``R``
-   with the label of the family it was continued on
-   (:func:`analytic.numerics.spectrum.certified_roots`);
-2. FE: every exact root is the predictor of a Newton iteration on the discrete nonlinear
-   eigenproblem (:meth:`forms.solvers.banded.BandedOperator.newton`: a few banded factorisations);
-   the
-   *FE* count ``N_FE`` of discrete eigenvalues in ``R`` comes from the argument principle on
-   ``det T_h`` (:meth:`forms.solvers.banded.BandedOperator.count`), independently of the exact
-   roots;
-3. the count closes when ``N_FE == N_exact`` and the FE values are matched to *distinct* exact
-   roots (each FE value's nearest exact root is the one it started from). Then no FE eigenvalue
-   in ``R`` is missing or extra, and each carries its exact root's label;
-4. error estimate: one Newton solve on the degree ``p + 1`` discretisation started from the
-   FE value gives ``|Lambda_p - Lambda_{p+1}| / |Lambda_{p+1}|``, valid where no exact root
-   exists.
+1. FE count: the argument principle on ``log det T_h`` along the boundary of ``R``
+   (:meth:`forms.solvers.banded.BandedOperator.count_and_samples`: adaptive contour points, one
+   banded LU each) gives ``N_FE``;
+2. FE eigenvalues, with no exact root as input: contour-integral moments of ``T_h(z)^{-1} V`` on
+   the same contour points (Beyn's method,
+   :meth:`forms.solvers.banded.BandedOperator.moment_eigs`), each predictor polished by Newton
+   on the discrete nonlinear eigenproblem; the count closes when the distinct values found
+   inside ``R`` are ``N_FE`` (the count does not come from the moments, so a missed eigenvalue
+   shows);
+3. error estimate: one Newton solve on the degree ``p + 1`` discretisation started from the
+   FE value gives ``|Lambda_p - Lambda_{p+1}| / |Lambda_{p+1}|``;
+4. with ``check_exact`` (default) the exact side is consulted afterwards: the argument-principle
+   count ``N_exact`` of ``det_M`` in ``R`` and every exact root with the label of its family
+   (:func:`analytic.numerics.spectrum.certified_roots`); each FE value is matched to a distinct
+   exact root (nearest both ways), which gives its label and its error; the count closes only if
+   also ``N_exact == N_FE``. Without ``check_exact`` nothing of ``analytic``'s roots or families
+   is used and the labels are ``fe0, fe1, ...`` in the order of ``|Im Lambda|``.
 
-A row's ``status`` is ``ok`` only if its label is certified (continuation without doubt), the
-count closes, the Newton iteration converged, and both the estimate and the error against the
-exact root are within ``rtol``. Otherwise the status says which check failed.
+``solver="newton"`` is the former path: every exact root is the predictor of a Newton
+iteration, then the FE count (kept for comparison, ``--solver newton``).
+
+A row's ``status`` is ``ok`` only if the count closes, the estimate is within ``rtol`` and,
+when checked, its label is certified and its error against the exact root is within ``rtol``;
+otherwise the status says which check failed. Its ``certificate`` says what it carries: ``fe``
+(count closed, estimate within ``rtol``) and/or ``exact`` (matched to a distinct exact root of
+a closed exact count, error within ``rtol``).
 """
 
 from __future__ import annotations
@@ -36,16 +42,18 @@ import numpy as np
 from mpi4py import MPI
 
 from analytic.numerics.branches import BranchResult
-from analytic.numerics.roots import ContourError
-from analytic.numerics.spectrum import Region, certified_roots
+from analytic.numerics.roots import Box, ContourError
+from analytic.numerics.spectrum import Region, certified_roots, on_usable_box
 from analytic.params import Params
 from forms.models.profiles import SliderMaterial
 from forms.models.section import SectionModel, section_stack
-from forms.solvers.banded import BandedModel
+from forms.solvers.banded import BandedModel, BandedOperator, Eigen
 
 #: Columns of one spectrum row, in CSV order.
 ROW_FIELDS = ("k", "label", "re_lambda", "im_lambda", "re_lambda_exact", "im_lambda_exact",
-              "rel_error", "error_estimate", "residual", "status")
+              "rel_error", "error_estimate", "residual", "status", "certificate")
+#: Ways of finding the FE eigenvalues (``--solver``): contour moments first, or exact-seeded.
+SOLVERS = ("moments", "newton")
 
 
 def default_discretisation(p: Params, region: Region, k_max: float, rtol: float = 1e-8
@@ -136,11 +144,22 @@ class CertifiedSolver:
         rtol: Relative accuracy a row must reach to be ``ok``.
         material: Layers/profiles of the slider (:func:`forms.models.profiles.slider_material`;
             ``None``: homogeneous).
+        check_exact: Match the FE eigenvalues to the exact roots afterwards (labels, errors);
+            ``False``: ``analytic``'s roots and families are never consulted.
+        solver: ``"moments"`` (FE first, :meth:`forms.solvers.banded.BandedOperator.
+            moment_eigs`) or ``"newton"`` (FE Newton from every exact root; needs
+            ``check_exact``).
     """
 
     def __init__(self, params: Params, region: Region, degree: int, cells: int, ratio: float,
-                 k_max: float, rtol: float, material: SliderMaterial | None = None) -> None:
+                 k_max: float, rtol: float, material: SliderMaterial | None = None, *,
+                 check_exact: bool = True, solver: str = "moments") -> None:
+        if solver not in SOLVERS:
+            raise ValueError(f"solver = {solver!r} is outside its allowed values {SOLVERS}")
+        if solver == "newton" and not check_exact:
+            raise ValueError("solver = 'newton' starts from the exact roots: needs check_exact")
         self.params, self.region, self.rtol = params, region, rtol
+        self.check_exact, self.solver = check_exact, solver
         # the one 1D model; rigid and homogeneous it is the CrossSectionModel of these cells
         self.cells2 = substrate_cells(params, region, k_max, rtol) if params.two_body else 0
         stack = section_stack(params, material, degree=degree, cells=cells, k_max=k_max,
@@ -155,12 +174,123 @@ class CertifiedSolver:
         """Unknowns of the degree-``p`` model."""
         return self.models[0].size
 
-    def solve(self, k: float, fams: list[BranchResult], region: Region | None = None
-              ) -> KResult:
-        """The certified spectrum at ``k`` (module docstring) in ``region`` (default: own).
+    def solve(self, k: float, fams: list[BranchResult] | None = None,
+              region: Region | None = None, box: Box | None = None) -> KResult:
+        """The certified spectrum at ``k`` (see the module docstring).
 
-        A per-``k`` region: see :func:`forms.studies.sweep.region_at_k`.
+        Args:
+            k: Wavenumber.
+            fams: The followed exact families (only with ``check_exact``).
+            region: The region at this ``k`` (default: the solver's own); a per-``k``
+                region: see :func:`forms.studies.sweep.region_at_k`.
+            box: The rectangle (default: the region's at ``k``; with ``check_exact`` the
+                rectangle of the exact count, which may be a nudged copy).
         """
+        region = region if region is not None else self.region
+        if self.solver == "newton":
+            return self._solve_seeded(k, fams or [], region)
+        t0 = time.perf_counter()
+        p, rtol = self.params, self.rtol
+        out = KResult(float(k))
+        labelled: list = []
+        exact_box = None
+        if self.check_exact:
+            try:
+                labelled, exact_box, out.n_exact = certified_roots(p, k, region, fams or [])
+            except ContourError as err:
+                out.note = f"exact count failed: {err}"
+        fe, fine = (b.operator(k) for b in self.banded)
+        want = box if box is not None else (exact_box or region.box(p, k))
+        try:
+            (n_fe, t), used = on_usable_box(want, k, fe.count_and_samples)
+            out.n_fe = n_fe
+        except ContourError as err:
+            out.note = "; ".join(x for x in (out.note, f"FE count failed: {err}") if x)
+            used, t = want, None
+        out.box = tuple(float(v) for v in used)
+        found = fe.moment_eigs(used, out.n_fe, t) if t is not None else []
+        if t is not None and len(found) != out.n_fe:
+            # one retry with a larger subspace and another random block; merged, distinct
+            for e in fe.moment_eigs(used, out.n_fe, t, moments=4, extra=out.n_fe + 8, seed=7):
+                if all(abs(e.value - f.value) > 1e-9 * max(1.0, abs(e.value)) for f in found):
+                    found.append(e)
+        rows = [self._row(k, e, fine) for e in found]
+        matched = self._match_exact(rows, labelled, exact_box, used) if self.check_exact else True
+        if not self.check_exact:
+            for j, row in enumerate(sorted(rows, key=lambda r: (abs(r["im_lambda"]),
+                                                                r["im_lambda"]))):
+                row["label"] = f"fe{j}"
+        vals = np.array([e.value for e in found], dtype=complex)
+        distinct = all(abs(vals[a] - vals[b]) > 1e-9 * max(1.0, abs(vals[a]))
+                       for a in range(len(vals)) for b in range(a))
+        fe_closed = out.n_fe is not None and out.n_fe == len(found) and distinct
+        out.closed = fe_closed and matched
+        for row in rows:
+            row["certificate"] = "+".join(
+                name for name, ok in (("fe", fe_closed and row["error_estimate"] <= rtol),
+                                      ("exact", self.check_exact and out.closed
+                                       and row["rel_error"] <= rtol)) if ok)
+        if not out.closed:
+            why = f"count not closed: FE {out.n_fe}, found {len(found)}"
+            if self.check_exact:
+                why += f", exact {out.n_exact} ({len(labelled)} roots)"
+            if not distinct:
+                why += ", two FE values coincide"
+            out.note = "; ".join(x for x in (out.note, why) if x)
+            for row in rows:
+                row["status"] = ("" if row["status"] == "ok" else row["status"] + "; ") + why
+        out.rows = sorted(rows, key=lambda r: (-r["re_lambda"], r["im_lambda"]))
+        out.factorizations = fe.factorizations + fine.factorizations
+        out.seconds = time.perf_counter() - t0
+        return out
+
+    def _row(self, k: float, e: Eigen, fine: BandedOperator) -> dict:
+        """One row of an FE eigenpair: the P(p+1) estimate; no exact root yet."""
+        est = math.nan
+        g = fine.newton(e.value, maxit=6)
+        if g.converged:
+            est = abs(e.value - g.value) / abs(g.value)
+        problems = [] if est <= self.rtol else [f"estimate {est:.1e} > rtol"]
+        return {"k": float(k), "label": "", "re_lambda": float(e.value.real),
+                "im_lambda": float(e.value.imag), "re_lambda_exact": math.nan,
+                "im_lambda_exact": math.nan, "rel_error": math.nan,
+                "error_estimate": float(est), "residual": float(e.residual),
+                "status": "; ".join(problems) or "ok"}
+
+    def _match_exact(self, rows: list[dict], labelled: list, exact_box: Box | None,
+                     used: Box) -> bool:
+        """Match every FE row to a distinct exact root (nearest both ways); label and errors.
+
+        Returns:
+            Whether the matching is a bijection on the same rectangle.
+        """
+        exact = np.array([r.value for r in labelled], dtype=complex)
+        fe = np.array([complex(r["re_lambda"], r["im_lambda"]) for r in rows], dtype=complex)
+        ok = exact_box is not None and tuple(exact_box) == tuple(used) and len(exact) == len(fe)
+        for i, row in enumerate(rows):
+            problems = [] if row["status"] == "ok" else [row["status"]]
+            if not len(exact):
+                row["status"] = "; ".join(problems + ["no exact root to match"])
+                ok = False
+                continue
+            j = int(np.argmin(np.abs(exact - fe[i])))
+            mutual = int(np.argmin(np.abs(fe - exact[j]))) == i
+            r = labelled[j]
+            rel = abs(fe[i] - r.value) / max(abs(r.value), 1e-300)
+            row.update(label=r.label, re_lambda_exact=float(r.value.real),
+                       im_lambda_exact=float(r.value.imag), rel_error=float(rel))
+            if not r.certified:
+                problems.append(f"label not certified ({r.note})")
+            if not mutual:
+                problems.append("FE value nearer another exact root")
+                ok = False
+            if not rel <= self.rtol:
+                problems.append(f"error {rel:.1e} > rtol")
+            row["status"] = "; ".join(problems) or "ok"
+        return ok
+
+    def _solve_seeded(self, k: float, fams: list[BranchResult], region: Region) -> KResult:
+        """``--solver newton``: FE Newton from every exact root, then the FE count."""
         t0 = time.perf_counter()
         p, rtol = self.params, self.rtol
         out = KResult(float(k))
@@ -217,6 +347,8 @@ class CertifiedSolver:
             out.note = "; ".join(x for x in (out.note, why) if x)
             for row in out.rows:
                 row["status"] = ("" if row["status"] == "ok" else row["status"] + "; ") + why
+        for row in out.rows:
+            row["certificate"] = "fe+exact" if out.closed and row["status"] == "ok" else ""
         out.factorizations = fe.factorizations + fine.factorizations
         out.seconds = time.perf_counter() - t0
         return out

@@ -10,7 +10,11 @@ Three independent measurements, each returning plain data (the scene writes and 
 - :func:`mpi_scaling`: the throughput of two concurrent copies of a CPU-bound kernel against
   one copy, and the wall times of a sweep script under ``mpirun -n 1`` and ``-n 2``;
 - :func:`convergence`: the relative error of the cross-section model at the check point
-  (``k = 1``, branch ``0-``, docs/design.md section 4) for P1..P4 and the observed orders.
+  (``k = 1``, branch ``0-``, docs/design.md section 4) for P1..P4 and the observed orders;
+- :func:`certified_sweeps`: wall times of the certified sweep (``workflows/sweep_k.py``) in
+  its three modes side by side (FE first without the exact check, FE first with it, the
+  exact-seeded path) on the default grid (both tops, 2 ranks) and at ``k = 50, 51`` (1 rank),
+  with the targets of issues 17 and 15 (:data:`SWEEP_TARGETS`, :func:`check_targets`).
 
 Times are wall-clock on a shared machine: ratios, not absolute values, are the result. Every
 model lives on ``COMM_SELF``.
@@ -108,6 +112,140 @@ def speed(k: np.ndarray, p: Params | None = None, fe_cells: Sequence[int] = FE_C
                      ["s_per_point"] / b, "target_analytic": 10.0,
                      "fe_over_baseline": fe["s_per_point"] / b if fe else None,
                      "target_fe": 20.0}
+    return res
+
+
+#: Modes of the certified sweep compared side by side: name -> options of sweep_k.py.
+SWEEP_MODES: dict[str, list[str]] = {"fe_first": ["--check-exact", "no"],
+                                     "fe_first_checked": [],
+                                     "exact_seeded": ["--solver", "newton"]}
+#: Sweep cases: name -> (k spec, options, ranks).
+SWEEP_CASES: dict[str, tuple[str, list[str], int]] = {
+    "default_velocity": ("0.05:6:120", ["--bc", "velocity"], 2),
+    "default_stress": ("0.05:6:120", ["--bc", "stress"], 2),
+    "k50_51": ("50,51", [], 1)}
+#: Targets (issue 17: default sweep <= 2 s on 2 ranks, k = 50, 51 <= 3 s on one rank; issue
+#: 15: FE first at most 2x the exact-seeded path): case -> largest FE-first wall time (s).
+SWEEP_TARGETS: dict[str, float] = {"default_velocity": 2.0, "default_stress": 2.0,
+                                   "k50_51": 3.0}
+#: Issue 15: the FE-first sweep costs at most this times the exact-seeded one.
+FE_FIRST_OVER_SEEDED = 2.0
+
+
+def check_targets(values: dict[str, float | None], targets: dict[str, float],
+                  at_least: Sequence[str] = ()) -> list[dict]:
+    """Each target with its measured value and whether it is met.
+
+    Met means ``value <= target``, or ``value >= target`` for the names in ``at_least``; a
+    target whose value is missing (``None``, or not measured) is not met.
+    """
+    out = []
+    for name, target in targets.items():
+        v = values.get(name)
+        met = v is not None and (v >= target if name in at_least else v <= target)
+        out.append({"name": name, "value": v, "target": target,
+                    "kind": ">=" if name in at_least else "<=", "met": bool(met)})
+    return out
+
+
+#: Issue 17: cost per certified eigenvalue (FE first) within this times Newton-on-S's cost
+#: per branch point.
+PER_EIGENVALUE_OVER_BASELINE = 100.0
+
+
+def all_targets(report: dict) -> list[dict]:
+    """Every target of a benchmark report, each checked by :func:`check_targets`.
+
+    The report's keys ``speed`` (:func:`speed`), ``mpi`` (:func:`mpi_scaling`) and ``sweeps``
+    (:func:`certified_sweeps`) are used where present.
+    """
+    values: dict[str, float | None] = {}
+    targets: dict[str, float] = {}
+    at_least = []
+    if "speed" in report:
+        r = report["speed"]["ratios"]
+        values["analytic_certified_over_baseline"] = r["analytic_certified_over_baseline"]
+        targets["analytic_certified_over_baseline"] = r["target_analytic"]
+        values["fe_continuation_over_baseline"] = r["fe_over_baseline"]
+        targets["fe_continuation_over_baseline"] = r["target_fe"]
+    m = report.get("mpi", {})
+    if "targets" in m:
+        values["mpi_speedup_fraction"] = m["speedup_fraction_of_two_copy_throughput"]
+        targets["mpi_speedup_fraction"] = m["targets"]["speedup_fraction"]
+        at_least.append("mpi_speedup_fraction")
+    out = check_targets(values, targets, at_least)
+    sweeps = report.get("sweeps")
+    if sweeps:
+        out += sweeps["targets"]
+        base = report.get("speed", {}).get("baseline", {}).get("s_per_point")
+        for name, case in sweeps["cases"].items():
+            fe = case["runs"].get("fe_first", {})
+            if base and fe.get("rows"):
+                per = fe["wall_s"] * case["ranks"] / fe["rows"] / base
+                out += check_targets({f"{name}_per_eigenvalue_over_baseline": per},
+                                     {f"{name}_per_eigenvalue_over_baseline":
+                                      PER_EIGENVALUE_OVER_BASELINE})
+    return out
+
+
+def run_sweep(sweep_script: str, k_spec: str, options: Sequence[str], ranks: int) -> dict:
+    """One run of ``sweep_script`` under ``mpirun -n ranks`` in a temporary folder.
+
+    Returns:
+        ``wall_s`` (the sweep's own wall time, ``summary.json``), ``process_s`` (the whole
+        command, start-up included), ``rows``, ``k_not_closed``, ``rows_flagged``,
+        ``exit_code``; or ``error`` (the end of the output) if it wrote no summary.
+    """
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "o")
+        cmd = ["mpirun", "-n", str(ranks), sys.executable, sweep_script, "--k", k_spec,
+               *options, "--quiet", "--no-plot", "--out", out]
+        t0 = time.perf_counter()
+        proc = subprocess.run(cmd, capture_output=True, text=True, env=_env())
+        wall = time.perf_counter() - t0
+        if proc.returncode not in (0, 1):
+            return {"error": (proc.stdout + proc.stderr)[-800:], "exit_code": proc.returncode}
+        with open(os.path.join(out, "summary.json")) as fh:
+            s = json.load(fh)
+    cert = s["certificate"]
+    return {"wall_s": s["timing_s"]["wall"], "process_s": wall, "rows": cert["rows"],
+            "k_not_closed": len(cert["k_not_closed"]),
+            "rows_flagged": cert["rows"] - cert["rows_ok"], "exit_code": proc.returncode}
+
+
+def certified_sweeps(sweep_script: str, cases: dict | None = None, modes: dict | None = None
+                     ) -> dict:
+    """Every mode of :data:`SWEEP_MODES` on every case of :data:`SWEEP_CASES`, side by side.
+
+    Args:
+        sweep_script: Path of ``workflows/sweep_k.py``.
+        cases: Subset of :data:`SWEEP_CASES` (default: all).
+        modes: Subset of :data:`SWEEP_MODES` (default: all).
+
+    Returns:
+        ``cases`` (per case and mode, :func:`run_sweep`), ``ratios`` (FE first over the
+        exact-seeded path, per case, where both ran) and ``targets`` (:func:`check_targets`
+        on the FE-first wall times of the measured cases and on the ratios).
+    """
+    cases = SWEEP_CASES if cases is None else cases
+    modes = SWEEP_MODES if modes is None else modes
+    res: dict = {"cases": {}, "ratios": {}}
+    values: dict[str, float | None] = {}
+    targets: dict[str, float] = {}
+    for name, (k_spec, options, ranks) in cases.items():
+        runs = {m: run_sweep(sweep_script, k_spec, [*options, *opt], ranks)
+                for m, opt in modes.items()}
+        res["cases"][name] = {"k": k_spec, "options": options, "ranks": ranks, "runs": runs}
+        fe, seeded = runs.get("fe_first", {}), runs.get("exact_seeded", {})
+        if name in SWEEP_TARGETS and "fe_first" in runs:
+            targets[name + "_fe_first_s"] = SWEEP_TARGETS[name]
+            ok = "wall_s" in fe and fe["k_not_closed"] == 0 and fe["rows_flagged"] == 0
+            values[name + "_fe_first_s"] = fe["wall_s"] if ok else None
+        if "wall_s" in fe and "wall_s" in seeded:
+            res["ratios"][name] = fe["wall_s"] / seeded["wall_s"]
+            targets[name + "_fe_first_over_exact_seeded"] = FE_FIRST_OVER_SEEDED
+            values[name + "_fe_first_over_exact_seeded"] = res["ratios"][name]
+    res["targets"] = check_targets(values, targets)
     return res
 
 

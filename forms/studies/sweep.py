@@ -8,12 +8,13 @@ docs/design.md section 8. The steps of a sweep, each a call of the scene:
 1b. :func:`region_at_k` (adaptive region, ``c_max = None``): at each ``k`` the phase-velocity
    bound that provably holds the fastest mode (:func:`analytic.numerics.spectrum.fastest_mode`,
    exact roots); the largest of them (:func:`largest_region`) sets the family plan and the mesh;
-2. :func:`family_plan` and :func:`follow_families`: every root family that can reach the region
-   is followed in ``k`` by exact continuation; the families are shared over the ranks and
-   gathered on all of them;
+2. :func:`family_plan` and :func:`follow_families` (only when the exact roots are checked,
+   ``--check-exact yes``): every root family that can reach the region is followed in ``k`` by
+   exact continuation; the families are shared over the ranks and gathered on all of them;
 3. :func:`k_costs` and :func:`solve_k_values`: each rank solves its share of the pending ``k``
-   with one :class:`forms.solvers.certified.CertifiedSolver` (its models live on ``COMM_SELF``) and
-   writes each :class:`forms.solvers.certified.KResult` to its raw file;
+   with one :class:`forms.solvers.certified.CertifiedSolver` (its models live on ``COMM_SELF``;
+   FE first by default) and writes each :class:`forms.solvers.certified.KResult` to its raw
+   file;
 4. :func:`load_results` and :func:`summarise` (rank 0): the rows of every ``k`` and the summary:
    certificate (counts closed, rows ok or flagged), accuracy, families, the most unstable
    eigenvalue with its certificate, per-``k`` counts and costs.
@@ -50,14 +51,24 @@ from analytic.physics.tail import tail_bound, why_no_tail_bound
 from forms.models.profiles import SliderMaterial
 from forms.solvers.certified import CertifiedSolver, KResult
 
-#: What ``summary.json`` says the certificate of the most unstable eigenvalue states.
-CERTIFICATE_STATEMENT = (
-    "largest Re Lambda over every eigenvalue in the region R at every swept k; at each k the "
-    "FE count in R equals the exact argument-principle count and every FE value is matched to "
-    "a distinct exact root")
-#: How the sweep's values are obtained (``summary.json``, key ``method``).
-METHOD = ("exact continuation labels; FE Newton on the discrete NEP from the exact roots; FE "
-          "and exact argument-principle counts in R")
+#: What ``summary.json`` says the certificate of the most unstable eigenvalue states, per mode
+#: ``(solver, check_exact)``.
+CERTIFICATE_STATEMENTS = {
+    True: ("largest Re Lambda over every eigenvalue in the region R at every swept k; at each k "
+           "the FE eigenvalues found in R are as many as, and distinct, the FE argument-principle"
+           " count of det T_h in R, which equals the exact argument-principle count, and every "
+           "FE value is matched to a distinct exact root"),
+    False: ("largest Re Lambda over every eigenvalue in the region R at every swept k; at each k "
+            "the FE eigenvalues found in R are as many as, and distinct, the FE "
+            "argument-principle count of det T_h in R (no exact reference consulted)"),
+}
+#: How the sweep's values are obtained (``summary.json``, key ``method``), per ``--solver``.
+METHODS = {
+    "moments": ("FE first: argument-principle count of det T_h in R and contour-integral moments"
+                " (Beyn) on the same contour points, Newton-polished; no exact root as input"),
+    "newton": ("exact continuation labels; FE Newton on the discrete NEP from the exact roots; "
+               "FE and exact argument-principle counts in R"),
+}
 #: What ``most_unstable.certificate.fastest_mode`` states.
 FASTEST_STATEMENT = (
     "at every swept k, every root outside R (|Im Lambda| > W(k)) has Re Lambda below the tail "
@@ -102,20 +113,68 @@ def pending_k(comm: object, folder: str, count: int, resumed: bool) -> list[int]
     return comm.bcast(todo)
 
 
-def region_at_k(params: Params, region: Region, k: float) -> float:
+def region_at_k(params: Params, region: Region, k: float, exact: bool = True) -> float:
     """The phase-velocity bound used at ``k`` (not collective).
 
     ``region.c_max``, or for an adaptive region the
     rung of :func:`analytic.numerics.spectrum.provable_region` found with the exact roots (the
-    first rung if the exact search fails; the sweep's tail bound then says whether it proves).
+    first rung if the exact search fails, or without the exact roots (``exact=False``): the
+    sweep's tail bound against the fastest FE value then says whether it proves).
     Share the ``k`` over the ranks as for :func:`k_costs`.
     """
     if region.c_max is not None:
         return region.c_max
+    if not exact:
+        return C_LADDER[0]
     try:
         return fastest_mode(params, float(k), region).c_max
     except ContourError:
         return C_LADDER[0]
+
+
+def regions_at_k(params: Params, region: Region, k: np.ndarray, exact: bool,
+                 mapper: Callable[[list[float], Callable[[int], float]], list]
+                 ) -> tuple[list[float], Region]:
+    """:func:`region_at_k` at every ``k`` and :func:`largest_region` (collective via ``mapper``).
+
+    Args:
+        params: Parameters.
+        region: The sweep's region (adaptive or fixed).
+        k: The wavenumbers.
+        exact: Whether the exact roots may be used (``--check-exact``).
+        mapper: ``mapper(costs, fn)`` returns ``[fn(i) for every i]`` on every rank, the work
+            shared over the ranks by ``costs`` (the scene's ``_cli.map_shared`` on its comm).
+    """
+    got = mapper([1.0] * len(k), lambda i: region_at_k(params, region, float(k[i]), exact))
+    c_at_k = [float(got[i]) for i in range(len(k))]
+    return c_at_k, largest_region(region, c_at_k)
+
+
+def follow_all(comm: object, params: Params, region: Region, k: np.ndarray,
+               share_of: Callable[[int], Sequence[int]]) -> list[BranchResult]:
+    """:func:`family_plan` and :func:`follow_families`: ``share_of(n)`` is this rank's share."""
+    plan, items = family_plan(comm, params, region, float(k[-1]))
+    return follow_families(comm, params, region, plan, items, k, share_of(len(items)))
+
+
+def csv_rows(results: list[KResult], fields: Sequence[str]) -> list[dict]:
+    """The rows of every ``k`` for ``spectrum.csv`` (floats as ``repr``: full precision)."""
+    return [{f: (repr(v) if isinstance(v, float) else v) for f in fields for v in [r.get(f, "")]}
+            for res in results for r in res.rows]
+
+
+def run_meta(params: Params, k_spec: str, k: np.ndarray, merged: int,
+             discretisation: tuple[int, int, float], share: ShareRun, rtol: float, solver: str,
+             check_exact: bool, mpi: dict, resumed: bool, computed: int) -> dict:
+    """``summary.json``'s keys before the summary proper (the scene adds versions, command).
+
+    Parameters, ``k``, discretisation, method, MPI timings, resume.
+    """
+    return {"parameters": params.as_dict(),
+            "k": {"spec": k_spec, "count": len(k), "merged_duplicates": merged,
+                  "min": float(k[0]), "max": float(k[-1])},
+            **describe_discretisation(params, discretisation, share, rtol, solver, check_exact),
+            "mpi": mpi, "resumed": resumed, "computed_this_run": computed}
 
 
 def largest_region(region: Region, c_max_at_k: Sequence[float]) -> Region:
@@ -190,7 +249,8 @@ def solve_k_values(params: Params, region: Region, discretisation: tuple[int, in
                    rtol: float, k: np.ndarray, mine: Sequence[int], fams: list[BranchResult],
                    folder: str, progress: Callable[[], object] | None = None,
                    material: SliderMaterial | None = None,
-                   c_max_at_k: Sequence[float] | None = None) -> ShareRun:
+                   c_max_at_k: Sequence[float] | None = None, *,
+                   check_exact: bool = True, solver: str = "moments") -> ShareRun:
     """The certified spectrum at ``k[i]`` for each ``i`` of ``mine``, each written to its file.
 
     One :class:`forms.solvers.certified.CertifiedSolver` (on ``COMM_SELF``, for ``k`` up to
@@ -212,19 +272,22 @@ def solve_k_values(params: Params, region: Region, discretisation: tuple[int, in
             :func:`forms.models.section.section_stack`.
         c_max_at_k: The bound used at each ``k`` (:func:`region_at_k`, indexed like ``k``);
             ``region`` must then be the largest of them (:func:`largest_region`).
+        check_exact: Match the FE values to the exact roots (``fams``; else ``fams`` is unused).
+        solver: ``"moments"`` (FE first) or ``"newton"`` (exact-seeded).
     """
     t0 = time.perf_counter()
     degree, cells, ratio = discretisation
-    solver = CertifiedSolver(params, region, degree, cells, ratio, float(k[-1]), rtol, material)
+    cs = CertifiedSolver(params, region, degree, cells, ratio, float(k[-1]), rtol, material,
+                         check_exact=check_exact, solver=solver)
     try:
         for i in mine:
             reg = region.fixed(c_max_at_k[i]) if c_max_at_k is not None else region
-            write_json(raw_file(folder, i), solver.solve(float(k[i]), fams, reg).as_dict())
+            write_json(raw_file(folder, i), cs.solve(float(k[i]), fams, reg).as_dict())
             if progress is not None:
                 progress()
-        unknowns, cells2 = solver.unknowns, solver.cells2
+        unknowns, cells2 = cs.unknowns, cs.cells2
     finally:
-        solver.destroy()
+        cs.destroy()
     return ShareRun(time.perf_counter() - t0, len(mine), unknowns, cells2)
 
 
@@ -238,7 +301,8 @@ def load_results(folder: str, count: int) -> list[KResult]:
 
 
 def describe_discretisation(params: Params, discretisation: tuple[int, int, float],
-                            share: ShareRun, rtol: float) -> dict:
+                            share: ShareRun, rtol: float, solver: str = "newton",
+                            check_exact: bool = True) -> dict:
     """``summary.json`` keys ``discretisation`` and ``method``: the model, mesh and estimate."""
     degree, cells, ratio = discretisation
     model = "cross-section (1D in y), polynomial form"
@@ -249,7 +313,7 @@ def describe_discretisation(params: Params, discretisation: tuple[int, int, floa
                                "unknowns": share.unknowns, "rtol": rtol,
                                "error_estimate": f"P{degree + 1} on the same mesh, one Newton "
                                f"solve from the P{degree} value"},
-            "method": METHOD}
+            "method": METHODS[solver], "solver": solver, "check_exact": check_exact}
 
 
 def tail_at_k(params: Params, region: Region, res: KResult, c_max: float) -> dict:
@@ -267,7 +331,7 @@ def tail_at_k(params: Params, region: Region, res: KResult, c_max: float) -> dic
 
 def most_unstable(rows: list[dict], results: list[KResult], k: np.ndarray,
                   open_k: list[dict], tails: list[dict] | None = None,
-                  why_not: str = "") -> dict | None:
+                  why_not: str = "", check_exact: bool = True) -> dict | None:
     """The row with the largest ``Re Lambda`` and its certificate (``None``: no rows).
 
     Args:
@@ -278,6 +342,7 @@ def most_unstable(rows: list[dict], results: list[KResult], k: np.ndarray,
         tails: :func:`tail_at_k` of every ``k``: the most unstable value is the fastest mode of
             the swept ``k`` when every tail bound is below it.
         why_not: Why no tail bound exists for these parameters ("" if it does).
+        check_exact: The exact roots were consulted (the certificate's statement).
     """
     if not rows:
         return None
@@ -290,10 +355,12 @@ def most_unstable(rows: list[dict], results: list[KResult], k: np.ndarray,
             "rel_error": best["rel_error"], "error_estimate": best["error_estimate"],
             "at_edge_of_k_range": best["k"] in (float(k[0]), float(k[-1])),
             "certificate": {
-                "statement": CERTIFICATE_STATEMENT,
+                "statement": CERTIFICATE_STATEMENTS[check_exact],
+                "carries": best.get("certificate", ""),
                 "all_k_closed": not open_k,
                 "region_at_k": list(res_best.box) if res_best else None,
-                "count_at_k": res_best.n_exact if res_best else None,
+                "count_at_k": (res_best.n_exact if check_exact else res_best.n_fe)
+                if res_best else None,
                 "certified": bool(best["status"] == "ok" and not open_k),
                 "largest_tail_bound": beyond,
                 "fastest_mode": bool(beyond is not None and beyond < best["re_lambda"]),
@@ -301,13 +368,15 @@ def most_unstable(rows: list[dict], results: list[KResult], k: np.ndarray,
 
 
 def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResult],
-              fams: list[BranchResult], c_max_at_k: Sequence[float] | None = None) -> dict:
+              fams: list[BranchResult], c_max_at_k: Sequence[float] | None = None,
+              check_exact: bool = True) -> dict:
     """The sweep's summary: region, certificate, accuracy, families, most unstable, per ``k``.
 
     Pure data (no files). The keys, in order: ``region``, ``certificate`` (``k`` values closed
     or not, rows ok or flagged), ``accuracy`` (largest error against the exact roots and
     largest error estimate), ``families`` (count, notes), ``most_unstable``
-    (:func:`most_unstable`), ``per_k`` (counts, box, seconds, factorisations).
+    (:func:`most_unstable`), ``per_k`` (counts, box, seconds, factorisations, and the
+    certificate each row carries: ``fe`` and/or ``exact``).
     """
     rows = [r for res in results for r in res.rows]
     flagged = [r for r in rows if r["status"] != "ok"]
@@ -327,9 +396,10 @@ def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResu
                      "max_error_estimate": max(ests) if ests else None},
         "families": {"count": len(fams), "notes": {f.label: f.note for f in fams if f.note}},
         "most_unstable": most_unstable(rows, results, k, open_k, tails,
-                                       why_no_tail_bound(params)),
+                                       why_no_tail_bound(params), check_exact),
         "per_k": [{"k": res.k, "n_fe": res.n_fe, "n_exact": res.n_exact, "closed": res.closed,
                    "box": list(res.box), **tail, "seconds": res.seconds,
-                   "factorizations": res.factorizations}
+                   "factorizations": res.factorizations,
+                   "certificate": [r.get("certificate", "") for r in res.rows]}
                   for res, tail in zip(results, tails, strict=True)],
     }

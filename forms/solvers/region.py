@@ -149,6 +149,18 @@ def winding(logf, box: Box, *, n_initial: int = 64,  # noqa: ANN001
         t, f, ok = t[order], f[order], ok[order]
 
 
+def _check_box(box: Sequence[float], spurious: Sequence[complex]) -> Box:
+    a, b, c, d = (float(v) for v in box)
+    if not (b > a and d > c) or not all(math.isfinite(v) for v in (a, b, c, d)):
+        raise ValueError(f"box = {tuple(box)} must be finite with re_max > re_min, "
+                         "im_max > im_min")
+    for s in spurious:
+        if a <= s.real <= b and c <= s.imag <= d:
+            raise ValueError(f"box = {tuple(box)} contains the spurious root {s} of the cleared "
+                             "denominator: take re_min above it")
+    return a, b, c, d
+
+
 class _Combination:
     """``T(z) = sum_j z^j A_j`` in one matrix whose pattern is the union of the ``A_j``."""
 

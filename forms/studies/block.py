@@ -8,6 +8,10 @@ Used by ``workflows/finite_block.py``:
 - :func:`most_unstable_block_mode`: the block of one length solved near every target, the
   distinct eigenvalues kept, the most unstable one returned (:class:`BlockMode`, with the CSV
   row of :data:`ROW_COLUMNS`);
+- :func:`block_spectrum`: the complete search: every eigenvalue of the block in a box
+  (:class:`forms.solvers.region.RegionSolver`) with its certificate (found == counted by the
+  argument principle, conjugate symmetry, the estimate against degree + 1), rows of
+  :data:`SPECTRUM_COLUMNS`;
 - :func:`converged_rows`: lengths and eigenvalues of the rows that converged;
 - :func:`extrapolate`: the limit ``L -> infinity`` (Richardson, observed order);
 - :func:`long_block_limit`: the cross-section model's long-block limit at the largest ``L``
@@ -32,13 +36,25 @@ from analytic.numerics import branches as exact_branches
 from analytic.numerics.tracking import Branch, waveguide_lambda
 from analytic.params import Params
 from forms.mode_postprocessing import normalise
-from forms.models.strip import build_strip_problem, solve_modes, strip_mesh_for
+from forms.models.strip import (
+    build_strip_problem,
+    friction_operator_for,
+    solve_modes,
+    strip_mesh_for,
+)
 from forms.solvers.continuation import follow_fe_branch, most_unstable_k
+from forms.solvers.region import RegionSolver
 from forms.solvers.spatial_stability import kulikovskii_limit
 
 #: Columns of :meth:`BlockMode.row` (the CSV of ``finite_block.py``).
 ROW_COLUMNS = ("L", "re_lambda", "im_lambda", "residual", "candidates", "re_lambda_inf",
                "im_lambda_inf", "k_inf")
+
+
+#: Columns of :meth:`BlockSpectrum.rows` (``finite_block_spectrum.csv``: every eigenvalue in the
+#: box, per length).
+SPECTRUM_COLUMNS = ("L", "re_lambda", "im_lambda", "residual", "estimate", "found", "counted",
+                    "closed")
 
 
 @dataclass
@@ -233,6 +249,130 @@ def most_unstable_block_mode(comm: MPI.Comm, params: Params, length: float, *,
         for m in found:
             m.vector.destroy()
         problem.destroy()
+
+
+@dataclass
+class BlockSpectrum:
+    """Every eigenvalue of a block in a box, with its certificate.
+
+    Attributes:
+        length: ``L``.
+        box: ``(re_min, re_max, im_min, im_max)`` used (the count may widen it by 1e-3).
+        values: Eigenvalues in the box, by decreasing real part.
+        residuals: Their relative residuals.
+        found: ``len(values)``.
+        counted: Argument-principle count of ``det T_h`` in the box.
+        conjugate_gap: Largest relative distance of a conjugate to the set (0: symmetric).
+        estimates: ``|Lambda_p - Lambda_{p+1}| / |Lambda_{p+1}|`` per eigenvalue (nearest
+            eigenvalue of the degree ``p + 1`` mesh; ``nan`` if not estimated).
+        seconds: Solve and count times.
+        tiles: Tile solves.
+        u: The fastest mode, normalised (if asked for).
+    """
+
+    length: float
+    box: tuple[float, float, float, float]
+    values: np.ndarray
+    residuals: np.ndarray
+    found: int
+    counted: int | None
+    conjugate_gap: float
+    estimates: np.ndarray
+    seconds: dict
+    tiles: int
+    u: dolfinx.fem.Function | None = None
+
+    @property
+    def closed(self) -> bool:
+        """The count closes: every counted eigenvalue found, none more."""
+        return self.counted is not None and self.found == self.counted
+
+    def mode(self) -> BlockMode:
+        """The fastest eigenvalue as a :class:`BlockMode` (the row of :data:`ROW_COLUMNS`)."""
+        if self.found == 0:
+            return BlockMode(self.length, None, float("nan"), 0, self.u)
+        return BlockMode(self.length, complex(self.values[0]), float(self.residuals[0]),
+                         self.found, self.u)
+
+    def rows(self) -> list[list[float | int | str]]:
+        """The values of :data:`SPECTRUM_COLUMNS`, one row per eigenvalue."""
+        return [[self.length, z.real, z.imag, float(r), float(e), self.found, self.counted,
+                 "yes" if self.closed else "no"]
+                for z, r, e in zip(self.values, self.residuals, self.estimates, strict=True)]
+
+    def record(self) -> dict:
+        """JSON-ready certificate of this length."""
+        best = self.mode().eigenvalue
+        return {"L": self.length, "box": list(self.box), "found": self.found,
+                "counted": self.counted, "closed": self.closed,
+                "conjugate_gap": self.conjugate_gap,
+                "fastest": None if best is None else [best.real, best.imag],
+                "fastest_estimate": float(self.estimates[0]) if self.found else None,
+                "max_estimate": float(np.nanmax(self.estimates)) if self.found and
+                np.isfinite(self.estimates).any() else None,
+                "tiles": self.tiles, "seconds": self.seconds}
+
+
+def _region_solve(comm: MPI.Comm, params: Params, length: float, cells_per_unit: int, ny: int,
+                  degree: int, lateral: str, box: Sequence[float], nev: int, count: bool,
+                  keep_mode: bool):
+    nx = max(2, int(round(cells_per_unit * length)))
+    strip = strip_mesh_for(comm, params, float(length), nx, ny)
+    problem = build_strip_problem(strip, params, k=None, degree=degree, lateral=lateral)
+    op = friction_operator_for(problem)
+    solver = RegionSolver(comm, nev=nev, prefix="block_region_")
+    res = None
+    try:
+        res = solver.solve(op.matrices, box, op.law.spurious, count=count)
+        u = None
+        if keep_mode and res.found:
+            u = problem.to_function(res.vectors[0])
+            normalise(u)
+        return res, u
+    finally:
+        if res is not None:
+            res.destroy()  # the vectors; values and counts stay
+        solver.destroy()
+        op.destroy()
+        problem.destroy()
+
+
+def block_spectrum(comm: MPI.Comm, params: Params, length: float, *, cells_per_unit: int,
+                   ny: int, degree: int, lateral: str, box: Sequence[float], nev: int,
+                   estimate: bool = True, keep_mode: bool = False) -> BlockSpectrum:
+    """Every eigenvalue of the block ``0 < x < length`` in ``box``, with its certificate.
+
+    The region solve (:class:`forms.solvers.region.RegionSolver`, options prefix
+    ``block_region_``, the count's LU ``block_region_det_``) counts the eigenvalues in the box by
+    the argument principle on ``log det T_h`` and finds them by shift-and-invert over tiles; no
+    infinite-strip target is used. With ``estimate``, the same box is solved (tiles only) on the
+    mesh of degree ``degree + 1`` and each eigenvalue gets the relative distance to the nearest
+    one there. Collective; every PETSc object destroyed before returning.
+
+    Args:
+        comm: Mesh communicator.
+        params: Parameters.
+        length: ``L``.
+        cells_per_unit: Cells per unit length in ``x``.
+        ny: Cells along ``y``.
+        degree: Lagrange degree.
+        lateral: Lateral ends.
+        box: ``(re_min, re_max, im_min, im_max)`` (``re_min > -1``: the cleared denominator's
+            root ``-1`` must stay outside).
+        nev: Eigenpairs per tile solve.
+        estimate: Also solve at degree ``degree + 1``.
+        keep_mode: Also return the fastest mode as a normalised function.
+    """
+    res, u = _region_solve(comm, params, length, cells_per_unit, ny, degree, lateral, box, nev,
+                           True, keep_mode)
+    est = np.full(res.found, np.nan)
+    if estimate and res.found:
+        fine, _ = _region_solve(comm, params, length, cells_per_unit, ny, degree + 1, lateral,
+                                res.box, nev, False, False)
+        if fine.found:
+            est = np.array([np.min(np.abs(fine.values - z)) / abs(z) for z in res.values])
+    return BlockSpectrum(float(length), res.box, res.values, res.residuals, res.found,
+                         res.counted, res.conjugate_gap(), est, res.seconds, res.tiles, u)
 
 
 def converged_rows(rows: Sequence[dict[str, str]]) -> tuple[np.ndarray, np.ndarray]:

@@ -152,6 +152,45 @@ def friction_operator(
     y_dofs = np.asarray(y_dofs, dtype=np.int64)
     if x_dofs.shape != y_dofs.shape:
         raise ValueError("x_dofs and y_dofs must pair up")
+    functions, x_terms, interior = _law_terms(law, form)
+    for m in (stiffness, mass, interface_mass, src_k, src_m):
+        if m is not None:
+            m.assemble()
+    # Rows needed for the x-row replacement (read before anything is modified).
+    old_cols = {ix: _local_rows(stiffness, ix) for ix in x_dofs.tolist()}  # entries to clear
+    rows = [_SourceRows(_local_rows(src_k, ix), _local_rows(src_m, ix), _local_rows(src_k, iy),
+                        _local_rows(src_m, iy), _local_rows(interface_mass, ix))
+            for ix, iy in zip(x_dofs.tolist(), y_dofs.tolist(), strict=True)]
+    matrices = [_term_matrix(stiffness, mass, ck, cm, x_terms[t], x_dofs, rows, old_cols)
+                for t, (ck, cm) in enumerate(interior)]
+    return FrictionOperator(
+        matrices=matrices, functions=functions, form=form, constant_term=0, law=law
+    )
+
+
+@dataclass(frozen=True)
+class _SourceRows:
+    """The rows an interface x-row is rebuilt from.
+
+    The reactions ``K``, ``M`` of its ``u_x`` (``kx``, ``mx``) and ``u_y`` (``ky``, ``my``) rows
+    and the interface mass row ``bx``; the law's coefficients are keyed by these names.
+    """
+
+    kx: dict[int, complex]
+    mx: dict[int, complex]
+    ky: dict[int, complex]
+    my: dict[int, complex]
+    bx: dict[int, complex]
+
+    def items(self) -> list[tuple[str, dict[int, complex]]]:
+        """``(key, row)`` pairs with the law's keys (``"Kx"``, ``"Mx"``, ...)."""
+        return [("Kx", self.kx), ("Mx", self.mx), ("Ky", self.ky), ("My", self.my),
+                ("Bx", self.bx)]
+
+
+def _law_terms(law: FrictionLaw, form: str
+               ) -> tuple[list[ScalarFunction], list[dict[str, float]], list[tuple[float, float]]]:
+    """Scalar functions, x-row coefficients per term and interior ``(K, M)`` weights per term."""
     deg = law.degree
     if form == "polynomial":
         xcoef = law.polynomial_coefficients()
@@ -174,50 +213,34 @@ def friction_operator(
     interior = [(1.0 if j == 0 else 0.0, 1.0 if j == 2 else 0.0) for j in range(n_poly)]
     if form == "split":
         interior.append((0.0, 0.0))
+    return functions, x_terms, interior
 
-    for m in (stiffness, mass, interface_mass, src_k, src_m):
-        if m is not None:
-            m.assemble()
-    # Rows needed for the x-row replacement (read before anything is modified).
-    rows = []
-    old_cols = {ix: _local_rows(stiffness, ix) for ix in x_dofs.tolist()}  # entries to clear
-    for ix, iy in zip(x_dofs.tolist(), y_dofs.tolist(), strict=True):
-        rows.append(
-            {
-                "Kx": _local_rows(src_k, ix),
-                "Mx": _local_rows(src_m, ix),
-                "Ky": _local_rows(src_k, iy),
-                "My": _local_rows(src_m, iy),
-                "Bx": _local_rows(interface_mass, ix),
-            }
-        )
-    matrices = []
-    for t, (ck, cm) in enumerate(interior):
-        a = stiffness.duplicate(copy=False)
-        a.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
-        if ck != 0.0:
-            a.axpy(ck, stiffness, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        if cm != 0.0 and mass is not None:
-            a.axpy(cm, mass, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-        coef = x_terms[t]
-        for ix, src in zip(x_dofs.tolist(), rows, strict=True):
-            new: dict[int, complex] = {c: 0.0 for c in old_cols[ix]}
-            for key, row in src.items():
-                c = coef.get(key, 0.0)
-                if c == 0.0:
-                    continue
-                for col, v in row.items():
-                    if v != 0.0:  # structural zeros (a slider part) may lie outside the row
-                        new[col] = new.get(col, 0.0) + c * v
-            if new:
-                cols = np.fromiter(new.keys(), dtype=PETSc.IntType, count=len(new))
-                vals = np.fromiter(new.values(), dtype=PETSc.ScalarType, count=len(new))
-                a.setValues([ix], cols, vals, addv=PETSc.InsertMode.INSERT_VALUES)
-        a.assemble()
-        matrices.append(a)
-    return FrictionOperator(
-        matrices=matrices, functions=functions, form=form, constant_term=0, law=law
-    )
+
+def _term_matrix(stiffness: PETSc.Mat, mass: PETSc.Mat | None, ck: float, cm: float,
+                 coef: dict[str, float], x_dofs: np.ndarray, rows: list[_SourceRows],
+                 old_cols: dict[int, dict[int, complex]]) -> PETSc.Mat:
+    """One term's matrix: ``ck K + cm M``, the interface x-rows replaced by the law's row."""
+    a = stiffness.duplicate(copy=False)
+    a.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+    if ck != 0.0:
+        a.axpy(ck, stiffness, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+    if cm != 0.0 and mass is not None:
+        a.axpy(cm, mass, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+    for ix, src in zip(x_dofs.tolist(), rows, strict=True):
+        new: dict[int, complex] = {c: 0.0 for c in old_cols[ix]}
+        for key, row in src.items():
+            c = coef.get(key, 0.0)
+            if c == 0.0:
+                continue
+            for col, v in row.items():
+                if v != 0.0:  # structural zeros (a slider part) may lie outside the row
+                    new[col] = new.get(col, 0.0) + c * v
+        if new:
+            cols = np.fromiter(new.keys(), dtype=PETSc.IntType, count=len(new))
+            vals = np.fromiter(new.values(), dtype=PETSc.ScalarType, count=len(new))
+            a.setValues([ix], cols, vals, addv=PETSc.InsertMode.INSERT_VALUES)
+    a.assemble()
+    return a
 
 
 def apply_dirichlet(

@@ -64,6 +64,52 @@ def _wrap(x: np.ndarray) -> np.ndarray:
     return np.angle(np.exp(1j * x))
 
 
+def _initial_tiles(box: Box, stop_at: int | None, nev: int) -> tuple[int, int]:
+    """``(n_re, n_im)``: about ``nev/2`` eigenvalues per tile, no tile over 3x taller than wide.
+
+    A tall tile's circumscribed disc reaches far outside the box (the block's stable modes).
+    """
+    a, b, c, d = box
+    n_tiles = max(1, math.ceil(2 * (stop_at or 1) / nev))
+    aspect = (d - c) / (b - a)
+    n_re = max(1, round(math.sqrt(n_tiles / aspect)))
+    return n_re, max(math.ceil(n_tiles / n_re), math.ceil(aspect * n_re / 3.0))
+
+
+def _keep_new(pairs: list, kept: list, box: Box, scale: float,
+              spurious: Sequence[complex]) -> None:
+    """Append the pairs inside ``box``, new and not spurious, to ``kept``; destroy the rest."""
+    a, b, c, d = box
+    for lam, v in pairs:
+        inside = a <= lam.real <= b and c <= lam.imag <= d
+        new = all(abs(lam - w) > 1e-8 * max(abs(lam), scale) for w, _ in kept)
+        spur = any(abs(lam - s) <= 1e-6 * max(1.0, abs(s)) for s in spurious)
+        if inside and new and not spur:
+            kept.append((lam, v))
+        else:
+            v.destroy()
+
+
+def _uniform_stage(logf, point, increments, perimeter: float, n: int,  # noqa: ANN001
+                   max_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """Stage 1 of :func:`winding`: uniform samples, doubled until the phase is resolved."""
+    t = np.linspace(0.0, perimeter, n, endpoint=False)
+    f = np.asarray(logf(point(t)), dtype=complex)
+    previous = None
+    while True:
+        dph, bad = increments(t, f)
+        total = int(round(float(dph.sum()) / (2.0 * math.pi)))
+        if bad.mean() <= 0.1 and total == previous:
+            return t, f
+        previous = total if bad.mean() <= 0.1 else None
+        if 2 * t.size > max_points:
+            raise ContourError("phase of det T_h not resolved by uniform sampling")
+        tm = t + 0.5 * perimeter / t.size
+        fm = np.asarray(logf(point(tm)), dtype=complex)
+        t = np.stack([t, tm], axis=1).ravel()
+        f = np.stack([f, fm], axis=1).ravel()
+
+
 def winding(logf, box: Box, *, n_initial: int = 64,  # noqa: ANN001
             max_dphase: float = math.pi / 3, max_dlog: float = MAX_DLOG,
             levels: int = 1, max_points: int = 40000) -> int:
@@ -104,23 +150,7 @@ def winding(logf, box: Box, *, n_initial: int = 64,  # noqa: ANN001
         dph = _wrap(dlt.imag)
         return dph, (np.abs(dph) > max_dphase) | (np.abs(dlt.real) > max_dlog)
 
-    # stage 1: uniform doubling
-    n = 4 * n_initial
-    t = np.linspace(0.0, perimeter, n, endpoint=False)
-    f = np.asarray(logf(point(t)), dtype=complex)
-    previous = None
-    while True:
-        dph, bad = increments(t, f)
-        total = int(round(float(dph.sum()) / (2.0 * math.pi)))
-        if bad.mean() <= 0.1 and total == previous:
-            break
-        previous = total if bad.mean() <= 0.1 else None
-        if 2 * t.size > max_points:
-            raise ContourError("phase of det T_h not resolved by uniform sampling")
-        tm = t + 0.5 * perimeter / t.size
-        fm = np.asarray(logf(point(tm)), dtype=complex)
-        t = np.stack([t, tm], axis=1).ravel()
-        f = np.stack([f, fm], axis=1).ravel()
+    t, f = _uniform_stage(logf, point, increments, perimeter, 4 * n_initial, max_points)
     # stage 2: local refinement and verification; the last doubling verified every interval once
     ok = np.ones(t.size, dtype=int)
     while True:
@@ -433,15 +463,7 @@ class RegionSolver:
         if counted == 0:
             return RegionResult(bx, np.zeros(0, complex), np.zeros(0), [], 0, 0,
                                 {"solve": 0.0, "count": info["seconds"]}, info["evaluations"])
-        if tiles is None:
-            # about nev/2 eigenvalues per tile; a tall tile's circumscribed disc reaches far
-            # outside the box (the block's stable modes), so no tile is over 3x taller than wide
-            n_tiles = max(1, math.ceil(2 * (stop_at or 1) / nev))
-            aspect = (d - c) / (b - a)
-            n_re = max(1, round(math.sqrt(n_tiles / aspect)))
-            n_im = max(math.ceil(n_tiles / n_re), math.ceil(aspect * n_re / 3.0))
-        else:
-            n_re, n_im = tiles
+        n_re, n_im = tiles if tiles is not None else _initial_tiles(bx, stop_at, nev)
         shape = (len(matrices), matrices[0].getSize())
         if getattr(self, "_shape", shape) != shape:
             self.pep.reset()  # SLEPc 3.18 keeps work arrays of the previous size
@@ -468,14 +490,7 @@ class RegionSolver:
             # covered: the farthest converged pair lies outside the tile's disc (SLEPc converges
             # the pairs nearest the shift first; it may return fewer than nev)
             covered = bool(pairs) and abs(pairs[min(nev, len(pairs)) - 1][0] - centre) > radius
-            for lam, v in pairs:
-                inside = a <= lam.real <= b and c <= lam.imag <= d
-                new = all(abs(lam - w) > 1e-8 * max(abs(lam), scale) for w, _ in kept)
-                spur = any(abs(lam - s) <= 1e-6 * max(1.0, abs(s)) for s in spurious)
-                if inside and new and not spur:
-                    kept.append((lam, v))
-                else:
-                    v.destroy()
+            _keep_new(pairs, kept, bx, scale, spurious)
             # SLEPc may converge fewer than nev pairs: a tile that small is not split further
             # (without this, measured: endless splits towards a box corner, 7 of 8 converged)
             if not covered and radius > 1e-3 * scale:

@@ -1,0 +1,78 @@
+"""The certified sweep's picture (sweep_k.py): every eigenvalue in the region against k."""
+
+from __future__ import annotations
+
+import _cli
+import numpy as np
+
+from analytic.numerics.spectrum import Region
+from analytic.params import Params
+from forms.solvers.certified import (
+    KResult,
+)
+
+
+def plot_dispersion(path: str, params: Params, region: Region, results: list[KResult],
+                    fams: list, most: dict | None, parameters: dict) -> None:
+    """dispersion.png: growth rate and frequency against k; exact lines, FE points, envelope."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 8), sharex=True)
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    kmin, kmax = results[0].k, results[-1].k
+    for f in fams:  # exact continuation paths, inside the region only
+        kp, lp = np.asarray(f.k_path), np.asarray(f.Lambda_path)
+        if kp.size == 0:
+            continue
+        inside = np.array([region.re_min <= z.real <= region.re_max
+                           and abs(z.imag) <= region.im_max(params, kk) and kmin <= kk <= kmax
+                           for kk, z in zip(kp, lp, strict=True)])
+        lp = np.where(inside, lp, complex(np.nan, np.nan))
+        c = colors[f.n % len(colors)] if f.n >= 0 else "0.55"
+        ax1.plot(kp, lp.real, "-", color=c, lw=0.9, alpha=0.8, zorder=1)
+        ax2.plot(kp, lp.imag, "-", color=c, lw=0.9, alpha=0.8, zorder=1)
+    ok = [(r["k"], r["re_lambda"], r["im_lambda"]) for res in results for r in res.rows
+          if r["status"] == "ok"]
+    bad = [(r["k"], r["re_lambda"], r["im_lambda"]) for res in results for r in res.rows
+           if r["status"] != "ok"]
+    # hollow markers above the lines: both stay visible on dense grids
+    for pts, style in ((ok, {"marker": "o", "ms": 3.2, "mfc": "none", "mew": 0.6, "color": "k",
+                             "label": "FE, ok"}),
+                       (bad, {"marker": "x", "ms": 6, "color": "crimson",
+                              "label": "FE, flagged"})):
+        if pts:
+            a = np.array(pts)
+            ax1.plot(a[:, 0], a[:, 1], ls="none", zorder=3, **style)
+            ax2.plot(a[:, 0], a[:, 2], ls="none", zorder=3, **{**style, "label": None})
+    env = [(res.k, max(r["re_lambda"] for r in res.rows)) for res in results if res.rows]
+    if env:
+        e = np.array(env)
+        ax1.plot(e[:, 0], e[:, 1], "-", color="k", lw=2.2, alpha=0.45, zorder=2,
+                 label="envelope max Re Lambda(k)")
+    if most is not None:
+        ax1.plot([most["k"]], [most["re_lambda"]], "*", ms=17, color="gold", mec="k", zorder=4,
+                 label=f"most unstable: {most['branch']}, k = {most['k']:.4g},\n"
+                 f"Lambda = {most['re_lambda']:.6g} {most['im_lambda']:+.6g}i")
+        ax2.plot([most["k"]], [most["im_lambda"]], "*", ms=17, color="gold", mec="k", zorder=4)
+    ax1.plot([], [], "-", color=colors[0], lw=0.9, label="exact, waveguide n+/n- (colour: n)")
+    ax1.plot([], [], "-", color="0.55", lw=0.9, label="exact, other families (s, r)")
+    ax1.axhline(0.0, color="k", lw=0.6)
+    ax1.set_ylim(region.re_min, None)
+    ax1.set_ylabel(r"growth rate Re $\Lambda$")
+    ax2.set_ylabel(r"frequency Im $\Lambda$")
+    ax2.set_xlabel("k")
+    ax1.legend(fontsize=7.5, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+    p = params
+    title = (f"every eigenvalue in R: Re >= {region.re_min:g}, |Im| <= c_max k c_d "
+             f"+ {region.omega_0(p):.3g}\nf={p.f:g}, gamma={p.gamma:g}, beta={p.beta:g}, "
+             f"Delta={p.Delta:g}, H={p.H:g}, bc={p.bc}")
+    if p.generalized:
+        title += f", alpha_pc={p.alpha_pc:g}, alpha_ld={p.alpha_ld:g}"
+    ax1.set_title(title, fontsize=9)
+    fig.tight_layout()
+    _cli.save_figure(fig, path, dpi=130,
+                     metadata=_cli.png_metadata(parameters, "certified dispersion"))
+    plt.close(fig)

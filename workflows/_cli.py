@@ -50,7 +50,14 @@ if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
 # ruff: noqa: E402, F401 - re-exports, after the sys.path line above
-from _grids import SWEEP_DELTA_MAX, SWEEP_W_MAX, SWEEP_WH_MAX, check_sweep_limits, parse_grid
+from _grids import (
+    SWEEP_DELTA_MAX,
+    SWEEP_W_MAX,
+    SWEEP_WH_MAX,
+    check_sweep_limits,
+    parse_grid,
+    region_from_args,
+)
 from _options import (
     PETSC_FAMILIES,
     PETSC_GLOBAL,

@@ -82,3 +82,26 @@ def check_sweep_limits(params: Any, k: np.ndarray, region: Any) -> None:
             f"{kmax * params.H:g}), above {1.3 * SWEEP_WH_MAX:.0f}, the most the certified "
             "sweep follows in about a minute per k value; use a smaller k or H, or a smaller "
             "--c-max")
+
+
+def region_from_args(c_max: str, re_min: float, re_max: float = 2.0,
+                     omega0: float | None = None) -> Any:
+    """The region of ``--c-max``, ``--re-min``, ``--re-max``, ``--omega0``.
+
+    ``--c-max`` is a number > 0, or ``auto``: grown per ``k`` until it provably holds the
+    fastest mode.
+
+    Raises:
+        ParameterError: One line naming the option and its allowed range.
+    """
+    from analytic.numerics.spectrum import Region
+
+    try:
+        c = None if str(c_max) == "auto" else float(c_max)
+    except ValueError:
+        raise ParameterError(f"--c-max = {c_max!r} is outside its allowed range: a number > 0 "
+                             "or auto") from None
+    try:
+        return Region(re_min, re_max, c, omega0)
+    except ParameterError as err:
+        raise ParameterError("--" + str(err).replace("_", "-", 1)) from None

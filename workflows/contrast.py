@@ -23,7 +23,6 @@ import os
 import _cli
 import numpy as np
 
-from analytic.numerics.spectrum import Region
 from analytic.studies.growth import best_over_k, curve_shape
 
 PETSC_PREFIXES: tuple[str, ...] = ()
@@ -40,8 +39,9 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--H2s", default="H,inf",
                     help="substrate heights, comma list ('H': the slider's, 'inf': half-space)")
     ap.add_argument("--k", default="0.1:20:16log", help="k grid of the maximisation")
-    ap.add_argument("--c-max", type=float, default=Region().c_max,
-                    help="region: largest phase velocity, in units of c_d")
+    ap.add_argument("--c-max", default="4",
+                    help="region: largest phase velocity, in units of the largest c_d, or auto "
+                    "(grown per k until it provably holds the fastest mode)")
     ap.add_argument("--re-min", type=float, default=1e-4,
                     help="region: smallest Re Lambda (> 0: unstable modes, physical sheet)")
     ap.add_argument("--out", default=os.path.join("out", "contrast"), help="output folder")
@@ -75,7 +75,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     if not (math.isfinite(args.rho2_exponent) and abs(args.rho2_exponent) <= 4):
         raise _cli.ParameterError(f"--rho2-exponent = {args.rho2_exponent} is outside its "
                                   "allowed range -4..4")
-    region = Region(args.re_min, 2.0, args.c_max)
+    region = _cli.region_from_args(args.c_max, args.re_min)
     cases = [(m, h) for h in h2s for m in mus]
     params = [p0.replace(mu2=float(m), rho2=float(p0.rho2 * m ** args.rho2_exponent), H2=h)
               for m, h in cases]  # validates every case before any work

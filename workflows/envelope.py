@@ -50,8 +50,9 @@ def build_parser() -> argparse.ArgumentParser:
     ap = _cli.make_parser(__doc__, PETSC_PREFIXES, petsc=False)
     _cli.add_param_arguments(ap)
     ap.add_argument("--k", default="0.05:100:48log", help="k grid (see above)")
-    ap.add_argument("--c-max", type=float, default=Region().c_max,
-                    help="region: largest phase velocity, in units of c_d")
+    ap.add_argument("--c-max", default="auto",
+                    help="region: largest phase velocity, in units of the largest c_d, or auto "
+                    "(grown per k until it provably holds the fastest mode)")
     ap.add_argument("--re-min", type=float, default=Region().re_min, help="region: smallest Re")
     ap.add_argument("--min-ratio", type=float, default=1.02,
                     help="refinement: samples around every local extremum until neighbours "
@@ -79,7 +80,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     if not 0 <= args.refine_rounds <= 50:
         raise _cli.ParameterError(f"--refine-rounds = {args.refine_rounds} is outside its "
                                   "allowed range 0 .. 50")
-    region = Region(args.re_min, 2.0, args.c_max)
+    region = _cli.region_from_args(args.c_max, args.re_min)
     config = {"params": p.as_dict(), "k": args.k, "region": region.as_dict(p),
               "min_ratio": args.min_ratio, "refine_rounds": args.refine_rounds}
     with _cli.RunFolder(comm, args.out, "envelope", config, outputs=OUTPUTS) as run:
@@ -92,7 +93,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
             return z, n, ""
 
         def sample(ks_new: list[float]) -> dict[float, tuple]:
-            costs = [region.im_max(p, kk) ** 1.5 for kk in ks_new]
+            first = region if region.c_max is not None else region.fixed(4.0)
+            costs = [first.im_max(p, kk) ** 1.5 for kk in ks_new]
             got = _cli.map_shared(comm, costs, lambda i: fastest(float(ks_new[i])))
             return {float(ks_new[i]): got[i] for i in range(len(ks_new))}
 

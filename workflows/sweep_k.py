@@ -163,15 +163,7 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
                                   "--solver newton (it starts from the exact roots): yes")
     if not (math.isfinite(args.omega0) and args.omega0 >= 0):
         raise _cli.ParameterError(f"--omega0 = {args.omega0} is outside its allowed range >= 0")
-    try:
-        c_max = None if args.c_max == "auto" else float(args.c_max)
-    except ValueError:
-        raise _cli.ParameterError(f"--c-max = {args.c_max!r} is outside its allowed range: a "
-                                  "number > 0 or auto") from None
-    try:
-        region = Region(args.re_min, args.re_max, c_max, args.omega0 or None)
-    except _cli.ParameterError as err:
-        raise _cli.ParameterError("--" + str(err).replace("_", "-", 1)) from None
+    region = _cli.region_from_args(args.c_max, args.re_min, args.re_max, args.omega0 or None)
     _cli.check_sweep_limits(params, k, region)
     return params, k, len(k_all) - len(k), region
 

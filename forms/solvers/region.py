@@ -40,10 +40,9 @@ import numpy as np
 
 from mpi4py import MPI
 from petsc4py import PETSc
-from slepc4py import SLEPc
 
 from analytic.numerics.roots import ContourError
-from forms.solvers.slepc import shift_off
+from forms.solvers.slepc import shift_off, sinvert_pep
 
 Box = tuple[float, float, float, float]
 
@@ -388,22 +387,7 @@ class RegionSolver:
         self.comm = comm
         self.prefix = prefix
         self.max_tiles = max_tiles
-        pep = SLEPc.PEP().create(comm)
-        pep.setType(SLEPc.PEP.Type.TOAR)
-        pep.setProblemType(SLEPc.PEP.ProblemType.GENERAL)
-        pep.setDimensions(nev=nev)
-        pep.setTolerances(tol=tol, max_it=max_it)
-        pep.setWhichEigenpairs(SLEPc.PEP.Which.TARGET_MAGNITUDE)
-        st = pep.getST()
-        st.setType(SLEPc.ST.Type.SINVERT)
-        st.setMatStructure(PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        ksp = st.getKSP()
-        ksp.setType(PETSc.KSP.Type.PREONLY)
-        ksp.getPC().setType(PETSc.PC.Type.LU)
-        ksp.getPC().setFactorSolverType("mumps")
-        pep.setOptionsPrefix(prefix)
-        pep.setFromOptions()
-        self.pep = pep
+        self.pep = sinvert_pep(comm, nev, tol, max_it, prefix)
 
     def settings(self) -> dict[str, object]:
         """Solver settings in use (for summaries)."""

@@ -118,6 +118,31 @@ def relative_residual(op: FrictionOperator, lam: complex, vec: PETSc.Vec,
     return float(num / den) if den > 0 else float("inf")
 
 
+def sinvert_pep(comm: MPI.Comm, nev: int, tol: float, max_it: int, prefix: str) -> SLEPc.PEP:
+    """A PEP (TOAR) for the ``nev`` eigenpairs nearest a target: shift-and-invert, MUMPS LU.
+
+    Defaults by setters, then the options prefix and ``setFromOptions()`` last, so the command
+    line wins (empty prefix: ``-pep_*``, ``-st_*`` apply).
+    """
+    pep = SLEPc.PEP().create(comm)
+    pep.setType(SLEPc.PEP.Type.TOAR)
+    pep.setProblemType(SLEPc.PEP.ProblemType.GENERAL)
+    pep.setDimensions(nev=nev)
+    pep.setTolerances(tol=tol, max_it=max_it)
+    pep.setWhichEigenpairs(SLEPc.PEP.Which.TARGET_MAGNITUDE)
+    st = pep.getST()
+    st.setType(SLEPc.ST.Type.SINVERT)
+    st.setMatStructure(PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+    ksp = st.getKSP()
+    ksp.setType(PETSc.KSP.Type.PREONLY)
+    ksp.getPC().setType(PETSc.PC.Type.LU)
+    ksp.getPC().setFactorSolverType("mumps")
+    if prefix:
+        pep.setOptionsPrefix(prefix)
+    pep.setFromOptions()
+    return pep
+
+
 class PolynomialSolver:
     """SLEPc PEP: TOAR + shift-and-invert around a target, LU by MUMPS.
 
@@ -132,24 +157,7 @@ class PolynomialSolver:
     def __init__(self, comm: MPI.Comm, nev: int = 4, tol: float = 1e-13, max_it: int = 200,
                  prefix: str = "") -> None:
         self.comm = comm
-        pep = SLEPc.PEP().create(comm)
-        pep.setType(SLEPc.PEP.Type.TOAR)
-        pep.setProblemType(SLEPc.PEP.ProblemType.GENERAL)
-        pep.setDimensions(nev=nev)
-        pep.setTolerances(tol=tol, max_it=max_it)
-        pep.setWhichEigenpairs(SLEPc.PEP.Which.TARGET_MAGNITUDE)
-        st = pep.getST()
-        st.setType(SLEPc.ST.Type.SINVERT)
-        st.setMatStructure(PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        ksp = st.getKSP()
-        ksp.setType(PETSc.KSP.Type.PREONLY)
-        pc = ksp.getPC()
-        pc.setType(PETSc.PC.Type.LU)
-        pc.setFactorSolverType("mumps")
-        if prefix:
-            pep.setOptionsPrefix(prefix)
-        pep.setFromOptions()
-        self.pep = pep
+        self.pep = sinvert_pep(comm, nev, tol, max_it, prefix)
 
     def settings(self) -> dict[str, object]:
         """Solver settings actually in use (for summaries)."""

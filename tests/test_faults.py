@@ -285,7 +285,9 @@ def test_rank_killed_at_a_random_point(tmp_path, seed):
     """
     rng = random.Random(seed)
     out = tmp_path / "out"
-    proc = _start("sweep_k.py", ["--k", "0.5:2:4", "--out", str(out)], tmp_path, nproc=2)
+    # 64 k values: the run is still computing at the latest kill (12 s); with 4 it could end
+    # first (seen: finished at ~10 s, killed during exit, no stop line)
+    proc = _start("sweep_k.py", ["--k", "0.5:2:64", "--out", str(out)], tmp_path, nproc=2)
     try:
         time.sleep(rng.uniform(1.0, 12.0))
         ranks = [int(p) for p in os.listdir("/proc") if p.isdigit() and _is_rank(int(p), proc)]

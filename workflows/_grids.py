@@ -40,8 +40,8 @@ def parse_grid(spec: str, name: str = "--k", max_count: int = 100000) -> np.ndar
 #: (k = 30) more than 90 s; W H = 217 (k = 50, 51 at the defaults, 4 c_d: 48 roots per k,
 #: fewer than 1.3 W H there) took 95 s for both k on one rank with the exact-seeded solver
 #: (the README's large-kH case, which the limit must admit). W = 427 (H = 0.03) took 30 s;
-#: W = 1257 (H = 0.01) left the root count open and W = 12574 (H = 0.001) found no contour: the contour cannot resolve taller
-#: regions.
+#: W = 1257 (H = 0.01) left the root count open and W = 12574 (H = 0.001) found no contour:
+#: the contour cannot resolve taller regions.
 SWEEP_WH_MAX = 250.0
 SWEEP_W_MAX = 500.0
 #: |Delta| at k = 1: Delta = -10 took 13 s, -1000 took 45 s with 4 of 13 roots flagged, -1e6

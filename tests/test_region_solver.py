@@ -4,7 +4,6 @@ import sys
 
 import numpy as np
 import pytest
-import scipy.linalg
 
 import slepc4py
 
@@ -15,6 +14,7 @@ from mpi4py import MPI  # noqa: E402
 from analytic.params import Params  # noqa: E402
 from forms.models.strip import build_strip_problem, friction_operator_for  # noqa: E402
 from forms.solvers.region import LogDet, RegionSolver, count_in_box, winding  # noqa: E402
+from forms.solvers.slepc import dense_companion_eigenvalues  # noqa: E402
 from meshes.strip import strip_mesh  # noqa: E402
 
 
@@ -41,25 +41,6 @@ def _block_operator(comm, bc="velocity", length=2.0, nx=8, ny=3, degree=2):
     return problem, friction_operator_for(problem)
 
 
-def _dense_eigenvalues(op):
-    """Every finite eigenvalue of sum_j L^j A_j (first companion form, LAPACK)."""
-    mats = []
-    for a in op.matrices:
-        d = a.copy().convert("dense")
-        mats.append(np.array(d.getDenseArray(), dtype=complex))
-        d.destroy()
-    deg, n = len(mats) - 1, mats[0].shape[0]
-    big_a = np.zeros((deg * n, deg * n), dtype=complex)
-    big_b = np.eye(deg * n, dtype=complex)
-    for i in range(deg - 1):
-        big_a[i * n:(i + 1) * n, (i + 1) * n:(i + 2) * n] = np.eye(n)
-    for j in range(deg):
-        big_a[(deg - 1) * n:, j * n:(j + 1) * n] = -mats[j]
-    big_b[(deg - 1) * n:, (deg - 1) * n:] = mats[deg]
-    w = scipy.linalg.eig(big_a, big_b, right=False)
-    return w[np.isfinite(w)]
-
-
 def _inside(w, box):
     return w[(w.real > box[0]) & (w.real < box[1]) & (w.imag > box[2]) & (w.imag < box[3])]
 
@@ -75,7 +56,7 @@ def test_log_det_and_region_against_dense(bc, box):
     poorly (residual 1.4e-4 measured): its box starts right of it.
     """
     problem, op = _block_operator(MPI.COMM_SELF, bc)
-    w = _dense_eigenvalues(op)
+    w = dense_companion_eigenvalues(op)
     exact = np.sort_complex(_inside(w, box))
     assert exact.size >= 4  # measured 16 (velocity), 6 (stress): a test that can fail
     # the determinant itself, at a few points (dense slogdet): measured agreement ~1e-12

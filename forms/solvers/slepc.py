@@ -343,6 +343,16 @@ def dense_companion_eig(op: FrictionOperator, target: complex) -> complex:
         The finite eigenvalue nearest ``target`` (the spurious root ``L = -1`` of the cleared
         denominator excluded).
     """
+    w = dense_companion_eigenvalues(op)
+    w = w[np.abs(w + 1.0) > 1e-8]  # the spurious root of the cleared denominator (L = -1)
+    return complex(w[np.argmin(np.abs(w - target))])
+
+
+def dense_companion_eigenvalues(op: FrictionOperator) -> np.ndarray:
+    """Every finite eigenvalue of ``sum_j L^j A_j`` by the companion form.
+
+    The linearisation of :func:`dense_companion_eig`; the spurious root ``L = -1`` included.
+    """
     mats = []
     for a in op.matrices:
         d = a.copy().convert("dense")
@@ -359,6 +369,4 @@ def dense_companion_eig(op: FrictionOperator, target: complex) -> complex:
     big_b[(deg - 1) * n:, (deg - 1) * n:] = mats[deg]
     w = scipy.linalg.eig(big_a, big_b, right=False, overwrite_a=True, overwrite_b=True,
                          check_finite=False)
-    w = w[np.isfinite(w)]
-    w = w[np.abs(w + 1.0) > 1e-8]  # the spurious root of the cleared denominator (L = -1)
-    return complex(w[np.argmin(np.abs(w - target))])
+    return w[np.isfinite(w)]

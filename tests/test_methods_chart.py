@@ -61,3 +61,25 @@ def test_bad_rtol_exits_2(tmp_path):
     proc = run_workflow("methods_chart.py", ["--rtol", "5", "--out", str(out)], 1)
     assert proc.returncode == 2 and proc.stderr.startswith("error: --rtol")
     assert not out.exists()
+
+
+@pytest.mark.serial
+def test_committed_chart_matches_readme_table():
+    from pathlib import Path
+
+    res = Path(__file__).resolve().parents[1] / "workflows" / "results" / "methods_chart"
+    with open(res / "methods.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 12 * len(ms.METHODS)
+
+    def total(m, key):
+        return sum(int(r[key]) for r in rows if r["method"] == m)
+
+    # README table (methods chart section)
+    assert (total("moments", "found"), total("moments", "count")) == (90, 90)
+    assert (total("tiling", "found"), total("tiling", "missed")) == (86, 4)
+    assert total("dense", "found") == 4
+    assert sum(total(m, "spurious") for m in ms.METHODS) == 0
+    missed = [(r["k"], r["c_max"]) for r in rows if r["method"] == "tiling" and r["missed"] != "0"]
+    assert missed == [("12.0", "8.0")]
+    assert sum(bool(r["failed"]) for r in rows if r["method"] == "dense") == 10

@@ -1,0 +1,85 @@
+"""Methods study (forms/studies/methods.py) and its scene workflows/methods_chart.py.
+
+The study runs FE on MPI.COMM_SELF (each rank its own points), so its tests also run under
+mpirun -n 2; the scene runs are subprocesses (serial marker).
+"""
+
+import csv
+import json
+
+import pytest
+from _workflows import run_workflow
+
+from mpi4py import MPI
+
+from analytic.params import Params
+from forms.studies import methods as ms
+
+
+def test_every_method_found_set_against_the_count():
+    rows = ms.methods_point(Params(), 1.0, 2.0)
+    assert [r["method"] for r in rows] == list(ms.METHODS)
+    for r in rows:
+        assert r["count"] >= 1 and r["truth"] == r["count"], r
+        assert not r["failed"], r
+        assert r["found"] == r["count"] and r["missed"] == 0 and r["spurious"] == 0, r
+
+
+def test_a_failing_method_is_reported_missing(monkeypatch):
+    monkeypatch.setattr(ms, "DENSE_MAX", 10)  # the pencil is larger: dense fails
+    rows = {r["method"]: r for r in ms.methods_point(Params(), 1.0, 2.0, methods=("dense",
+                                                                                  "moments"))}
+    assert "DENSE_MAX" in rows["dense"]["failed"]
+    assert rows["dense"]["found"] == 0 and rows["dense"]["missed"] == rows["dense"]["count"] > 0
+    assert rows["moments"]["found"] == rows["moments"]["count"]
+
+
+def test_grid_shared_over_ranks():
+    rows = ms.methods_grid(Params(), [0.5, 1.0], [2.0], methods=("moments",),
+                           comm=MPI.COMM_WORLD)
+    assert [(r["k"], r["method"]) for r in rows] == [(0.5, "moments"), (1.0, "moments")]
+    assert all(r["found"] == r["count"] > 0 for r in rows)
+
+
+@pytest.mark.serial
+def test_scene_smoke(tmp_path):
+    proc = run_workflow("methods_chart.py", ["--k", "1", "--c-max", "2", "--out", str(tmp_path)],
+                        1)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    for name in ("methods.csv", "summary.json", "methods.png"):
+        assert (tmp_path / name).stat().st_size > 0
+    with open(tmp_path / "methods.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert {r["method"] for r in rows} == set(ms.METHODS)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["totals"]["moments"]["missed"] == 0
+
+
+@pytest.mark.serial
+def test_bad_rtol_exits_2(tmp_path):
+    out = tmp_path / "out"
+    proc = run_workflow("methods_chart.py", ["--rtol", "5", "--out", str(out)], 1)
+    assert proc.returncode == 2 and proc.stderr.startswith("error: --rtol")
+    assert not out.exists()
+
+
+@pytest.mark.serial
+def test_committed_chart_matches_readme_table():
+    from pathlib import Path
+
+    res = Path(__file__).resolve().parents[1] / "workflows" / "results" / "methods_chart"
+    with open(res / "methods.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 12 * len(ms.METHODS)
+
+    def total(m, key):
+        return sum(int(r[key]) for r in rows if r["method"] == m)
+
+    # README table (methods chart section)
+    assert (total("moments", "found"), total("moments", "count")) == (90, 90)
+    assert (total("tiling", "found"), total("tiling", "missed")) == (86, 4)
+    assert total("dense", "found") == 4
+    assert sum(total(m, "spurious") for m in ms.METHODS) == 0
+    missed = [(r["k"], r["c_max"]) for r in rows if r["method"] == "tiling" and r["missed"] != "0"]
+    assert missed == [("12.0", "8.0")]
+    assert sum(bool(r["failed"]) for r in rows if r["method"] == "dense") == 10

@@ -13,6 +13,7 @@ import io
 import itertools
 import json
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -442,3 +443,31 @@ def test_benchmark_exit_code_follows_its_targets(tmp_path, monkeypatch, capsys, 
                                "--sweeps", "none"])
     assert got == code
     assert ("MISSED" in capsys.readouterr().out) == (code != 0)
+
+
+def _bar_states(stderr):
+    """Every state a tqdm bar printed (split at its carriage returns and newlines)."""
+    return [s for s in stderr.replace("\r", "\n").splitlines() if "|" in s]
+
+
+@pytest.mark.serial
+@pytest.mark.slow
+def test_sweep_progress_rate_is_in_k_values(tmp_path):
+    """sweep_k's bar counts "k values" (e.g. "1.21s/ k values"), never tqdm's "it" or "2.13k/s"."""
+    res = run_workflow("sweep_k.py", ["--k", "1,2", "--no-plot", "--out", str(tmp_path / "s")])
+    assert res.returncode == 0, res.stderr[-2000:]
+    states = [s for s in _bar_states(res.stderr) if s.startswith("k values")]
+    assert states and all(re.search(r"( k values/s|s/ k values)\]$", s) for s in states), states
+    assert not re.search(r"\d(it|k)/s", res.stderr), res.stderr[-2000:]
+
+
+@pytest.mark.serial
+@pytest.mark.slow
+def test_time_domain_bar_ends_at_100_percent(tmp_path):
+    """19 steps (fewer than the 50 per bar update): the last bar state still reads 100 %."""
+    res = run_workflow("time_domain.py", ["--cells-per-wavelength", "16", "--ny", "4",
+                                          "--amplitude", "1e-6", "--chunk", "20", "--t-end", "1",
+                                          "--out", str(tmp_path / "t")])
+    assert res.returncode == 0, res.stderr[-2000:]
+    last = _bar_states(res.stderr)[-1]
+    assert " 100%|" in last and re.search(r" (\d+)/\1 ", last), last

@@ -471,3 +471,26 @@ def test_time_domain_bar_ends_at_100_percent(tmp_path):
     assert res.returncode == 0, res.stderr[-2000:]
     last = _bar_states(res.stderr)[-1]
     assert " 100%|" in last and re.search(r" (\d+)/\1 ", last), last
+
+
+def _strict_constant(name):
+    raise ValueError(f"non-strict JSON constant {name}")
+
+
+@pytest.mark.serial
+@pytest.mark.slow
+def test_every_json_of_a_run_is_strict(tmp_path):
+    """--check-exact no leaves NaN exact values in raw/k*.json: written as null, read back."""
+    out = tmp_path / "s"
+    res = run_workflow("sweep_k.py", ["--k", "1", "--quiet", "--no-plot", "--check-exact", "no",
+                                      "--out", str(out)])
+    assert res.returncode == 0, res.stderr[-2000:]
+    files = sorted(out.rglob("*.json"))
+    assert any(f.parent.name == "raw" for f in files), files
+    for f in files:
+        json.loads(f.read_text(), parse_constant=_strict_constant)
+    raw = json.loads((out / "raw" / "k00000.json").read_text())
+    assert raw["rows"] and all(r["re_lambda_exact"] is None for r in raw["rows"])
+    with open(out / "spectrum.csv") as fh:  # the NaN came back as NaN (as before the change)
+        rows = list(csv.DictReader(fh))
+    assert rows and all(r["re_lambda_exact"] == "nan" for r in rows), rows

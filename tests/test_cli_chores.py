@@ -13,6 +13,7 @@ import io
 import itertools
 import json
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -425,3 +426,71 @@ def test_run_folder_verdict_is_collective(tmp_path):
     with _cli.RunFolder(comm, out, "t", {"a": 1}, resume=True) as run:
         assert run.resumed
 
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("analytic_ratio, code", [(50.0, 1), (5.0, 0)])
+def test_benchmark_exit_code_follows_its_targets(tmp_path, monkeypatch, capsys, analytic_ratio,
+                                                 code):
+    """A missed target makes benchmark.py exit non-zero; all met gives 0 (timings stubbed)."""
+    import benchmark
+
+    ratios = {"analytic_certified_over_baseline": analytic_ratio, "fe_over_baseline": 2.0,
+              "target_analytic": 10.0, "target_fe": 20.0}
+    monkeypatch.setattr(benchmark.bench, "speed", lambda k: {"ratios": ratios})
+    monkeypatch.setattr(benchmark, "convergence", lambda out: {})
+    got = benchmark.main(argv=["--out", str(tmp_path / "b"), "--k", "0.1:1:3", "--skip-mpi",
+                               "--sweeps", "none"])
+    assert got == code
+    assert ("MISSED" in capsys.readouterr().out) == (code != 0)
+
+
+def _bar_states(stderr):
+    """Every state a tqdm bar printed (split at its carriage returns and newlines)."""
+    return [s for s in stderr.replace("\r", "\n").splitlines() if "|" in s]
+
+
+@pytest.mark.serial
+@pytest.mark.slow
+def test_sweep_progress_rate_is_in_k_values(tmp_path):
+    """sweep_k's bar counts "k values" (e.g. "1.21s/ k values"), never tqdm's "it" or "2.13k/s"."""
+    res = run_workflow("sweep_k.py", ["--k", "1,2", "--no-plot", "--out", str(tmp_path / "s")])
+    assert res.returncode == 0, res.stderr[-2000:]
+    states = [s for s in _bar_states(res.stderr) if s.startswith("k values")]
+    assert states and all(re.search(r"( k values/s|s/ k values)\]$", s) for s in states), states
+    assert not re.search(r"\d(it|k)/s", res.stderr), res.stderr[-2000:]
+
+
+@pytest.mark.serial
+@pytest.mark.slow
+def test_time_domain_bar_ends_at_100_percent(tmp_path):
+    """19 steps (fewer than the 50 per bar update): the last bar state still reads 100 %."""
+    res = run_workflow("time_domain.py", ["--cells-per-wavelength", "16", "--ny", "4",
+                                          "--amplitude", "1e-6", "--chunk", "20", "--t-end", "1",
+                                          "--out", str(tmp_path / "t")])
+    assert res.returncode == 0, res.stderr[-2000:]
+    last = _bar_states(res.stderr)[-1]
+    assert " 100%|" in last and re.search(r" (\d+)/\1 ", last), last
+
+
+def _strict_constant(name):
+    raise ValueError(f"non-strict JSON constant {name}")
+
+
+@pytest.mark.serial
+@pytest.mark.slow
+def test_every_json_of_a_run_is_strict(tmp_path):
+    """--check-exact no leaves NaN exact values in raw/k*.json: written as null, read back."""
+    out = tmp_path / "s"
+    res = run_workflow("sweep_k.py", ["--k", "1", "--quiet", "--no-plot", "--check-exact", "no",
+                                      "--out", str(out)])
+    assert res.returncode == 0, res.stderr[-2000:]
+    files = sorted(out.rglob("*.json"))
+    assert any(f.parent.name == "raw" for f in files), files
+    for f in files:
+        json.loads(f.read_text(), parse_constant=_strict_constant)
+    raw = json.loads((out / "raw" / "k00000.json").read_text())
+    assert raw["rows"] and all(r["re_lambda_exact"] is None for r in raw["rows"])
+    with open(out / "spectrum.csv") as fh:  # the NaN came back as NaN (as before the change)
+        rows = list(csv.DictReader(fh))
+    assert rows and all(r["re_lambda_exact"] == "nan" for r in rows), rows

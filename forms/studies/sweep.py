@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from analytic.cli import dumps
 from analytic.numerics.branches import BranchResult
 from analytic.numerics.roots import ContourError
 from analytic.numerics.spectrum import (
@@ -86,9 +87,27 @@ def raw_file(folder: str, i: int) -> str:
 def write_json(path: str, data: dict) -> None:
     """Write ``data`` to ``path`` atomically (a temporary file beside it, then a rename)."""
     tmp = os.path.join(os.path.dirname(path), "." + os.path.basename(path) + ".tmp")
-    with open(tmp, "w") as fh:
-        json.dump(data, fh, indent=1)
+    with open(tmp, "w") as fh:  # strict JSON: NaN -> null, +-inf -> "inf"/"-inf" (read_k_result)
+        fh.write(dumps(data, indent=1) + "\n")
     os.replace(tmp, path)
+
+
+def _float_back(v: object) -> object:
+    """Inverse of the strict encoding of one number: ``None`` -> NaN, ``"inf"`` -> inf."""
+    if v is None:
+        return math.nan
+    if v in ("inf", "-inf"):
+        return float(v)  # type: ignore[arg-type]
+    return v
+
+
+def read_k_result(path: str) -> KResult:
+    """A result file written by :func:`write_json` (NaN and infinities restored)."""
+    with open(path) as fh:
+        d = json.load(fh)
+    d["rows"] = [{key: _float_back(v) for key, v in row.items()} for row in d["rows"]]
+    d["box"] = [_float_back(v) for v in d["box"]]
+    return KResult.from_dict(d)
 
 
 def pending_k(comm: object, folder: str, count: int, resumed: bool) -> list[int]:
@@ -295,8 +314,7 @@ def load_results(folder: str, count: int) -> list[KResult]:
     """The results of the ``count`` requested ``k``, read back from their files (in order)."""
     results = []
     for i in range(count):
-        with open(raw_file(folder, i)) as fh:
-            results.append(KResult.from_dict(json.load(fh)))
+        results.append(read_k_result(raw_file(folder, i)))
     return results
 
 

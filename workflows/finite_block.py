@@ -7,11 +7,17 @@ of finite height (``--mu2 --rho2 --beta2 --H2 --bc2``: a substrate block of the 
 reference from the exact two-body roots, no Kulikovskii limit). For every ``L`` of ``--lengths`` the
 eigenvalues near the infinite strip's branches (``--branches``, cross-section model at several
 ``k`` around each one's most unstable wavenumber) are computed and the most unstable one is
-kept. Written to ``--out``:
+kept. That is ``--search targets``; the default ``--search complete`` instead returns every
+eigenvalue in a box (``--box``) with its certificate (:func:`forms.studies.block.block_spectrum`:
+argument-principle count of ``det T_h`` == found, conjugate symmetry, P(p+1) estimate), with no
+infinite-strip target. Written to ``--out``:
 
 - ``finite_block.csv``: ``L, re_lambda, im_lambda, residual, candidates`` plus the infinite-strip
   reference ``re_lambda_inf, im_lambda_inf, k_inf`` (rows appended as each L finishes;
   ``--resume`` skips the lengths already there);
+- ``finite_block_spectrum.csv`` (complete search): every eigenvalue in the box per length, with
+  ``found, counted, closed``; the per-length certificate is in ``finite_block.json``
+  (``certificates``);
 - ``finite_block.png``: ``Re Lambda`` of the most unstable block mode against ``L`` with the
   infinite-strip value, and ``|Lambda_block - Lambda_inf|`` on log axes;
 - ``block_mode.png``: that mode for the largest ``L``: stresses and slip along the interface;
@@ -31,12 +37,12 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import math
 import os
 import sys
 import time
 
+import _block_search
 import _cli
 import _plots  # matplotlib only: no pyvista/VTK here, so no import order to keep
 import numpy as np
@@ -46,10 +52,12 @@ from analytic.numerics.branches import parse_branch_label
 from forms.studies import block
 from forms.studies.strip_mode import interface_of
 
-#: Options prefixes of the SLEPc objects: block solves, cross-section model, spatial roots.
-PETSC_PREFIXES = ("block_", "xs_", "kroots_")
+#: Options prefixes of the SLEPc objects: block target solves, block region solve and its count
+#: (MUMPS log det), cross-section model, spatial roots.
+PETSC_PREFIXES = ("block_", "block_region_", "block_region_det_", "xs_", "kroots_")
 #: Files this workflow writes.
-OUTPUTS = ("finite_block.csv", "finite_block.png", "block_mode.png", "finite_block.json")
+OUTPUTS = ("finite_block.csv", "finite_block_spectrum.csv", "finite_block.png", "block_mode.png",
+           "finite_block.json")
 COLUMNS = list(block.ROW_COLUMNS)
 
 
@@ -71,6 +79,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--targets", type=int, default=3,
                    help="shift targets per L (infinite-strip Lambda at k around k_inf)")
     p.add_argument("--nev", type=int, default=6, help="eigenpairs per target")
+    _block_search.add_arguments(p)
     p.add_argument("--no-kulikovskii", action="store_true",
                    help="skip the long-block limit from the cross-section model")
     p.add_argument("--resume", action="store_true",
@@ -99,6 +108,7 @@ def validate(args: argparse.Namespace):
     _cli.positive_int("--degree", args.degree, 1, 5)
     _cli.positive_int("--targets", args.targets, 1, 50)
     _cli.positive_int("--nev", args.nev, 1, 200)
+    _block_search.parse_box(args.box)
     return params, np.unique(lengths), branches, k_scan
 
 
@@ -107,15 +117,6 @@ def _read_done(path: str) -> dict[float, dict]:
         return {}
     with open(path) as f:
         return {float(r["L"]): r for r in csv.DictReader(f)}
-
-
-def _earlier_timings(json_path: str) -> dict[str, float]:
-    """Per-length times recorded by an earlier run in ``finite_block.json`` (rank 0)."""
-    if not os.path.exists(json_path):
-        return {}
-    with open(json_path) as f:
-        old = json.load(f).get("timings", {})
-    return {key: v for key, v in old.items() if key != "total"}
 
 
 def plot_convergence(L: np.ndarray, lam: np.ndarray, g_inf: float, order_p: float,
@@ -176,11 +177,15 @@ def run_parameters(args: argparse.Namespace, params, branches) -> dict:
     return {"params": params.as_dict(), "lateral": args.lateral,
             "branches": [list(b) for b in branches], "k_scan": args.k_scan,
             "cells_per_unit": args.cells_per_unit, "ny": args.ny, "degree": args.degree,
-            "targets": args.targets, "nev": args.nev}
+            "targets": args.targets, "nev": args.nev, "search": args.search, "box": args.box}
 
 
 def main(comm=None, argv: list[str] | None = None) -> int:
-    """Run the scan over block lengths; exit code 1 if some length had no converged mode."""
+    """Run the scan over block lengths.
+
+    Exit code 1 if some length failed: no converged mode (``--search targets``) or a count that
+    did not close (``--search complete``).
+    """
     args, comm = _cli.start(build_parser(), argv, comm)
     params, lengths, branches, k_scan = validate(args)
     with _cli.RunFolder(comm, args.out, "finite_block", run_parameters(args, params, branches),
@@ -198,20 +203,21 @@ def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, b
     if comm.rank == 0 and not done:
         with _cli.atomic_open(csv_path, "w", newline="") as f:
             csv.writer(f).writerow(COLUMNS)
+    if comm.rank == 0 and args.search == "complete":
+        _block_search.start_spectrum(args.out, run.resumed)
     for lb_, kb_, zb_ in ref.per_branch:
         _cli.say(f"infinite strip, branch {lb_}: max Re Lambda = {zb_:.8g} at k = {kb_:.6g}")
     todo = [L for L in lengths if float(L) not in done]
     bar = tqdm(total=len(todo), desc="block lengths", file=sys.stderr) if comm.rank == 0 else None
     # per-L times of the lengths kept from the earlier run
-    timings = _earlier_timings(json_path) if done and comm.rank == 0 else {}
+    timings = _block_search.earlier(json_path, "timings") if done and comm.rank == 0 else {}
+    certificates = _block_search.earlier(json_path, "certificates") if done else {}
     failed, last = 0, None
     for L in todo:
         t0 = time.perf_counter()
-        mode = block.most_unstable_block_mode(
-            comm, params, float(L), cells_per_unit=args.cells_per_unit, ny=args.ny,
-            degree=args.degree, lateral=args.lateral, targets=ref.targets, nev=args.nev,
-            keep_mode=bool(L == lengths[-1]))
-        failed += mode.eigenvalue is None
+        mode, ok = _block_search.solve_length(comm, args, params, float(L), ref,
+                                          bool(L == lengths[-1]), certificates)
+        failed += not ok
         last = mode if mode.u is not None else last
         if comm.rank == 0:
             with open(csv_path, "a", newline="") as f:
@@ -225,7 +231,8 @@ def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, b
     meta = {"workflow": "finite_block", "params": params.as_dict(), "lateral": args.lateral,
             **ref.record(), "cells_per_unit": args.cells_per_unit, "ny": args.ny,
             "degree": args.degree,
-            "ranks": comm.size, "timings": timings, "versions": _cli.versions(),
+            "ranks": comm.size, "search": args.search, "certificates": certificates,
+            "timings": timings, "versions": _cli.versions(),
             "command": _cli.command()}
     title = (f"finite block ({args.lateral} ends, bc = {params.bc}, H = {params.H:g}"
              + (f"; substrate mu2 = {params.mu2:g}, H2 = {params.H2:g}" if params.two_body

@@ -481,7 +481,9 @@ class RegionSolver:
                 xm, ym = 0.5 * (ta + tb), 0.5 * (tc + td)
                 todo += [(ta, xm, tc, ym), (xm, tb, tc, ym), (ta, xm, ym, td), (xm, tb, ym, td)]
         t_solve = time.perf_counter() - t0
-        kept.sort(key=lambda p: -p[0].real)
+        # by decreasing real part; a conjugate pair (real parts equal to rounding) in a fixed
+        # order, Im <= 0 first, so that "the fastest" is the same value in every run
+        kept.sort(key=lambda p: (-round(p[0].real / scale, 9), p[0].imag))
         values = np.array([p[0] for p in kept], dtype=complex)
         residuals = np.array([_residual(matrices, norms, lam, v) for lam, v in kept])
         return RegionResult(bx, values, residuals, [v for _, v in kept], counted, solved,

@@ -237,6 +237,31 @@ def _assemble(strip: StripMesh, params: Params, V: dolfinx.fem.FunctionSpace
     return mats
 
 
+def explicit_operators(strip: StripMesh, params: Params, V: dolfinx.fem.FunctionSpace
+                       ) -> tuple[PETSc.Mat, PETSc.Vec, PETSc.Vec]:
+    """The explicit time domain's operators on the one 2D model, unreduced (collective).
+
+    The stiffness of :func:`_assemble` (materials of :func:`materials`), the lumped mass (row
+    sums of the mass matrix) and ``int_Gamma w_x ds``; the vectors have their ghosts summed.
+
+    Returns:
+        ``(K, lumped mass, interface load)``; the caller destroys them.
+    """
+    u, w = ufl.TrialFunction(V), ufl.TestFunction(V)
+    ds = ufl.Measure("ds", domain=strip.mesh, subdomain_data=strip.facet_tags)
+    mu, lmbda, rho = materials(strip, params)
+    K = dolfinx.fem.petsc.assemble_matrix(
+        dolfinx.fem.form(stiffness_density(ufl.grad(u), ufl.grad(w), lmbda, mu) * ufl.dx))
+    K.assemble()
+    lump = dolfinx.fem.petsc.assemble_vector(
+        dolfinx.fem.form(rho * ufl.inner(ufl.as_vector((1.0, 1.0)), w) * ufl.dx))
+    bvec = dolfinx.fem.petsc.assemble_vector(
+        dolfinx.fem.form(ufl.inner(ufl.as_vector((1.0, 0.0)), w) * ds(INTERFACE)))
+    for v in (lump, bvec):
+        v.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    return K, lump, bvec
+
+
 def _reduce(mats: dict[str, PETSc.Mat], rmap: ReductionMap | None) -> dict[str, PETSc.Mat]:
     """``P^H A P`` of every matrix (``Q`` for the interface mass of the slip); frees ``A``."""
     if rmap is None:

@@ -42,6 +42,7 @@ import numpy as np
 from mpi4py import MPI
 
 from analytic.numerics.branches import BranchResult
+from analytic.numerics.continuation import Path
 from analytic.numerics.roots import Box, ContourError
 from analytic.numerics.spectrum import Region, certified_roots, on_usable_box
 from analytic.params import Params
@@ -362,9 +363,9 @@ class CertifiedSolver:
 def continue_fe(banded: BandedModel, ks: np.ndarray, z0: complex) -> tuple[np.ndarray, int]:
     """FE continuation of one eigenpair over the sorted ``ks`` (Newton on the discrete NEP).
 
-    The previous eigenvector and a linear predictor from the previous two eigenvalues start a
-    Newton iteration (:meth:`forms.solvers.banded.BandedOperator.newton`) at every ``k``: a few
-    banded
+    The previous eigenvector and the linear predictor of the one continuation engine
+    (:meth:`analytic.numerics.continuation.Path.predict`, order 1) start a Newton iteration
+    (:meth:`forms.solvers.banded.BandedOperator.newton`) at every ``k``: a few banded
     factorisations per point, no eigensolver. No root count: this is the fast inner loop, the
     certificate comes from :class:`CertifiedSolver`.
 
@@ -372,20 +373,16 @@ def continue_fe(banded: BandedModel, ks: np.ndarray, z0: complex) -> tuple[np.nd
         ``(eigenvalues, factorisations)``; NaN where Newton did not converge.
     """
     out = np.full(len(ks), complex(np.nan, np.nan))
-    hist: list[tuple[float, complex]] = []
+    path = Path([], [])
     x = None
     total = 0
     for i, k in enumerate(ks):
-        if len(hist) >= 2:
-            (k1, z1), (k2, z2) = hist[-2:]
-            guess = z2 + (z2 - z1) / (k2 - k1) * (k - k2)
-        else:
-            guess = hist[-1][1] if hist else z0
+        guess = path.predict(float(k), order=1) if path.k else z0
         op = banded.operator(float(k))
         e = op.newton(guess, x)
         total += op.factorizations
         if not e.converged:
             continue
         out[i], x = e.value, e.vector
-        hist.append((float(k), e.value))
+        path.append(float(k), e.value)
     return out, total

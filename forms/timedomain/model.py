@@ -101,9 +101,9 @@ from petsc4py import PETSc
 
 from analytic.law import FrictionLaw
 from analytic.params import ParameterError, Params
-from forms.elasticity import stiffness_density
 from forms.friction import apply_dirichlet, friction_operator
 from forms.models.periodic import reduce_matrix, reduction_map
+from forms.models.strip import explicit_operators
 from forms.solvers.slepc import PolynomialSolver
 from meshes.strip import INTERFACE, TOP, StripMesh, edge_dofs
 
@@ -765,23 +765,6 @@ def _gershgorin(K: PETSc.Mat, mass: np.ndarray, free: np.ndarray) -> float:
     return K.getComm().tompi4py().allreduce(local, op=MPI.MAX)
 
 
-def _assemble_explicit(strip: StripMesh, V: dolfinx.fem.FunctionSpace, lame_lambda: float
-                       ) -> tuple[PETSc.Mat, PETSc.Vec, PETSc.Vec]:
-    """``K``, the lumped mass (row sums of ``M``) and ``int_Gamma w_x ds`` (ghosts summed)."""
-    u, w = ufl.TrialFunction(V), ufl.TestFunction(V)
-    ds = ufl.Measure("ds", domain=strip.mesh, subdomain_data=strip.facet_tags)
-    K = dolfinx.fem.petsc.assemble_matrix(
-        dolfinx.fem.form(stiffness_density(ufl.grad(u), ufl.grad(w), lame_lambda, 1.0) * ufl.dx))
-    K.assemble()
-    lump = dolfinx.fem.petsc.assemble_vector(
-        dolfinx.fem.form(ufl.inner(ufl.as_vector((1.0, 1.0)), w) * ufl.dx))
-    bvec = dolfinx.fem.petsc.assemble_vector(
-        dolfinx.fem.form(ufl.inner(ufl.as_vector((1.0, 0.0)), w) * ds(INTERFACE)))
-    for v in (lump, bvec):
-        v.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    return K, lump, bvec
-
-
 def _edge_rows(strip: StripMesh, coords: np.ndarray, reduced: np.ndarray, rstart: int,
                which: int, comp: int) -> tuple[np.ndarray, np.ndarray]:
     """Local reduced rows of component ``comp`` on one edge, and their owned blocks."""
@@ -825,7 +808,7 @@ def build_time_domain(strip: StripMesh, law: NonlinearLaw, k: float, cfl: float 
     p = law.params
     msh = strip.mesh
     V = dolfinx.fem.FunctionSpace(msh, ufl.VectorElement("Lagrange", msh.ufl_cell(), 1))
-    K, lump, bvec = _assemble_explicit(strip, V, p.lame_lambda)
+    K, lump, bvec = explicit_operators(strip, p, V)
     n_owned = V.dofmap.index_map.size_local
     # The eigen-model's map (forms.models.strip), phase exactly 1: plain periodicity.
     bloch = reduction_map(V, strip, 0.0, np.ones(n_owned, dtype=int))

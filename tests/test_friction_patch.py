@@ -46,7 +46,7 @@ def test_critical_length_interpolation():
     """Linear growth crosses 0 where the line does; no crossing gives None; nan is skipped."""
     lp = np.linspace(0.5, 3.0, 6)
     assert fp.critical_length(lp, 0.2 * (lp - 1.7)) == pytest.approx(1.7, abs=1e-12)
-    assert fp.critical_length(lp, [np.nan, -1, -0.5, 0.5, 1, 2]) == pytest.approx(1.5)
+    assert fp.critical_length(lp, [np.nan, -1, -0.5, 0.5, 1, 2]) == pytest.approx(1.75)
     assert fp.critical_length(lp, lp) is None
 
 

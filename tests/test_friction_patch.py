@@ -75,7 +75,7 @@ def test_scene_smoke(tmp_path, nproc):
     assert all(r["closed"] == "yes" for r in rows)
     rec = json.loads((out / "friction_patch.json").read_text())
     assert 1.0 < rec["Lc"] < 3.0  # stable at Lp = 1, unstable at 3
-    assert (out / "friction_patch.png").exists() and (out / "patch_mode_3.png").exists()
+    assert (out / "friction_patch.png").exists() and (out / "patch_mode_1.png").exists()
 
 
 @pytest.mark.serial

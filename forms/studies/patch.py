@@ -1,0 +1,185 @@
+"""A finite block whose interface has a friction patch: the computation.
+
+The block ``0 < x < L`` on the rigid substrate (:func:`forms.models.strip.build_strip_problem`
+with ``k=None``) with friction parameters that differ on a centred patch
+``|x - L/2| < Lp/2`` (:class:`forms.models.strip.FrictionProfile`). Sign convention of
+:class:`analytic.params.Params`: ``Delta < 0`` is steady-state velocity *weakening*, ``Delta > 0``
+velocity strengthening.
+
+- :func:`patch_profile`: the piecewise-constant profile (patch values inside, ``params``
+  outside);
+- :func:`patch_spectrum`: every eigenvalue of the patched block in a box with its certificate
+  (found against the argument-principle count, the P+1 estimate), as a
+  :class:`forms.studies.block.BlockSpectrum`;
+- :func:`critical_length`: where ``max Re Lambda`` against ``Lp`` crosses 0 (bracketing and
+  linear interpolation between the two grid points around the first sign change).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from mpi4py import MPI
+
+from analytic.params import Params
+from forms.mode_postprocessing import normalise
+from forms.models.strip import (
+    FrictionProfile,
+    build_strip_problem,
+    friction_operator_for,
+    strip_mesh_for,
+)
+from forms.solvers.region import RegionSolver
+from forms.studies.block import BlockSpectrum
+
+
+@dataclass(frozen=True)
+class Patch:
+    """Friction values on the patch (``None``: the value of ``params``, i.e. no contrast).
+
+    Attributes:
+        length: ``Lp``, centred in the block.
+        Delta: ``Delta`` on the patch.
+        f: ``f`` on the patch.
+        gamma: ``gamma`` on the patch.
+    """
+
+    length: float
+    Delta: float | None = None  # noqa: N815 - the paper's name
+    f: float | None = None
+    gamma: float | None = None
+
+
+def patch_profile(block_length: float, patch: Patch) -> FrictionProfile:
+    """The :class:`FrictionProfile` with ``patch`` values on ``|x - L/2| < Lp/2``.
+
+    A node exactly on the patch's edge counts as inside (``<=`` with a ``1e-12`` margin), so
+    ``Lp = L`` is the uniform block with the patch's values.
+    """
+    centre, half = 0.5 * block_length, 0.5 * patch.length
+
+    def make(value: float | None):
+        if value is None:
+            return None
+
+        def fn(x: np.ndarray, base: Params | None = None) -> np.ndarray:
+            return np.where(np.abs(np.asarray(x) - centre) <= half + 1e-12, value, np.nan)
+
+        return fn
+
+    return _Outside(make(patch.Delta), make(patch.f), make(patch.gamma))
+
+
+class _Outside(FrictionProfile):
+    """A profile whose ``nan`` values (outside the patch) take the uniform ``params`` value."""
+
+    def values(self, params: Params, x: np.ndarray) -> np.ndarray:
+        """``(n, 3)`` columns ``Delta, f, gamma`` at ``x``; outside the patch, ``params``'."""
+        vals = np.array(super().values(params, x), dtype=float)
+        base = np.array([params.Delta, params.f, params.gamma], dtype=float)
+        return np.where(np.isnan(vals), base, vals)
+
+
+def _region_solve(comm: MPI.Comm, params: Params, length: float, patch: Patch,
+                  cells_per_unit: int, ny: int, degree: int, lateral: str,
+                  box: Sequence[float], nev: int, count: bool, keep_mode: bool):
+    nx = max(2, int(round(cells_per_unit * length)))
+    strip = strip_mesh_for(comm, params, float(length), nx, ny)
+    problem = build_strip_problem(strip, params, k=None, degree=degree, lateral=lateral,
+                                  friction=patch_profile(length, patch))
+    op = friction_operator_for(problem)
+    solver = RegionSolver(comm, nev=nev, prefix="patch_region_")
+    res = None
+    try:
+        res = solver.solve(op.matrices, box, op.law.spurious, count=count)
+        u = None
+        if keep_mode and res.found:
+            u = problem.to_function(res.vectors[0])
+            normalise(u)
+        return res, u
+    finally:
+        if res is not None:
+            res.destroy()
+        solver.destroy()
+        op.destroy()
+        problem.destroy()
+
+
+def patch_spectrum(comm: MPI.Comm, params: Params, length: float, patch: Patch, *,
+                   cells_per_unit: int, ny: int, degree: int, lateral: str,
+                   box: Sequence[float], nev: int, estimate: bool = True,
+                   keep_mode: bool = False) -> BlockSpectrum:
+    """Every eigenvalue of the patched block in ``box``, with its certificate.
+
+    As :func:`forms.studies.block.block_spectrum` (options prefix ``patch_region_``, the
+    count's LU ``patch_region_det_``), with ``patch`` on the interface. Collective; every
+    PETSc object destroyed before returning.
+
+    Args:
+        comm: Mesh communicator.
+        params: Parameters (the values outside the patch).
+        length: ``L``.
+        patch: The patch (length and values).
+        cells_per_unit: Cells per unit length in ``x``.
+        ny: Cells along ``y``.
+        degree: Lagrange degree.
+        lateral: Lateral ends.
+        box: ``(re_min, re_max, im_min, im_max)``, ``re_min > -1``.
+        nev: Eigenpairs per tile solve.
+        estimate: Also solve at degree ``degree + 1`` (the P+1 estimate).
+        keep_mode: Also return the fastest mode as a normalised function.
+    """
+    args = (comm, params, length, patch, cells_per_unit, ny)
+    res, u = _region_solve(*args, degree, lateral, box, nev, True, keep_mode)
+    est = np.full(res.found, np.nan)
+    if estimate and res.found:
+        fine, _ = _region_solve(*args, degree + 1, lateral, res.box, nev, False, False)
+        if fine.found:
+            est = np.array([np.min(np.abs(fine.values - z)) / abs(z) for z in res.values])
+    return BlockSpectrum(float(length), res.box, res.values, res.residuals, res.found,
+                         res.counted, res.conjugate_gap(), est, res.seconds, res.tiles, u)
+
+
+def critical_length(lp: Sequence[float], growth: Sequence[float]) -> float | None:
+    """The first ``Lp`` where ``growth`` changes sign, by linear interpolation (``None``: none).
+
+    Args:
+        lp: Patch lengths, increasing.
+        growth: ``max Re Lambda`` at each (``nan`` entries are skipped).
+    """
+    x = np.asarray(lp, dtype=float)
+    g = np.asarray(growth, dtype=float)
+    ok = np.isfinite(g)
+    x, g = x[ok], g[ok]
+    for i in range(len(x) - 1):
+        if g[i] == 0.0:
+            return float(x[i])
+        if g[i] * g[i + 1] < 0:
+            return float(x[i] - g[i] * (x[i + 1] - x[i]) / (g[i + 1] - g[i]))
+    return None
+
+
+def nucleation_estimates(params: Params, patch_delta: float) -> dict[str, float]:
+    """Published nucleation lengths in this project's length unit ``c_s t0`` (aging law).
+
+    With ``a = d_v f`` (direct effect), ``b = a (1 - Delta)``, ``gamma = mu v0 / (c_s sigma0
+    a)`` and ``c_s t0 = c_s D / v0`` (docs/design.md section 2), ``mu' D / (sigma0 a)`` is
+    ``(mu'/mu) gamma``. ``mu' = mu / (1 - nu)`` (in-plane) for two identical half-spaces;
+    against a rigid substrate the slip is the one body's displacement, which doubles the
+    stiffness per unit slip: ``mu' = 2 mu / (1 - nu)`` here. Formulas as quoted in the brief
+    (Rubin & Ampuero 2005: ``L_b = mu' D_c / (b sigma)``, ``L_inf = (1/pi) (b/(b-a))^2 L_b``;
+    Uenishi & Rice 2003: ``1.377 mu' D_c / (sigma (b - a))``); quasi-static, half-space, no
+    ``Lambda``-dependent direct effect. ``nan`` unless ``patch_delta < 0``.
+    """
+    if patch_delta >= 0:
+        nan = float("nan")
+        return {"L_b": nan, "L_inf": nan, "Uenishi-Rice": nan}
+    nu = (1.0 - 2.0 * params.beta**2) / (2.0 * (1.0 - params.beta**2))
+    scale = 2.0 / (1.0 - nu) * params.gamma  # mu' D / (sigma0 a)
+    b_over_a = 1.0 - patch_delta
+    l_b = scale / b_over_a
+    return {"L_b": l_b, "L_inf": (b_over_a / -patch_delta) ** 2 * l_b / np.pi,
+            "Uenishi-Rice": 1.377 * scale / -patch_delta}

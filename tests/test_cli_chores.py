@@ -429,20 +429,16 @@ def test_run_folder_verdict_is_collective(tmp_path):
 
 
 @pytest.mark.serial
-@pytest.mark.parametrize("analytic_ratio, code", [(50.0, 1), (5.0, 0)])
-def test_benchmark_exit_code_follows_its_targets(tmp_path, monkeypatch, capsys, analytic_ratio,
-                                                 code):
-    """A missed target makes benchmark.py exit non-zero; all met gives 0 (timings stubbed)."""
-    import benchmark
+@pytest.mark.parametrize("analytic_ratio, missed", [(50.0, True), (5.0, False)])
+def test_benchmark_targets_flag_a_miss(analytic_ratio, missed):
+    """A ratio above its target is a missed target (benchmark.py exits 1 when any is missed)."""
+    from forms.studies import benchmark as bench
 
     ratios = {"analytic_certified_over_baseline": analytic_ratio, "fe_over_baseline": 2.0,
               "target_analytic": 10.0, "target_fe": 20.0}
-    monkeypatch.setattr(benchmark.bench, "speed", lambda k: {"ratios": ratios})
-    monkeypatch.setattr(benchmark, "convergence", lambda out: {})
-    got = benchmark.main(argv=["--out", str(tmp_path / "b"), "--k", "0.1:1:3", "--skip-mpi",
-                               "--sweeps", "none"])
-    assert got == code
-    assert ("MISSED" in capsys.readouterr().out) == (code != 0)
+    targets = bench.all_targets({"speed": {"ratios": ratios}})
+    assert any(not t["met"] for t in targets) == missed
+    assert sum(not t["met"] for t in targets) == (1 if missed else 0)
 
 
 def _bar_states(stderr):

@@ -1,0 +1,57 @@
+"""``det_M`` builds the partial-wave matrix entry by entry (``_waves_matrix``) instead of through
+``matrix_M``: the previous computation is kept here as the reference, and the two must agree
+bit for bit (same floating-point operations), including at the removable points."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from analytic.params import Params
+from analytic.physics import finite_h
+from analytic.physics.finite_h import (
+    SPURIOUS_ORDER_AT_ZERO,
+    matrix_M,
+    row_normalised_det,
+    wavenumbers,
+)
+
+pytestmark = pytest.mark.serial
+
+
+def det_M_reference(Lambda: np.ndarray, k: float, p: Params) -> np.ndarray:  # noqa: N802, N803
+    """``det_M`` as it was computed before (through ``matrix_M(..., "waves")``)."""
+    H = p.H
+    L, kk = np.broadcast_arrays(np.asarray(Lambda, dtype=complex), np.asarray(k, dtype=float))
+    ks, kd = wavenumbers(L, kk, p.beta)
+    degenerate = (np.abs(ks) < 1e-12 * (np.abs(L) + kk)) | (np.abs(kd) < 1e-12 * (np.abs(L) + kk)) \
+        | (L == 0)
+    if degenerate.any():
+        L = np.where(degenerate, L + 1e-12 * (np.abs(L) + kk) * (1 + 1j), L)
+    M = matrix_M(L, kk, p, "waves")
+    ks, kd = wavenumbers(L, kk, p.beta)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        hs, hd, aL = H * np.abs(ks), H * np.abs(kd), np.abs(L)
+        phase = np.exp(1j * H * (ks.imag + kd.imag))
+        phase = phase * np.where(hs > 0, np.abs(ks) / ks, 1.0)
+        phase = phase * np.where(hd > 0, np.abs(kd) / kd, 1.0)
+        phase = phase * np.where(aL > 0, aL / L, 1.0) ** SPURIOUS_ORDER_AT_ZERO
+        weight = (hs / (1.0 + hs)) * (hd / (1.0 + hd)) \
+            * (aL / (aL + kk + 1.0 / H)) ** SPURIOUS_ORDER_AT_ZERO
+        return row_normalised_det(M) * phase / weight
+
+
+@pytest.mark.parametrize("params", [
+    dict(bc="velocity"), dict(bc="stress"), dict(bc="stress", alpha_pc=1.0),
+    dict(bc="velocity", alpha_ld=0.3), dict(bc="stress", H=0.3, Delta=1.0)])
+@pytest.mark.parametrize("k", [0.05, 3.0, 50.0])
+def test_det_m_equals_previous_computation(params: dict, k: float) -> None:
+    p = Params(**params)
+    rng = np.random.default_rng(1)
+    L = rng.normal(size=300) * 3 + 1j * rng.normal(size=300) * 40
+    # removable points (Lambda = 0, k_s = 0, k_d = 0) and a 2-d array
+    L = np.concatenate([L, [0.0, 1j * k, -1j * k / p.beta]])
+    for z in (L, L[:12].reshape(3, 4), L[0]):
+        new, old = finite_h.det_M(z, k, p), det_M_reference(z, k, p)
+        assert new.shape == old.shape
+        assert np.array_equal(new, old)

@@ -2,8 +2,8 @@
 
 docs/design.md section 8. For the 1D section models ``T(z) = sum_i z^i A_i`` and only the
 interface (friction) rows carry the powers other than 0 and 2; the Dirichlet rows are decoupled.
-Split the dofs into ``B`` (rows and columns where a matrix of power not 0 or 2 is nonzero, and
-rows where ``A_2`` vanishes, e.g. Dirichlet rows) and the interior ``I``. Then
+Split the dofs into ``B`` (rows where a matrix of power not 0 or 2 is nonzero, and rows where
+``A_2`` vanishes, e.g. Dirichlet rows) and the interior ``I``. Then
 ``T_II(z) = K + z^2 M`` (``K = A0_II``, ``M = A2_II`` nonsingular). One generalised
 eigendecomposition ``K phi_j = w_j M phi_j`` (``eigh`` if Hermitian-definite, else ``eig`` with
 left vectors, ``psi_j^H M phi_j = 1``) gives ``T_II(z)^{-1} = sum_j phi_j psi_j^H / (z^2 + w_j)``
@@ -59,7 +59,6 @@ class CondensedOperator:
                 c = m.tocoo()
                 nz = c.data != 0
                 b[c.row[nz]] = True
-                b[c.col[nz]] = True
         b |= np.asarray(abs(mass).sum(axis=1)).ravel() == 0
         self.b_idx, self.i_idx = np.flatnonzero(b), np.flatnonzero(~b)
         bi, ii = self.b_idx, self.i_idx

@@ -24,6 +24,7 @@ form; the scalar functions come from the operator). The polynomial form's spurio
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -193,7 +194,9 @@ class BandedOperator:
         return counts[0], t
 
     def moment_eigs(self, box: Box, count: int, t: np.ndarray, *, moments: int = 2,
-                    extra: int | None = None, seed: int = 2024) -> list[Eigen]:
+                    extra: int | None = None, seed: int = 2024,
+                    sums: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None
+                    ) -> list[Eigen]:
         """The eigenvalues inside ``box`` by contour-integral moments, each Newton-polished.
 
         Beyn's method with higher moments (Beyn 2012, section 5): with a random ``n x L`` block
@@ -214,6 +217,9 @@ class BandedOperator:
             moments: Number ``K`` of block rows (``L = ceil((count + extra) / K)`` columns).
             extra: Subspace dimension beyond ``count`` (default ``max(4, count // 2)``).
             seed: Seed of the random block ``V``.
+            sums: ``sums(z, weights, V)`` returning ``sum_p weights[p, q] T(z_p)^{-1} V`` for
+                every ``q`` (banded order), e.g. :meth:`forms.solvers.condensed.
+                CondensedOperator.moment_sums`; default: one banded LU per point.
 
         Returns:
             The distinct converged eigenpairs strictly inside ``box``.
@@ -232,16 +238,8 @@ class BandedOperator:
         cols = int(math.ceil(dim / k_mom))
         rng = np.random.default_rng(seed)
         v = rng.standard_normal((self.n, cols)) + 1j * rng.standard_normal((self.n, cols))
-        acc = np.zeros((2 * k_mom, self.n, cols), dtype=complex)
         weights = w[:, None] * s[:, None] ** np.arange(2 * k_mom)[None, :]  # (points, 2K)
-        for lo in range(0, z.size, CHUNK):
-            for j, ab in enumerate(self._bands_many(z[lo:lo + CHUNK])):
-                self.factorizations += 1
-                lu, piv, info = lapack.zgbtrf(ab, self.kl, self.ku, overwrite_ab=True)
-                if info != 0:
-                    continue  # exactly singular on the contour: the count fails there anyway
-                y, _ = lapack.zgbtrs(lu, self.kl, self.ku, v, piv)
-                acc += weights[lo + j][:, None, None] * y[None]
+        acc = (sums or self._moment_sums)(z, weights, v)
         # block Hankel matrices B0[i, j] = A_{i+j}, B1[i, j] = A_{i+j+1} (Beyn 2012, sec. 5)
         b0 = np.block([[acc[i + j] for j in range(k_mom)] for i in range(k_mom)])
         b1 = np.block([[acc[i + j + 1] for j in range(k_mom)] for i in range(k_mom)])
@@ -255,6 +253,19 @@ class BandedOperator:
         lam = c + rho * mu
         vecs = (u[:self.n] @ y)  # eigenvector approximations (permuted order)
         return self._polish(lam, vecs, bx)
+
+    def _moment_sums(self, z: np.ndarray, weights: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``sum_p weights[p, q] T(z_p)^{-1} v`` by one ``zgbtrf`` and ``zgbtrs`` per point."""
+        acc = np.zeros((weights.shape[1], self.n, v.shape[1]), dtype=complex)
+        for lo in range(0, z.size, CHUNK):
+            for j, ab in enumerate(self._bands_many(z[lo:lo + CHUNK])):
+                self.factorizations += 1
+                lu, piv, info = lapack.zgbtrf(ab, self.kl, self.ku, overwrite_ab=True)
+                if info != 0:
+                    continue  # exactly singular on the contour: the count fails there anyway
+                y, _ = lapack.zgbtrs(lu, self.kl, self.ku, v, piv)
+                acc += weights[lo + j][:, None, None] * y[None]
+        return acc
 
     def _polish(self, lam: np.ndarray, vecs: np.ndarray, bx: Box) -> list[Eigen]:
         """Newton from each approximation inside ``bx`` (widened 10 %); distinct, inside."""

@@ -4,8 +4,10 @@ docs/design.md section 8. For every requested ``k`` and a rectangle ``R`` (by de
 :class:`analytic.numerics.spectrum.Region` at ``k``), with the default ``solver="moments"``:
 
 1. FE count: the argument principle on ``log det T_h`` along the boundary of ``R``
-   (:meth:`forms.solvers.banded.BandedOperator.count_and_samples`: adaptive contour points, one
-   banded LU each) gives ``N_FE``;
+   (:meth:`forms.solvers.condensed.CondensedOperator.count_and_samples`: adaptive contour points,
+   ``det T_h = det M_II prod_j (z^2 + w_j) det S(z)`` by the Schur-complement identity on the
+   quadratic interior block, the same determinant as one banded LU per point,
+   ``count="banded"``) gives ``N_FE``;
 2. FE eigenvalues, with no exact root as input: contour-integral moments of ``T_h(z)^{-1} V`` on
    the same contour points (Beyn's method,
    :meth:`forms.solvers.banded.BandedOperator.moment_eigs`), each predictor polished by Newton
@@ -49,12 +51,23 @@ from analytic.params import Params
 from forms.models.profiles import SliderMaterial
 from forms.models.section import SectionModel, section_stack
 from forms.solvers.banded import BandedModel, BandedOperator, Eigen
+from forms.solvers.condensed import CondensedOperator
 
 #: Columns of one spectrum row, in CSV order.
 ROW_FIELDS = ("k", "label", "re_lambda", "im_lambda", "re_lambda_exact", "im_lambda_exact",
               "rel_error", "error_estimate", "residual", "status", "certificate")
 #: Ways of finding the FE eigenvalues (``--solver``): contour moments first, or exact-seeded.
 SOLVERS = ("moments", "newton")
+#: Ways of evaluating ``det T_h`` on the contour: condensed (default) or one banded LU a point.
+COUNTS = ("condensed", "banded")
+
+
+def _condensed(fe: BandedOperator) -> CondensedOperator | None:
+    """The condensed form of ``fe``, or ``None`` (banded fallback) if it has none."""
+    try:
+        return CondensedOperator(fe)
+    except NotImplementedError:
+        return None
 
 
 def default_discretisation(p: Params, region: Region, k_max: float, rtol: float = 1e-8
@@ -150,11 +163,18 @@ class CertifiedSolver:
         solver: ``"moments"`` (FE first, :meth:`forms.solvers.banded.BandedOperator.
             moment_eigs`) or ``"newton"`` (FE Newton from every exact root; needs
             ``check_exact``).
+        count: ``"condensed"`` (``log det T_h`` and the moments' solves in the condensed form
+            of :class:`forms.solvers.condensed.CondensedOperator`, the same determinant) or
+            ``"banded"`` (one banded LU per contour point, kept for comparison).
     """
 
     def __init__(self, params: Params, region: Region, degree: int, cells: int, ratio: float,
                  k_max: float, rtol: float, material: SliderMaterial | None = None, *,
-                 check_exact: bool = True, solver: str = "moments") -> None:
+                 check_exact: bool = True, solver: str = "moments",
+                 count: str = "condensed") -> None:
+        if count not in COUNTS:
+            raise ValueError(f"count = {count!r} is outside its allowed values {COUNTS}")
+        self.count = count
         if solver not in SOLVERS:
             raise ValueError(f"solver = {solver!r} is outside its allowed values {SOLVERS}")
         if solver == "newton" and not check_exact:
@@ -201,18 +221,22 @@ class CertifiedSolver:
             except ContourError as err:
                 out.note = f"exact count failed: {err}"
         fe, fine = (b.operator(k) for b in self.banded)
+        cond = _condensed(fe) if self.count == "condensed" else None
+        counter = cond.count_and_samples if cond is not None else fe.count_and_samples
+        sums = cond.moment_sums if cond is not None else None
         want = box if box is not None else (exact_box or region.box(p, k))
         try:
-            (n_fe, t), used = on_usable_box(want, k, fe.count_and_samples)
+            (n_fe, t), used = on_usable_box(want, k, counter)
             out.n_fe = n_fe
         except ContourError as err:
             out.note = "; ".join(x for x in (out.note, f"FE count failed: {err}") if x)
             used, t = want, None
         out.box = tuple(float(v) for v in used)
-        found = fe.moment_eigs(used, out.n_fe, t) if t is not None else []
+        found = fe.moment_eigs(used, out.n_fe, t, sums=sums) if t is not None else []
         if t is not None and len(found) != out.n_fe:
             # one retry with a larger subspace and another random block; merged, distinct
-            for e in fe.moment_eigs(used, out.n_fe, t, moments=4, extra=out.n_fe + 8, seed=7):
+            for e in fe.moment_eigs(used, out.n_fe, t, moments=4, extra=out.n_fe + 8, seed=7,
+                                    sums=sums):
                 if all(abs(e.value - f.value) > 1e-9 * max(1.0, abs(e.value)) for f in found):
                     found.append(e)
         rows = [self._row(k, e, fine) for e in found]

@@ -1,0 +1,170 @@
+"""The condensed form of a banded 1D operator at one ``k``: ``log det T`` at many points at once.
+
+docs/design.md section 8. For the 1D section models ``T(z) = sum_i z^i A_i`` and only the
+interface (friction) rows carry the powers other than 0 and 2; the Dirichlet rows are decoupled.
+Split the dofs into ``B`` (rows where a matrix of power not 0 or 2 is nonzero, and rows where
+``A_2`` vanishes, e.g. Dirichlet rows) and the interior ``I``. Then
+``T_II(z) = K + z^2 M`` (``K = A0_II``, ``M = A2_II`` nonsingular). One generalised
+eigendecomposition ``K phi_j = w_j M phi_j`` (``eigh`` if Hermitian-definite, else ``eig`` with
+left vectors, ``psi_j^H M phi_j = 1``) gives ``T_II(z)^{-1} = sum_j phi_j psi_j^H / (z^2 + w_j)``
+and, by the Schur complement (Weinstein-Aronszajn) identity,
+
+    det T(z) = det M * prod_j (z^2 + w_j) * det S(z),
+    S(z) = T_BB(z) - T_BI(z) T_II(z)^{-1} T_IB(z)      (a few x a few).
+
+So ``log det T = log det M + sum_j log(z^2 + w_j) + log det S`` is the *same* function whose
+winding the banded count (:meth:`forms.solvers.banded.BandedOperator.count_and_samples`) measures,
+evaluated in ``O(n)`` vectorised numpy per point instead of one banded LU; the adaptive rules of
+:func:`analytic.numerics.roots.winding_numbers` are unchanged. ``S`` has poles at
+``z = +-i sqrt(w_j)``, which cancel the zeros of the product: the sum of logarithms is smooth
+there (accuracy against the banded value: tests/test_condensed.py). The same decomposition
+solves ``T(z) X = V`` at all contour points at once (:meth:`CondensedOperator.moment_sums`) for
+the contour moments of :meth:`forms.solvers.banded.BandedOperator.moment_eigs`. Nothing here
+depends on an exact root; the eigenpairs are still polished by the banded Newton on ``T``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+
+from analytic.numerics.roots import Box, winding_numbers
+from forms.solvers.banded import BandedOperator
+
+#: Points per vectorised block (memory: points x n x columns).
+BLOCK = 256
+
+
+class CondensedOperator:
+    """``T(z)`` of a :class:`BandedOperator` condensed onto its few non-quadratic rows.
+
+    Args:
+        bop: A banded operator in polynomial form (every function a power ``z^i``).
+
+    Raises:
+        NotImplementedError: Not polynomial, or the interior block is not ``K + z^2 M`` with
+            ``M`` nonsingular.
+    """
+
+    def __init__(self, bop: BandedOperator) -> None:
+        powers = [fn.power_index for fn in bop.functions]
+        if any(q is None for q in powers) or 2 not in powers:
+            raise NotImplementedError("the condensed form needs a polynomial with a z^2 term")
+        self.bop, self.powers = bop, np.array(powers, dtype=float)
+        n, mats = bop.n, [m.tocsr() for m in bop.mats]
+        mass = mats[powers.index(2)]
+        b = np.zeros(n, dtype=bool)
+        for q, m in zip(powers, mats, strict=True):
+            if q not in (0, 2):
+                c = m.tocoo()
+                nz = c.data != 0
+                b[c.row[nz]] = True
+        b |= np.asarray(abs(mass).sum(axis=1)).ravel() == 0
+        self.b_idx, self.i_idx = np.flatnonzero(b), np.flatnonzero(~b)
+        bi, ii = self.b_idx, self.i_idx
+        for q, m in zip(powers, mats, strict=True):
+            if q not in (0, 2) and m[ii][:, ii].count_nonzero():
+                raise NotImplementedError("a matrix of power other than 0, 2 in the interior")
+        kmat = sum((m for q, m in zip(powers, mats, strict=True) if q == 0), 0 * mass)
+        k_ii = kmat[ii][:, ii].toarray()
+        m_ii = mass[ii][:, ii].toarray()
+        self.w, phi, psi_h, self.logdet_m = _decompose(k_ii, m_ii)
+        self.phi = phi
+        self.a_bb = np.stack([m[bi][:, bi].toarray() for m in mats])  # (f, b, b)
+        self.g = np.stack([m[bi][:, ii].toarray() @ phi for m in mats])  # (f, b, m)
+        self.h = np.stack([psi_h @ m[ii][:, bi].toarray() for m in mats])  # (f, m, b)
+        self.psi_h = psi_h
+        self.evaluations = 0  #: points evaluated so far (cost measure)
+
+    def _parts(self, z: np.ndarray) -> tuple[np.ndarray, ...]:
+        """``phi_i(z)``, ``1/(z^2 + w)``, ``T_BI Phi``, ``Psi^H T_IB``, ``S`` at the points."""
+        ph = z[:, None] ** self.powers[None, :]
+        d = 1.0 / (z[:, None] ** 2 + self.w[None, :])
+        nf, nb, nm = self.g.shape
+        p = (ph @ self.g.reshape(nf, -1)).reshape(-1, nb, nm)
+        q = (ph @ self.h.reshape(nf, -1)).reshape(-1, nm, nb)
+        s = (ph @ self.a_bb.reshape(nf, -1)).reshape(-1, nb, nb) - (p * d[:, None, :]) @ q
+        return ph, d, p, q, s
+
+    def log_det_many(self, z: np.ndarray) -> np.ndarray:
+        """``log det T(z)`` at every point (some branch of the argument), vectorised."""
+        flat = np.ravel(np.asarray(z, dtype=complex))
+        out = np.empty(flat.size, dtype=complex)
+        for lo in range(0, flat.size, BLOCK):
+            zz = flat[lo:lo + BLOCK]
+            _, d, _, _, s = self._parts(zz)
+            sign, logabs = np.linalg.slogdet(s)
+            out[lo:lo + BLOCK] = (self.logdet_m - np.sum(np.log(d), axis=1) + logabs
+                                  + 1j * np.angle(sign))
+            bad = (sign == 0) | ~np.isfinite(out[lo:lo + BLOCK])
+            out[lo:lo + BLOCK][bad] = -np.inf
+        self.evaluations += flat.size
+        return out.reshape(np.shape(z))
+
+    def count_and_samples(self, box: Box, n_initial: int = 32) -> tuple[int, np.ndarray]:
+        """Eigenvalues of ``T`` inside ``box`` and the contour parameters used.
+
+        The rules of :meth:`forms.solvers.banded.BandedOperator.count_and_samples` on the same
+        ``log det T``, evaluated in condensed form.
+
+        Raises:
+            ContourError: An eigenvalue on or too near the contour (move the box edge).
+        """
+        counts, t = winding_numbers(lambda z: self.log_det_many(z)[None, :], box, 1,
+                                    n_initial=n_initial, log=True, samples=True)
+        return counts[0], t
+
+    def moment_sums(self, z: np.ndarray, weights: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``sum_p weights[p, q] T(z_p)^{-1} v`` for every ``q``, shape ``(q, n, columns)``.
+
+        ``T^{-1} v`` by the block elimination ``x_B = S^{-1}(v_B - T_BI T_II^{-1} v_I)``,
+        ``x_I = T_II^{-1}(v_I - T_IB x_B)`` with ``T_II^{-1}`` diagonal in the eigenbasis; the
+        interior part is summed in that basis and mapped back once (banded order, as ``v``).
+        """
+        bi, ii = self.b_idx, self.i_idx
+        wv = self.psi_h @ v[ii]  # (m, c)
+        acc_b = np.zeros((weights.shape[1], bi.size, v.shape[1]), dtype=complex)
+        acc_i = np.zeros((weights.shape[1], ii.size, v.shape[1]), dtype=complex)
+        for lo in range(0, z.size, BLOCK):
+            _, d, p, q, s = self._parts(z[lo:lo + BLOCK])
+            r = v[bi][None] - (p * d[:, None, :]) @ wv
+            xb = np.linalg.solve(s, r)
+            xi = d[:, :, None] * (wv[None] - q @ xb)
+            wt = weights[lo:lo + BLOCK]
+            acc_b += np.tensordot(wt, xb, axes=(0, 0))
+            acc_i += np.tensordot(wt, xi, axes=(0, 0))
+        self.evaluations += z.size
+        out = np.empty((weights.shape[1], self.bop.n, v.shape[1]), dtype=complex)
+        out[:, bi] = acc_b
+        out[:, ii] = self.phi[None] @ acc_i
+        return out
+
+
+def _decompose(k: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                       complex]:
+    """``w``, ``Phi``, ``Psi^H`` (``Psi^H M Phi = I``, ``K Phi = M Phi diag(w)``), ``log det M``.
+
+    ``eigh`` when ``K`` and ``M`` are Hermitian to rounding and ``M`` positive definite (then
+    ``Psi = Phi``), otherwise ``eig`` with left vectors.
+    """
+    scale_k, scale_m = max(np.abs(k).max(), 1e-300), max(np.abs(m).max(), 1e-300)
+    herm = (np.abs(k - k.conj().T).max() <= 1e-12 * scale_k
+            and np.abs(m - m.conj().T).max() <= 1e-12 * scale_m)
+    if herm:
+        try:
+            chol = sla.cho_factor(m, lower=True)
+            w, phi = sla.eigh(k, m)
+            logdet = 2.0 * np.sum(np.log(np.diag(chol[0]).real))
+            return w.astype(complex), phi, phi.conj().T, complex(logdet)
+        except np.linalg.LinAlgError:
+            pass
+    w, vl, vr = sla.eig(k, m, left=True, right=True)
+    if not np.all(np.isfinite(w)):
+        raise NotImplementedError("the interior mass block is singular")
+    psi_h = vl.conj().T
+    scale = np.einsum("ji,jk,ki->i", vl.conj(), m, vr)
+    psi_h = psi_h / scale[:, None]
+    lu, piv = sla.lu_factor(m)
+    swaps = int(np.count_nonzero(piv != np.arange(m.shape[0])))
+    logdet = np.sum(np.log(np.diag(lu).astype(complex))) + 1j * np.pi * (swaps % 2)
+    return w, vr, psi_h, complex(logdet)

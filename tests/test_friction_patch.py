@@ -108,3 +108,29 @@ def test_critical_length_converges_under_refinement():
     coarse, fine = _lc(2), _lc(4)
     assert 1.0 < coarse < 2.0 and 1.0 < fine < 2.0
     assert abs(fine - coarse) < 1e-2  # measured 6.0e-3
+
+
+@pytest.mark.serial
+def test_readme_table_is_the_committed_run():
+    """The README's Lc and nucleation lengths are recomputed from the committed CSV and params."""
+    import os
+    import re
+
+    root = os.path.join(os.path.dirname(__file__), "..")
+    res = os.path.join(root, "workflows", "results", "friction_patch")
+    with open(os.path.join(res, "friction_patch.csv")) as fh:
+        rows = list(csv.DictReader(fh))
+    with open(os.path.join(res, "friction_patch.json")) as fh:
+        rec = json.load(fh)
+    assert all(r["closed"] == "yes" for r in rows)
+    lc = fp.critical_length([float(r["Lp"]) for r in rows], [float(r["re_lambda"]) for r in rows])
+    with open(os.path.join(root, "README.md")) as fh:
+        text = fh.read()
+    section = text[text.index("### Friction patch: the critical length"):]
+    table = dict(re.findall(r"^\| (.+?) \| ([0-9.]+) \|$", section[:section.index("Conversion")],
+                            re.M))
+    values = [float(v) for v in table.values()]
+    est = fp.nucleation_estimates(Params(gamma=rec["outside"]["gamma"], Delta=0.7,
+                                         beta=rec["outside"]["beta"]), rec["patch"]["Delta"])
+    # the table rounds to 3 decimals
+    assert values == pytest.approx([lc, est["L_b"], est["L_inf"], est["Uenishi-Rice"]], abs=6e-4)

@@ -170,7 +170,8 @@ def nucleation_estimates(params: Params, patch_delta: float) -> dict[str, float]
     ``(mu'/mu) gamma``. ``mu' = mu / (1 - nu)`` (in-plane) for two identical half-spaces;
     against a rigid substrate the slip is the one body's displacement, which doubles the
     stiffness per unit slip: ``mu' = 2 mu / (1 - nu)`` here. Formulas as quoted in the
-    README, not checked against the papers (Rubin & Ampuero 2005: ``L_b = mu' D_c / (b sigma)``, ``L_inf = (1/pi) (b/(b-a))^2 L_b``;
+    README, not checked against the papers (Rubin & Ampuero 2005:
+    ``L_b = mu' D_c / (b sigma)``, ``L_inf = (1/pi) (b/(b-a))^2 L_b``;
     Uenishi & Rice 2003: ``1.377 mu' D_c / (sigma (b - a))``); quasi-static, half-space, no
     ``Lambda``-dependent direct effect. ``nan`` unless ``patch_delta < 0``.
     """

@@ -153,12 +153,12 @@ def test_finite_block_workflow(tmp_path, ranks):
 @pytest.mark.slow  # measured ~40 s per run on a loaded machine (2026-11-24): three runs
 @pytest.mark.serial
 def test_finite_block_complete_search_is_certified_and_deterministic(tmp_path):
-    """The default complete search: every eigenvalue in the box with a closed count, conjugate
+    """``--search complete``: every eigenvalue in the box with a closed count, conjugate
     pairs; two identical runs write byte-identical CSVs; two ranks give the same table."""
     env = dict(os.environ)
     env.pop("DISPLAY", None)
-    args = ["--lengths", "2", "--cells-per-unit", "4", "--ny", "3", "--nev", "8", "--k-scan",
-            "0.5:3:6", "--box", "0.05:0.6:10", "--no-kulikovskii"]
+    args = ["--search", "complete", "--lengths", "2", "--cells-per-unit", "4", "--ny", "3",
+            "--nev", "8", "--k-scan", "0.5:3:6", "--box", "0.05:0.6:10", "--no-kulikovskii"]
     texts = []
     for name, pre in (("a", []), ("b", []), ("mpi", ["mpirun", "-n", "2"])):
         out = tmp_path / name

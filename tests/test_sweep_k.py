@@ -305,8 +305,10 @@ def test_alpha_pc_2_branch_0plus_followed_through_its_brief_instability(tmp_path
 @pytest.mark.parametrize("bc", ["velocity", "stress"])
 def test_most_unstable_is_the_maximum_of_the_exact_roots(tmp_path, bc):
     out = tmp_path / bc
+    # stress: 242 s serial on the idle machine (2026-11-24), over 300 s in the suite's two
+    # workers: the subprocess gets 900 s
     proc = run_workflow("sweep_k.py", ["--bc", bc, "--k", "0.5:6:12", *QUIET, "--out",
-                                       str(out)])
+                                       str(out)], timeout=900)
     assert proc.returncode == 0, proc.stderr[-2000:]
     summary = json.loads((out / "summary.json").read_text())
     best = summary["most_unstable"]

@@ -23,7 +23,7 @@ SPECTRUM_CSV = "finite_block_spectrum.csv"
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """``--search`` and ``--box``."""
-    p.add_argument("--search", choices=("complete", "targets"), default="complete",
+    p.add_argument("--search", choices=("complete", "targets"), default="targets",
                    help="complete: every eigenvalue in --box, counted by the argument principle"
                         " (prefixes block_region_, block_region_det_); targets: eigenvalues near"
                         " the infinite strip's branches only (prefix block_)")

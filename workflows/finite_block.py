@@ -7,7 +7,7 @@ of finite height (``--mu2 --rho2 --beta2 --H2 --bc2``: a substrate block of the 
 reference from the exact two-body roots, no Kulikovskii limit). For every ``L`` of ``--lengths`` the
 eigenvalues near the infinite strip's branches (``--branches``, cross-section model at several
 ``k`` around each one's most unstable wavenumber) are computed and the most unstable one is
-kept. That is ``--search targets``; the default ``--search complete`` instead returns every
+kept. That is ``--search targets`` (the default); ``--search complete`` instead returns every
 eigenvalue in a box (``--box``) with its certificate (:func:`forms.studies.block.block_spectrum`:
 argument-principle count of ``det T_h`` == found, conjugate symmetry, P(p+1) estimate), with no
 infinite-strip target. Written to ``--out``:

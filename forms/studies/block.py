@@ -37,6 +37,7 @@ from analytic.numerics.tracking import Branch, waveguide_lambda
 from analytic.params import Params
 from forms.mode_postprocessing import normalise
 from forms.models.strip import (
+    FrictionProfile,
     build_strip_problem,
     friction_operator_for,
     solve_modes,
@@ -315,12 +316,13 @@ class BlockSpectrum:
 
 def _region_solve(comm: MPI.Comm, params: Params, length: float, cells_per_unit: int, ny: int,
                   degree: int, lateral: str, box: Sequence[float], nev: int, count: bool,
-                  keep_mode: bool):
+                  keep_mode: bool, friction: FrictionProfile | None, prefix: str):
     nx = max(2, int(round(cells_per_unit * length)))
     strip = strip_mesh_for(comm, params, float(length), nx, ny)
-    problem = build_strip_problem(strip, params, k=None, degree=degree, lateral=lateral)
+    problem = build_strip_problem(strip, params, k=None, degree=degree, lateral=lateral,
+                                  friction=friction)
     op = friction_operator_for(problem)
-    solver = RegionSolver(comm, nev=nev, prefix="block_region_")
+    solver = RegionSolver(comm, nev=nev, prefix=prefix)
     res = None
     try:
         res = solver.solve(op.matrices, box, op.law.spurious, count=count)
@@ -339,7 +341,9 @@ def _region_solve(comm: MPI.Comm, params: Params, length: float, cells_per_unit:
 
 def block_spectrum(comm: MPI.Comm, params: Params, length: float, *, cells_per_unit: int,
                    ny: int, degree: int, lateral: str, box: Sequence[float], nev: int,
-                   estimate: bool = True, keep_mode: bool = False) -> BlockSpectrum:
+                   estimate: bool = True, keep_mode: bool = False,
+                   friction: FrictionProfile | None = None,
+                   prefix: str = "block_region_") -> BlockSpectrum:
     """Every eigenvalue of the block ``0 < x < length`` in ``box``, with its certificate.
 
     The region solve (:class:`forms.solvers.region.RegionSolver`, options prefix
@@ -362,13 +366,16 @@ def block_spectrum(comm: MPI.Comm, params: Params, length: float, *, cells_per_u
         nev: Eigenpairs per tile solve.
         estimate: Also solve at degree ``degree + 1``.
         keep_mode: Also return the fastest mode as a normalised function.
+        friction: Friction parameters along the interface (default: uniform, ``params``').
+        prefix: Options prefix of the region solve (its count's LU: ``prefix + "det_"``).
     """
+    tail = (friction, prefix)
     res, u = _region_solve(comm, params, length, cells_per_unit, ny, degree, lateral, box, nev,
-                           True, keep_mode)
+                           True, keep_mode, *tail)
     est = np.full(res.found, np.nan)
     if estimate and res.found:
         fine, _ = _region_solve(comm, params, length, cells_per_unit, ny, degree + 1, lateral,
-                                res.box, nev, False, False)
+                                res.box, nev, False, False, *tail)
         if fine.found:
             est = np.array([np.min(np.abs(fine.values - z)) / abs(z) for z in res.values])
     return BlockSpectrum(float(length), res.box, res.values, res.residuals, res.found,

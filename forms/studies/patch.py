@@ -25,15 +25,8 @@ import numpy as np
 from mpi4py import MPI
 
 from analytic.params import Params
-from forms.mode_postprocessing import normalise
-from forms.models.strip import (
-    FrictionProfile,
-    build_strip_problem,
-    friction_operator_for,
-    strip_mesh_for,
-)
-from forms.solvers.region import RegionSolver
-from forms.studies.block import BlockSpectrum
+from forms.models.strip import FrictionProfile
+from forms.studies.block import BlockSpectrum, block_spectrum
 
 
 @dataclass(frozen=True)
@@ -83,31 +76,6 @@ class _Outside(FrictionProfile):
         return np.where(np.isnan(vals), base, vals)
 
 
-def _region_solve(comm: MPI.Comm, params: Params, length: float, patch: Patch,
-                  cells_per_unit: int, ny: int, degree: int, lateral: str,
-                  box: Sequence[float], nev: int, count: bool, keep_mode: bool):
-    nx = max(2, int(round(cells_per_unit * length)))
-    strip = strip_mesh_for(comm, params, float(length), nx, ny)
-    problem = build_strip_problem(strip, params, k=None, degree=degree, lateral=lateral,
-                                  friction=patch_profile(length, patch))
-    op = friction_operator_for(problem)
-    solver = RegionSolver(comm, nev=nev, prefix="patch_region_")
-    res = None
-    try:
-        res = solver.solve(op.matrices, box, op.law.spurious, count=count)
-        u = None
-        if keep_mode and res.found:
-            u = problem.to_function(res.vectors[0])
-            normalise(u)
-        return res, u
-    finally:
-        if res is not None:
-            res.destroy()
-        solver.destroy()
-        op.destroy()
-        problem.destroy()
-
-
 def patch_spectrum(comm: MPI.Comm, params: Params, length: float, patch: Patch, *,
                    cells_per_unit: int, ny: int, degree: int, lateral: str,
                    box: Sequence[float], nev: int, estimate: bool = True,
@@ -132,15 +100,10 @@ def patch_spectrum(comm: MPI.Comm, params: Params, length: float, patch: Patch, 
         estimate: Also solve at degree ``degree + 1`` (the P+1 estimate).
         keep_mode: Also return the fastest mode as a normalised function.
     """
-    args = (comm, params, length, patch, cells_per_unit, ny)
-    res, u = _region_solve(*args, degree, lateral, box, nev, True, keep_mode)
-    est = np.full(res.found, np.nan)
-    if estimate and res.found:
-        fine, _ = _region_solve(*args, degree + 1, lateral, res.box, nev, False, False)
-        if fine.found:
-            est = np.array([np.min(np.abs(fine.values - z)) / abs(z) for z in res.values])
-    return BlockSpectrum(float(length), res.box, res.values, res.residuals, res.found,
-                         res.counted, res.conjugate_gap(), est, res.seconds, res.tiles, u)
+    return block_spectrum(comm, params, length, cells_per_unit=cells_per_unit, ny=ny,
+                          degree=degree, lateral=lateral, box=box, nev=nev, estimate=estimate,
+                          keep_mode=keep_mode, friction=patch_profile(length, patch),
+                          prefix="patch_region_")
 
 
 def critical_length(lp: Sequence[float], growth: Sequence[float]) -> float | None:

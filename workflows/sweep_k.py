@@ -49,6 +49,7 @@ import sys  # noqa: E402
 import time  # noqa: E402
 
 import _cli  # noqa: E402
+import _sweep_strip  # noqa: E402
 import numpy as np  # noqa: E402
 from _plot_dispersion import plot_dispersion  # noqa: E402
 from tqdm import tqdm  # noqa: E402
@@ -66,7 +67,7 @@ from forms.studies import sweep  # noqa: E402
 
 #: Default k grid: the paper's range (k H up to 3 at H = 0.5).
 DEFAULT_K = "0.05:6:120"
-PETSC_PREFIXES: tuple[str, ...] = ()
+PETSC_PREFIXES: tuple[str, ...] = _sweep_strip.PETSC_PREFIXES  # --model strip only
 OUTPUTS = ("spectrum.csv", "summary.json", "dispersion.png", "raw", "run.json", "run.lock")
 
 
@@ -98,14 +99,15 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--check-exact", default="yes",
                     help="yes: match the FE values to the exact roots; no: never consult them")
     m = ap.add_argument_group("slider (1D model; forms.models.profiles)")
-    m.add_argument("--model", default="section", help="section (homogeneous, default) or "
-                   "layers (--layers and/or profiles)")
+    m.add_argument("--model", default="section", help="section (homogeneous, default), "
+                   "layers (--layers and/or profiles) or strip (2D Bloch cell, below)")
     m.add_argument("--layers", default=None, metavar="FILE",
                    help="CSV y_top,mu,rho,beta, one layer per row from y = 0 up (--model layers)")
     for name in ("mu", "rho", "beta"):
         m.add_argument(f"--{name}-profile", default=None, metavar="EXPR",
                        help=f"{name}(y) as an expression of y, e.g. '1 - 0.6*exp(-y/0.05)' "
                        "(--model layers)")
+    _sweep_strip.add_arguments(ap)
     ap.add_argument("--out", default=os.path.join("out", "sweep_k"), help="output directory")
     ap.add_argument("--resume", action="store_true",
                     help="continue a sweep in --out with the same settings")
@@ -191,6 +193,8 @@ def write_outputs(out: str, params: Params, region: Region, k: np.ndarray,
 def main(comm: object = None, argv: list[str] | None = None) -> int:
     """Run the sweep on ``comm`` (every rank calls this)."""
     args, comm = _cli.start(build_parser(), argv, comm)
+    if args.model == "strip":  # the 2D Bloch cell, workflows/_sweep_strip.py
+        return _sweep_strip.run(comm, args, OUTPUTS)
     params, k, merged, region = validate(args)  # every rank, before any collective or file
     check = args.check_exact == "yes"
     # the region at each k; the largest sets the family plan and the mesh

@@ -258,14 +258,13 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
 def report(summary: dict, n_k: int, wall: float, ranks: int, out: str, quiet: bool) -> int:
     """Rank 0: the warning (flagged rows or open counts) and the most unstable line; exit code."""
     cert = summary["certificate"]
-    code = 0
-    if cert["k_not_closed"] or cert["rows_ok"] < cert["rows"]:
-        code = 1
+    code = int(bool(cert["k_not_closed"]) or cert["rows_ok"] < cert["rows"])
+    if code:
         print(f"warning: {cert['rows'] - cert['rows_ok']} of {cert['rows']} "
               f"eigenvalue(s) flagged, count not closed at {len(cert['k_not_closed'])}"
               f" of {n_k} k value(s); see status in {out}/spectrum.csv", file=sys.stderr)
-    best = summary["most_unstable"]
-    if best is not None:  # the result line, also with --quiet (it removes progress only)
+    # the result line, also with --quiet (it removes progress only)
+    if (best := summary["most_unstable"]) is not None:
         sure = "certified" if best["certificate"]["certified"] else "NOT certified"
         print(f"most unstable ({sure}): {best['branch']} at k = {best['k']:.6g}: "
               f"Lambda = {best['re_lambda']:.10g} {best['im_lambda']:+.10g}i "

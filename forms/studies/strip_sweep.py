@@ -13,6 +13,7 @@ cross-section set at ``harmonic * k``. Collective on the mesh communicator.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -243,3 +244,51 @@ def strip_rows(spectrum: StripSpectrum, distances: np.ndarray) -> list[dict]:
                      "certificate": "count" if ok else "", "harmonic": h,
                      "rel_distance_1d": float(distances[j])})
     return rows
+
+
+def spectrum_cost(comm: MPI.Comm, params: Params, k: float, box: Sequence[float], *,
+                  cells_per_wavelength: int = 12, ny: int = 6, degree: int = 2,
+                  rtol: float = 1e-8) -> dict:
+    """Cost per eigenvalue of the strip's complete spectrum at ``k`` against the 1D model's.
+
+    Side by side in one call: the strip in ``box`` (:func:`strip_spectrum`, wall time from
+    the mesh to the harmonics, slowest rank), then on rank 0 the cross-section model's
+    certified FE spectrum (:class:`forms.solvers.certified.CertifiedSolver`, no exact root,
+    P4 for ``rtol``) at ``k`` in the same box and in the cross-section sweep's default region
+    at ``k`` (:class:`analytic.numerics.spectrum.Region` with ``c_max = 4``), each timed from
+    the model's construction. Collective.
+
+    Returns:
+        ``{"strip": ..., "section_same_box": ..., "section_region": ...}`` (the 1D entries on
+        rank 0 only), each with ``unknowns``, ``eigenvalues``, ``closed``, ``seconds``,
+        ``seconds_per_eigenvalue``, the strip's also its phases (``count``, ``solve``,
+        ``harmonics``).
+    """
+    comm.Barrier()
+    t0 = MPI.Wtime()
+    s = strip_spectrum(comm, params, k, box, cells_per_wavelength=cells_per_wavelength, ny=ny,
+                       degree=degree)
+    wall = comm.allreduce(MPI.Wtime() - t0, op=MPI.MAX)
+    out = {"strip": _cost(s.unknowns, len(s.values), s.closed, wall)
+           | {"box": list(s.box), "phases": dict(s.seconds), "ranks": comm.size,
+              "mesh": {"cells_per_wavelength": cells_per_wavelength, "ny": ny,
+                       "degree": degree}}}
+    if comm.rank == 0:
+        full = Region()
+        for name, region, bx in (
+                ("section_same_box", Region(re_min=box[0], re_max=box[1], c_max=1e-6,
+                                            omega0=max(abs(box[2]), abs(box[3]))), box),
+                ("section_region", full, full.box(params, k))):
+            t0 = time.perf_counter()
+            d, c, ratio = default_discretisation(params, region, k, rtol)
+            solver = CertifiedSolver(params, region, d, c, ratio, k, rtol, check_exact=False)
+            res = solver.solve(k, box=tuple(bx))
+            out[name] = _cost(solver.unknowns, len(res.rows), bool(res.closed),
+                              time.perf_counter() - t0) | {"box": list(res.box),
+                                                           "degree": d, "cells": c}
+    return out
+
+
+def _cost(unknowns: int, n: int, closed: bool, seconds: float) -> dict:
+    return {"unknowns": int(unknowns), "eigenvalues": int(n), "closed": closed,
+            "seconds": seconds, "seconds_per_eigenvalue": seconds / n if n else None}

@@ -34,8 +34,10 @@ PETSC_PREFIXES = ss.PREFIXES
 FIELDS = (*ROW_FIELDS, *ss.EXTRA_FIELDS)
 WHY_BOX = ("the cell holds every harmonic h k with its own spectrum: the cross-section sweep's "
            "region (c_max = 4, omega0 = 2 pi/(beta H)) at k = 4 held 102 eigenvalues of the "
-           "cell (harmonics -9..9, most beyond what 12 cells per wavelength resolve) and took "
-           "309 s at 624 unknowns, the count > 80 % of it")
+           "cell (harmonics -9..9 in an exploratory run, most beyond what 12 cells per wavelength "
+           "resolve) at 13 "
+           "times the cost of the default box (528 s against 40 s, the count 93 % of it: "
+           "workflows/results/strip_cost*)")
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:

@@ -479,6 +479,9 @@ def test_run_driver_files_and_resume(tmp_path):
     assert np.array_equal(frames["t"], a["t"][::5]) and frames["v"].shape == (8, 16)
     assert len(glob.glob(os.path.join(whole, "interface_*.npz"))) == 3  # 3 + 3 + 2 frames
     assert read_checkpoint(whole)["step"] == 40 and read_checkpoint(whole)["chunk"] == 3
+    # the checkpoint is parts (workflows/_parts.py): rank 0's record, each rank's arrays
+    assert {"checkpoint.json", *(f"checkpoint_rank{r}.npz" for r in range(comm.size))} <= set(
+        os.listdir(whole))
     b, frames_b = read_outputs(cut)
     assert np.array_equal(a["step"], b["step"]) and np.array_equal(frames["t"], frames_b["t"])
     np.testing.assert_allclose(b["re_c"], a["re_c"], rtol=0, atol=1e-13 * np.abs(a["re_c"]).max())

@@ -10,12 +10,12 @@ A part is a name and a payload (a dict). Payloads of JSON values are written as 
 (``<name>.json``: NaN as ``null``, infinities as ``"inf"``, :func:`_provenance.dumps`); a
 payload holding numpy arrays as ``<name>.npz`` (every array as written, the other values as
 one JSON entry). Every part is written whole or not at all (:mod:`_writing`): a part on disk
-is a finished piece of work.
+is a finished piece of work. In a scene (:meth:`_runfolder.RunFolder.parts` starts them)::
 
-    parts = Parts(run.file("raw"), "k*")
-    done = parts.begin(comm, run.resumed)   # names present (cleared unless resumed)
-    parts.save("k00003", result.as_dict())  # the rank that did the work, when it is done
-    results = parts.load_all()              # {name: payload}
+    parts = run.parts("raw", "k{:05d}", count=len(k))  # cleared unless --resume
+    parts.todo                                          # the numbers without a part
+    parts.save(3, result.as_dict())                     # raw/k00003.json, when it is done
+    parts.load(3), parts.load_all()                     # {name: payload}, in name order
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from __future__ import annotations
 import fnmatch
 import json
 import os
+import re
 from typing import Any
 
 import numpy as np
@@ -41,48 +42,72 @@ class Parts:
 
     Args:
         folder: Where the parts live (created on the first :meth:`save`).
-        pattern: ``fnmatch`` pattern of the part names that belong here (other files in the
-            folder are not parts: :meth:`load_all` and :meth:`clear` leave them alone).
+        names: Which files are parts: an ``fnmatch`` pattern of their names (other files in the
+            folder are left alone), or for numbered parts a template such as ``"k{:05d}"``
+            (part ``i`` is ``names.format(i)``; the pattern is the template with ``*`` for the
+            field) whose parts may be named by their number.
+
+    Attributes:
+        present: After :meth:`begin`: the names present, or their payloads (``{name:
+            payload}``).
+        todo: After :meth:`begin` with ``count``: the numbers ``0 .. count - 1`` without a part.
     """
 
-    def __init__(self, folder: str, pattern: str = "*") -> None:
+    def __init__(self, folder: str, names: str = "*") -> None:
         self.folder = folder
-        self.pattern = pattern
+        self.template = names if "{" in names else None
+        self.pattern = re.sub(r"\{[^}]*\}", "*", names)
+        self.present: list[str] | dict[str, dict[str, Any]] = []
+        self.todo: list[int] = []
 
-    def begin(self, comm: Any, resumed: bool) -> list[str]:
-        """Start a run's parts (collective); the names present, rank 0's list on every rank.
+    def name(self, part: str | int) -> str:
+        """The name of a part given by its name or (numbered parts) its number."""
+        if isinstance(part, str):
+            return part
+        if self.template is None:
+            raise TypeError(f"parts {self.pattern!r} are not numbered: name them")
+        return self.template.format(part)
+
+    def begin(self, comm: Any, resumed: bool, count: int | None = None,
+              payloads: bool = False) -> Parts:
+        """Start the run's parts (collective); rank 0's view of what is there on every rank.
 
         Rank 0 creates the folder and, unless the run is ``resumed``, deletes the parts of an
-        earlier run.
+        earlier run; sets :attr:`present` (names, or with ``payloads`` :meth:`load_all`) and,
+        given ``count``, :attr:`todo`. Returns ``self``.
         """
-        names: list[str] | None = None
+        found = None
         if comm.rank == 0:
             os.makedirs(self.folder, exist_ok=True)
             if not resumed:
                 self.clear()
-            names = self.names()
-        return comm.bcast(names, root=0)
+            found = self.load_all() if payloads else self.names()
+        self.present = comm.bcast(found, root=0)
+        if count is not None:
+            self.todo = [i for i in range(count) if self.name(i) not in self.present]
+        return self
 
-    def path(self, name: str, arrays: bool = False) -> str:
-        """File of the part ``name`` (``.npz`` if it holds arrays, else ``.json``)."""
-        return os.path.join(self.folder, name + (".npz" if arrays else ".json"))
+    def path(self, part: str | int, arrays: bool = False) -> str:
+        """File of a part (``.npz`` if it holds arrays, else ``.json``)."""
+        return os.path.join(self.folder, self.name(part) + (".npz" if arrays else ".json"))
 
-    def save(self, name: str, payload: dict[str, Any]) -> None:
-        """Write the part ``name`` atomically (replacing an older one of the same name)."""
+    def save(self, part: str | int, payload: dict[str, Any]) -> dict[str, Any]:
+        """Write a part atomically (replacing an older one of that name); returns ``payload``."""
         os.makedirs(self.folder, exist_ok=True)
         arrays = {k: v for k, v in payload.items() if isinstance(v, np.ndarray)}
         if not arrays:
-            with atomic_open(self.path(name)) as fh:
+            with atomic_open(self.path(part)) as fh:
                 fh.write(dumps(payload, indent=1) + "\n")
-            return
+            return payload
         rest = {k: v for k, v in payload.items() if k not in arrays}
-        with atomic_open(self.path(name, arrays=True), "wb") as fh:
+        with atomic_open(self.path(part, arrays=True), "wb") as fh:
             np.savez(fh, **arrays, **{_JSON_KEY: np.array(dumps(rest))})
+        return payload
 
-    def load(self, name: str) -> dict[str, Any] | None:
-        """The payload of the part ``name`` (``None`` if there is none)."""
+    def load(self, part: str | int) -> dict[str, Any] | None:
+        """The payload of a part (``None`` if there is none)."""
         for arrays in (False, True):
-            path = self.path(name, arrays)
+            path = self.path(part, arrays)
             if os.path.exists(path):
                 return _read(path)
         return None

@@ -208,7 +208,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         out, t_start = run.path, time.perf_counter()
         if merged and not args.quiet:
             _cli.say(f"note: {merged} duplicate k value(s) merged", err=True)
-        todo = sweep.pending_k(comm, out, len(k), run.resumed)
+        todo = (parts := run.parts("raw", "k{:05d}", count=len(k))).todo  # --resume: k left
         t_fam, fams = time.perf_counter(), []
         if check:
             def fam_share(n: int) -> object:  # progress from the first second
@@ -225,7 +225,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         if comm.rank == 0 and not args.quiet and mine:
             bar = tqdm(total=len(mine), desc=f"k values (rank 0 of {comm.size})", unit=" k values",
                        file=sys.stderr)
-        share = sweep.solve_k_values(params, big, disc, args.rtol, k, mine, fams, out,
+        share = sweep.solve_k_values(params, big, disc, args.rtol, k, mine, fams, parts.save,
                                      bar.update if bar is not None else None, args.material,
                                      c_at_k, check_exact=check, solver=args.solver)
         if bar is not None:
@@ -240,8 +240,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                                   check, {"ranks": comm.size, "per_rank": times}, run.resumed,
                                   len(todo)) | {"versions": _cli.versions(),
                                                 "command": _cli.command()}
-            summary = write_outputs(out, params, region, k, sweep.load_results(out, len(k)),
-                                    fams, meta, not args.no_plot, c_at_k)
+            summary = write_outputs(out, params, region, k, [sweep.k_result_from_json(
+                parts.load(i)) for i in range(len(k))], fams, meta, not args.no_plot, c_at_k)
             wall = time.perf_counter() - t_start
             summary["timing_s"] = {"wall": wall, "post_processing_rank0": time.perf_counter()
                                    - t2}

@@ -2,9 +2,8 @@
 
 docs/design.md section 8. The steps of a sweep, each a call of the scene:
 
-1. :func:`pending_k`: the per-``k`` result files ``DIR/raw/k#####.json`` (one per requested
-   ``k``, written as soon as it is finished) tell which ``k`` are still to compute, so that a
-   resumed sweep continues where it stopped;
+1. the scene's saved results (one per requested ``k``, kept as soon as it is finished) tell
+   which ``k`` are still to compute, so that a resumed sweep continues where it stopped;
 1b. :func:`region_at_k` (adaptive region, ``c_max = None``): at each ``k`` the phase-velocity
    bound that provably holds the fastest mode (:func:`analytic.numerics.spectrum.fastest_mode`,
    exact roots); the largest of them (:func:`largest_region`) sets the family plan and the mesh;
@@ -13,9 +12,9 @@ docs/design.md section 8. The steps of a sweep, each a call of the scene:
    exact continuation; the families are shared over the ranks and gathered on all of them;
 3. :func:`k_costs` and :func:`solve_k_values`: each rank solves its share of the pending ``k``
    with one :class:`forms.solvers.certified.CertifiedSolver` (its models live on ``COMM_SELF``;
-   FE first by default) and writes each :class:`forms.solvers.certified.KResult` to its raw
-   file;
-4. :func:`load_results` and :func:`summarise` (rank 0): the rows of every ``k`` and the summary:
+   FE first by default) and hands each :class:`forms.solvers.certified.KResult` to the scene
+   to keep (:func:`k_result_from_json` reads one back);
+4. :func:`summarise` (rank 0): the rows of every ``k`` and the summary:
    certificate (counts closed, rows ok or flagged), accuracy, families, the most unstable
    eigenvalue with its certificate, per-``k`` counts and costs.
 
@@ -25,17 +24,13 @@ Sharing work over the ranks is left to the caller: the functions take this rank'
 
 from __future__ import annotations
 
-import glob
-import json
 import math
-import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from analytic.cli import dumps
 from analytic.numerics.branches import BranchResult
 from analytic.numerics.roots import ContourError
 from analytic.numerics.spectrum import (
@@ -79,19 +74,6 @@ FASTEST_STATEMENT = (
 MAX_FLAGGED_LISTED = 200
 
 
-def raw_file(folder: str, i: int) -> str:
-    """Path of the result file of the ``i``-th requested ``k`` in the run folder ``folder``."""
-    return os.path.join(folder, "raw", f"k{i:05d}.json")
-
-
-def write_json(path: str, data: dict) -> None:
-    """Write ``data`` to ``path`` atomically (a temporary file beside it, then a rename)."""
-    tmp = os.path.join(os.path.dirname(path), "." + os.path.basename(path) + ".tmp")
-    with open(tmp, "w") as fh:  # strict JSON: NaN -> null, +-inf -> "inf"/"-inf" (read_k_result)
-        fh.write(dumps(data, indent=1) + "\n")
-    os.replace(tmp, path)
-
-
 def _float_back(v: object) -> object:
     """Inverse of the strict encoding of one number: ``None`` -> NaN, ``"inf"`` -> inf."""
     if v is None:
@@ -101,35 +83,12 @@ def _float_back(v: object) -> object:
     return v
 
 
-def read_k_result(path: str) -> KResult:
-    """A result file written by :func:`write_json` (NaN and infinities restored)."""
-    with open(path) as fh:
-        d = json.load(fh)
+def k_result_from_json(d: dict) -> KResult:
+    """A :class:`KResult` from its ``as_dict()`` read back from strict JSON (NaN, inf restored)."""
+    d = dict(d)
     d["rows"] = [{key: _float_back(v) for key, v in row.items()} for row in d["rows"]]
     d["box"] = [_float_back(v) for v in d["box"]]
     return KResult.from_dict(d)
-
-
-def pending_k(comm: object, folder: str, count: int, resumed: bool) -> list[int]:
-    """Indices of the requested ``k`` (``0 .. count - 1``) that have no result file yet.
-
-    Rank 0 creates ``folder/raw`` and, unless the run is ``resumed``, deletes the result files
-    of an earlier run there; the list is rank 0's, the same on every rank (collective).
-
-    Args:
-        comm: The communicator of the sweep.
-        folder: The run folder.
-        count: Number of requested ``k``.
-        resumed: Keep the existing result files (continue a sweep).
-    """
-    if comm.rank == 0:
-        os.makedirs(os.path.join(folder, "raw"), exist_ok=True)
-        if not resumed:
-            for name in glob.glob(os.path.join(folder, "raw", "k*.json")):
-                os.remove(name)
-    comm.Barrier()
-    todo = [i for i in range(count) if not os.path.exists(raw_file(folder, i))]
-    return comm.bcast(todo)
 
 
 def region_at_k(params: Params, region: Region, k: float, exact: bool = True) -> float:
@@ -266,16 +225,17 @@ class ShareRun:
 
 def solve_k_values(params: Params, region: Region, discretisation: tuple[int, int, float],
                    rtol: float, k: np.ndarray, mine: Sequence[int], fams: list[BranchResult],
-                   folder: str, progress: Callable[[], object] | None = None,
+                   save: Callable[[int, dict], object],
+                   progress: Callable[[], object] | None = None,
                    material: SliderMaterial | None = None,
                    c_max_at_k: Sequence[float] | None = None, *,
                    check_exact: bool = True, solver: str = "moments") -> ShareRun:
-    """The certified spectrum at ``k[i]`` for each ``i`` of ``mine``, each written to its file.
+    """The certified spectrum at ``k[i]`` for each ``i`` of ``mine``, each handed to ``save``.
 
     One :class:`forms.solvers.certified.CertifiedSolver` (on ``COMM_SELF``, for ``k`` up to
-    ``k[-1]``) solves every ``k`` of the share; each :class:`forms.solvers.certified.KResult` goes
-    to
-    :func:`raw_file` as soon as it is finished. Not collective.
+    ``k[-1]``) solves every ``k`` of the share; each :class:`forms.solvers.certified.KResult`
+    goes to ``save(i, result.as_dict())`` as soon as it is finished (the scene keeps it: a
+    resumed sweep skips it). Not collective.
 
     Args:
         params: Parameters.
@@ -285,7 +245,7 @@ def solve_k_values(params: Params, region: Region, discretisation: tuple[int, in
         k: Every requested wavenumber, sorted.
         mine: Indices into ``k`` to solve here.
         fams: The followed families (:func:`follow_families`).
-        folder: The run folder (``folder/raw`` exists).
+        save: Called with ``(i, result.as_dict())`` after every finished ``k``.
         progress: Called after every finished ``k`` (e.g. a progress bar's update).
         material: The slider's layers/profiles (``None``: homogeneous), see
             :func:`forms.models.section.section_stack`.
@@ -301,21 +261,13 @@ def solve_k_values(params: Params, region: Region, discretisation: tuple[int, in
     try:
         for i in mine:
             reg = region.fixed(c_max_at_k[i]) if c_max_at_k is not None else region
-            write_json(raw_file(folder, i), cs.solve(float(k[i]), fams, reg).as_dict())
+            save(i, cs.solve(float(k[i]), fams, reg).as_dict())
             if progress is not None:
                 progress()
         unknowns, cells2 = cs.unknowns, cs.cells2
     finally:
         cs.destroy()
     return ShareRun(time.perf_counter() - t0, len(mine), unknowns, cells2)
-
-
-def load_results(folder: str, count: int) -> list[KResult]:
-    """The results of the ``count`` requested ``k``, read back from their files (in order)."""
-    results = []
-    for i in range(count):
-        results.append(read_k_result(raw_file(folder, i)))
-    return results
 
 
 def describe_discretisation(params: Params, discretisation: tuple[int, int, float],

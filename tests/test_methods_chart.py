@@ -11,18 +11,41 @@ import pytest
 from _workflows import run_workflow
 
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from analytic.params import Params
 from forms.studies import methods as ms
 
 
 def test_every_method_found_set_against_the_count():
-    rows = ms.methods_point(Params(), 1.0, 2.0)
-    assert [r["method"] for r in rows] == list(ms.METHODS)
+    rows = ms.methods_point(Params(), 1.0, 2.0, methods=("tiling", "dense", "moments"))
+    assert [r["method"] for r in rows] == ["tiling", "dense", "moments"]
     for r in rows:
         assert r["count"] >= 1 and r["truth"] == r["count"], r
         assert not r["failed"], r
         assert r["found"] == r["count"] and r["missed"] == 0 and r["spurious"] == 0, r
+
+
+def test_ciss_nleigs_newton_find_the_counted_set():
+    rows = ms.methods_point(Params(), 2.0, 2.0, methods=("ciss", "nleigs", "newton"))
+    assert [r["method"] for r in rows] == ["ciss", "nleigs", "newton"]
+    for r in rows:
+        assert r["count"] == 3 and r["truth"] == r["count"], r  # banded count at this point
+        assert r["found"] == r["count"] and r["missed"] == 0 and r["spurious"] == 0, r
+    assert not any(r["failed"] for r in rows if r["method"] != "ciss"), rows
+    assert ms.ciss_pieces((-0.01, 2.0, -33.1, 33.1))[-1][3] == 33.1  # 5 pieces cover the box
+    assert len(ms.ciss_pieces((-0.01, 2.0, -33.1, 33.1))) == 5
+
+
+def test_a_slepc_run_that_does_not_converge_is_a_failed_point():
+    opts = PETSc.Options()
+    opts.setValue("methods_nleigs_nep_max_it", 1)  # the prefix reaches the NEP: it stops early
+    try:
+        row = ms.methods_point(Params(), 2.0, 2.0, methods=("nleigs",))[0]
+    finally:
+        opts.delValue("methods_nleigs_nep_max_it")
+    assert row["failed"] == "SLEPc DIVERGED_ITS", row
+    assert row["missed"] == row["count"] - row["found"] and row["spurious"] == 0, row
 
 
 def test_a_failing_method_is_reported_missing(monkeypatch):

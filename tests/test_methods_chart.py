@@ -48,6 +48,20 @@ def test_a_slepc_run_that_does_not_converge_is_a_failed_point():
     assert row["missed"] == row["count"] - row["found"] and row["spurious"] == 0, row
 
 
+def test_ciss_on_an_rg_interval_raises_and_is_a_failed_point():
+    # README: SLEPc 3.18's PEP CISS rejects an RG interval (PETSc error 56)
+    opts = PETSc.Options()
+    opts.setValue("methods_ciss_rg_type", "interval")
+    opts.setValue("methods_ciss_rg_interval_endpoints", "-0.01,2,-6,6")
+    try:
+        row = ms.methods_point(Params(), 2.0, 2.0, methods=("ciss",))[0]
+    finally:
+        opts.delValue("methods_ciss_rg_type")
+        opts.delValue("methods_ciss_rg_interval_endpoints")
+    assert row["failed"].startswith("raised Error") and "56" in row["failed"], row
+    assert row["found"] == 0 and row["missed"] == row["count"] == 3, row
+
+
 def test_a_failing_method_is_reported_missing(monkeypatch):
     monkeypatch.setattr(ms, "DENSE_MAX", 10)  # the pencil is larger: dense fails
     rows = {r["method"]: r for r in ms.methods_point(Params(), 1.0, 2.0, methods=("dense",
@@ -130,3 +144,12 @@ def test_committed_chart_matches_readme_table():
         ratios = [sec[(*pt, m)] / sec[(*pt, "moments")] for pt in points]
         digits = 0 if hi >= 10 else 1
         assert (round(min(ratios), 2 if lo < 1 else 1), round(max(ratios), digits)) == (lo, hi), m
+
+
+@pytest.mark.serial
+def test_help_lists_every_prefix():
+    proc = run_workflow("methods_chart.py", ["--help"], 1)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    text = " ".join(proc.stdout.split())
+    for p in ("methods_tiling_", "methods_ciss_", "methods_nleigs_"):
+        assert f"'{p}'" in text

@@ -62,6 +62,14 @@ def test_ciss_on_an_rg_interval_raises_and_is_a_failed_point():
     assert row["found"] == 0 and row["missed"] == row["count"] == 3, row
 
 
+@pytest.mark.slow
+def test_one_ciss_ellipse_over_a_tall_region_finds_nothing(monkeypatch):
+    # README (methods chart): why the region is cut into pieces for CISS
+    monkeypatch.setattr(ms, "CISS_ASPECT", 1e9)
+    row = ms.methods_point(Params(), 12.0, 8.0, methods=("ciss",))[0]
+    assert row["count"] == 23 and row["found"] == 0, row
+
+
 def test_a_failing_method_is_reported_missing(monkeypatch):
     monkeypatch.setattr(ms, "DENSE_MAX", 10)  # the pencil is larger: dense fails
     rows = {r["method"]: r for r in ms.methods_point(Params(), 1.0, 2.0, methods=("dense",

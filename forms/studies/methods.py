@@ -64,8 +64,8 @@ CISS_POINTS = 128
 #: ``CISS_POINTS / 4`` (with 32 moments: 0 of 3 found and 4 spurious, same point and day).
 CISS_MOMENTS = 8
 #: Largest height / width of one CISS ellipse's box (:func:`ciss_pieces`). One ellipse over the
-#: whole box (height / width 216 at k = 12, c_max = 8) found 0 of 23, also with 256 or 512
-#: points (2026-11-24).
+#: whole box (height / width 216 at k = 12, c_max = 8) found 0 of 23 (test_methods_chart.py);
+#: with 256 or 512 points 8 and 0 (tried once, 2026-11-24).
 CISS_ASPECT = 8.0
 #: (The ellipses scaled by 1.25 about their centres, to keep the corners off the contour, found
 #: fewer at k = 12, c_max = 8: 15 of 23 against 20, 2026-11-24; not used.)

@@ -140,7 +140,8 @@ def test_distributed_solve_equals_the_serial_solve_and_resumes(tmp_path):
     assert [f.label for f in fams] == [f.label for f in families(p, region, k)]
     mine = todo[comm.rank::comm.size]
     calls = []
-    share = sweep.solve_k_values(p, region, disc, 1e-8, k, mine, fams, parts.save,
+    rungs = sweep.RungSolvers(p, region, float(k[-1]), 1e-8, (0, 0, 0.0))
+    share = sweep.solve_k_values(p, region, rungs, k, mine, fams, parts.save,
                                  lambda: calls.append(1))
     assert share.k_values == len(mine) == len(calls) and share.unknowns > 0
     comm.Barrier()

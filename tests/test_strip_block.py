@@ -299,3 +299,38 @@ def test_block_spectrum_count_closes_and_is_symmetric():
     assert np.all(np.isfinite(spec.estimates)) and np.max(spec.estimates) < 0.1
     assert spec.mode().eigenvalue == spec.values[0]
     assert len(spec.rows()) == spec.found and spec.record()["closed"]
+
+
+# ------------------------------------------------------------- the complete search's box
+def _envelope(top):
+    """The committed certified envelope of the infinite strip (workflows/results)."""
+    base = os.path.join(ROOT, "workflows", "results", f"envelope_{top}")
+    with open(os.path.join(base, "envelope.csv")) as f:
+        rows = list(csv.DictReader(f))
+    with open(os.path.join(base, "summary.json")) as f:
+        summary = json.load(f)
+    return rows, summary
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("top,lam_ref", [("velocity", 0.32745254693645587 - 7.149043891729438j),
+                                         ("stress", 0.232937817624 + 5.59333035844j)])
+def test_auto_box_holds_every_resolvable_strip_mode(top, lam_ref):
+    """The auto box of the table's mesh (P2, 8 cells per unit): its ceiling is above the
+    infinite strip's fastest growth over every mode and every k of the committed envelope
+    (k up to 100, the grid's refined local peaks included), its frequency bound above the
+    frequency of the strip's fastest mode at every envelope k the mesh resolves.
+    ``lam_ref``: the reference (branch 0-/0+ maximum) of the committed finite_block.json."""
+    params = Params(bc=top)
+    re_min, re_max, im_min, im_max = block.auto_box(params, lam_ref, 8, 2)
+    rows, summary = _envelope(top)
+    peak = summary["global_max_on_grid"]
+    fastest = max([peak["re_lambda"]] + [p["re_lambda"] for p in peak["local_peaks"]]
+                  + [float(r["re_lambda_max"]) for r in rows])
+    assert re_max > fastest  # 0.655 > 0.3333 (velocity), 0.466 > 0.3539 (stress)
+    assert re_min < lam_ref.real < re_max and im_min == -im_max
+    k_res = block.resolvable_k(8, 2)
+    assert k_res == pytest.approx(4 * np.pi)
+    resolved = [r for r in rows if float(r["k"]) <= k_res]
+    assert len(resolved) > 30  # the envelope's k grid reaches past k_res
+    assert max(abs(float(r["im_lambda"])) for r in resolved) < im_max

@@ -363,6 +363,7 @@ def test_committed_branch_search_answers_the_open_point(top):
         top, 8, 8, 2)
     per = {b[0]: b[2] for b in meta["per_branch"]}
     assert len(per) == 9
+    assert len(meta["targets"]) == {"velocity": 40, "stress": 47}[top]  # README's table
     ref = per["0-" if top == "velocity" else "0+"]
     higher = {b: g for b, g in per.items() if b not in ("0-", "0+")}
     lam = complex(float(rows[16.0]["re_lambda"]), float(rows[16.0]["im_lambda"]))
@@ -381,5 +382,9 @@ def test_committed_branch_search_answers_the_open_point(top):
         # README: 2-, 4-, 6- outgrow 0+ on the strip (k <= 12.5) ...
         for b, g in (("2-", 0.29342), ("4-", 0.34250), ("6-", 0.35285)):
             assert higher[b] == pytest.approx(g, abs=1e-5) and higher[b] > ref
+        # the n+ branches and 0-: 0.165 (1+) down to 0.113 (7+), 0.1329 (0-)
+        slow = [g for b, g in per.items() if b.endswith("+") and b != "0+"] + [per["0-"]]
+        assert max(slow) == pytest.approx(0.16512, abs=1e-5)
+        assert min(slow) == pytest.approx(0.11285, abs=1e-5)
         # ... yet the block's fastest among all 248 candidates is the table's 0+ mode
         assert abs(lam - lam_table) < 1e-10 * abs(lam)

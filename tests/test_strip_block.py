@@ -327,13 +327,13 @@ def test_auto_box_holds_every_resolvable_strip_mode(top, lam_ref):
     peak = summary["global_max_on_grid"]
     fastest = max([peak["re_lambda"]] + [p["re_lambda"] for p in peak["local_peaks"]]
                   + [float(r["re_lambda_max"]) for r in rows])
-    assert re_max > fastest  # 0.655 > 0.3333 (velocity), 0.466 > 0.3539 (stress)
+    assert re_max > fastest  # 0.655 > 0.3336 (velocity), 0.466 > 0.3539 (stress)
     assert re_min < lam_ref.real < re_max and im_min == -im_max
     k_res = block.resolvable_k(8, 2)
     assert k_res == pytest.approx(4 * np.pi)
     resolved = [r for r in rows if float(r["k"]) <= k_res]
     assert len(resolved) > 30  # the envelope's k grid reaches past k_res
-    assert max(abs(float(r["im_lambda"])) for r in resolved) < im_max
+    assert max(abs(float(r["im_lambda"])) for r in resolved) < im_max  # 46.4, 85.3 < 125.7
 
 
 # ------------------------------------------- the open point: higher thickness modes (L = 16)

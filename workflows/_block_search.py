@@ -13,11 +13,13 @@ import csv
 import os
 
 import _cli
+import numpy as np
 
 from forms.studies import block
 
-#: Per-length spectrum file of ``--search complete``.
+#: Per-length spectrum file of ``--search complete`` and its picture.
 SPECTRUM_CSV = "finite_block_spectrum.csv"
+SPECTRUM_PNG = "finite_block_spectrum.png"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -29,7 +31,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--box", default="auto",
                    help="RE_MIN:RE_MAX:IM_MAX of the complete search (Im in [-IM_MAX, IM_MAX]);"
                         " auto: Re from 0.5 to 2 times the strip's reference growth, |Im| up"
-                        " to 1.5 times its frequency (not a proven bound)")
+                        " to the provable region's frequency at the mesh's resolvable k"
+                        " (forms.studies.block.auto_box)")
 
 
 def parse_box(text: str) -> tuple[float, float, float] | None:
@@ -46,11 +49,11 @@ def parse_box(text: str) -> tuple[float, float, float] | None:
     return re_min, re_max, im_max
 
 
-def box_for(box: tuple[float, float, float] | None, lam_inf: complex) -> tuple[float, ...]:
-    """The searched box ``(re_min, re_max, im_min, im_max)``."""
+def box_for(box: tuple[float, float, float] | None, lam_inf: complex, params,
+            args: argparse.Namespace) -> tuple[float, ...]:
+    """The searched box ``(re_min, re_max, im_min, im_max)`` (``auto``: :func:`block.auto_box`)."""
     if box is None:
-        g, w = abs(lam_inf.real), abs(lam_inf.imag)
-        box = (0.5 * g, 2.0 * g, 1.5 * max(w, 1.0))
+        return block.auto_box(params, lam_inf, args.cells_per_unit, args.degree)
     return box[0], box[1], -box[2], box[2]
 
 
@@ -77,7 +80,8 @@ def solve_length(comm, args: argparse.Namespace, params, L: float, ref, keep_mod
         return mode, mode.eigenvalue is not None
     spec = block.block_spectrum(
         comm, params, L, cells_per_unit=args.cells_per_unit, ny=args.ny, degree=args.degree,
-        lateral=args.lateral, box=box_for(parse_box(args.box), ref.lam_inf), nev=args.nev,
+        lateral=args.lateral, box=box_for(parse_box(args.box), ref.lam_inf, params, args),
+        nev=args.nev,
         estimate=True, keep_mode=keep_mode)
     if comm.rank == 0:
         with open(os.path.join(args.out, SPECTRUM_CSV), "a", newline="") as f:
@@ -85,3 +89,55 @@ def solve_length(comm, args: argparse.Namespace, params, L: float, ref, keep_mod
                                      for r in spec.rows()])
         certificates[f"{L:g}"] = spec.record()
     return spec.mode(), spec.closed
+
+
+def plot_spectrum(out: str, certificates: dict, lam_ref: complex, title: str, meta: dict) -> None:
+    """Every eigenvalue of the complete search per length, with the boxes (rank 0).
+
+    Left: ``Im`` against ``Re`` of every eigenvalue in the box, one colour per length, the
+    boxes' outlines and the strip's reference growth; right: the fastest ``Re Lambda`` per
+    length with ``found / counted``.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = os.path.join(out, SPECTRUM_CSV)
+    if not (certificates and os.path.exists(path)):
+        return
+    with open(path) as f:
+        rows = list(csv.DictReader(f))
+    lengths = sorted({float(r["L"]) for r in rows} | {float(v) for v in certificates})
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11.5, 4.6), width_ratios=(1.6, 1))
+    colours = plt.cm.viridis(np.linspace(0.0, 0.85, max(len(lengths), 1)))
+    for L, col in zip(lengths, colours, strict=True):
+        z = np.array([complex(float(r["re_lambda"]), float(r["im_lambda"])) for r in rows
+                      if float(r["L"]) == L])
+        cert = certificates.get(f"{L:g}")
+        if cert is not None:
+            a, b, c, d = cert["box"]
+            ax.plot([a, b, b, a, a], [c, c, d, d, c], color=col, lw=0.8, ls="--")
+        lab = f"L = {L:g}" + (f": {cert['found']} found / {cert['counted']} counted"
+                              if cert is not None else "")
+        ax.plot(z.real, z.imag, "o", ms=3, color=col, label=lab)
+    ax.axvline(lam_ref.real, color="k", lw=0.8, ls=":",
+               label=f"infinite strip, reference branch: {lam_ref.real:.4f}")
+    ax.set_xlabel("Re $\\Lambda$")
+    ax.set_ylabel("Im $\\Lambda$")
+    ax.legend(fontsize=7, loc="upper right")
+    ax.set_title(title, fontsize=9)
+    done = [(float(v["L"]), v["fastest"]) for v in certificates.values() if v.get("fastest")]
+    done.sort()
+    if done:
+        bx.plot([d[0] for d in done], [d[1][0] for d in done], "o-",
+                label="fastest eigenvalue in the box")
+    bx.axhline(lam_ref.real, color="k", lw=0.8, ls=":", label="infinite strip, reference")
+    bx.set_xscale("log")
+    bx.set_xlabel("block length $L$")
+    bx.set_ylabel("Re $\\Lambda$ of the fastest")
+    bx.legend(fontsize=7)
+    fig.tight_layout()
+    _cli.save_figure(fig, os.path.join(out, SPECTRUM_PNG), dpi=130,
+                     metadata=_cli.png_metadata(meta, title))
+    plt.close(fig)

@@ -8,9 +8,9 @@ reference from the exact two-body roots, no Kulikovskii limit). For every ``L`` 
 eigenvalues near the infinite strip's branches (``--branches``, cross-section model at several
 ``k`` around each one's most unstable wavenumber) are computed and the most unstable one is
 kept. That is ``--search targets`` (the default); ``--search complete`` instead returns every
-eigenvalue in a box (``--box``) with its certificate (:func:`forms.studies.block.block_spectrum`:
-argument-principle count of ``det T_h`` == found, conjugate symmetry, P(p+1) estimate), with no
-infinite-strip target. Written to ``--out``:
+eigenvalue in a box (``--box``, default :func:`forms.studies.block.auto_box`) with its certificate
+(:func:`forms.studies.block.block_spectrum`: argument-principle count of ``det T_h`` == found,
+conjugate symmetry, P(p+1) estimate), with no infinite-strip target. Written to ``--out``:
 
 - ``finite_block.csv``: ``L, re_lambda, im_lambda, residual, candidates`` plus the infinite-strip
   reference ``re_lambda_inf, im_lambda_inf, k_inf`` (by increasing L, rewritten as each L
@@ -18,7 +18,7 @@ infinite-strip target. Written to ``--out``:
   skips the lengths there);
 - ``finite_block_spectrum.csv`` (complete search): every eigenvalue in the box per length, with
   ``found, counted, closed``; the per-length certificate is in ``finite_block.json``
-  (``certificates``);
+  (``certificates``); ``finite_block_spectrum.png``: those eigenvalues and the boxes;
 - ``finite_block.png``: ``Re Lambda`` of the most unstable block mode against ``L`` with the
   infinite-strip value, and ``|Lambda_block - Lambda_inf|`` on log axes;
 - ``block_mode.png``: that mode for the largest ``L``: stresses and slip along the interface;
@@ -57,8 +57,8 @@ from forms.studies.strip_mode import interface_of
 #: (MUMPS log det), cross-section model, spatial roots.
 PETSC_PREFIXES = ("block_", "block_region_", "block_region_det_", "xs_", "kroots_")
 #: Files this workflow writes.
-OUTPUTS = ("finite_block.csv", "finite_block_spectrum.csv", "finite_block.png", "block_mode.png",
-           "finite_block.json", "raw")
+OUTPUTS = ("finite_block.csv", "finite_block_spectrum.csv", "finite_block_spectrum.png",
+           "finite_block.png", "block_mode.png", "finite_block.json", "raw")
 COLUMNS = list(block.ROW_COLUMNS)
 
 
@@ -264,6 +264,7 @@ def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, b
             meta["extrapolated_growth"], meta["extrapolation_order"] = g_inf, order_p
             plot_convergence(L_all, lam_all, g_inf, order_p, ref.lam_inf, ref.k_inf,
                              os.path.join(args.out, "finite_block.png"), title, meta, kul)
+        _block_search.plot_spectrum(args.out, certificates, ref.lam_inf, title, meta)
         if interface is not None:
             _plots.plot_interface(
                 interface, os.path.join(args.out, "block_mode.png"),

@@ -8,6 +8,8 @@ Used by ``workflows/finite_block.py``:
 - :func:`most_unstable_block_mode`: the block of one length solved near every target, the
   distinct eigenvalues kept, the most unstable one returned (:class:`BlockMode`, with the CSV
   row of :data:`ROW_COLUMNS`);
+- :func:`auto_box`: the complete search's default box (growth floor and ceiling from the
+  strip's reference growth, frequency of the provable region at the mesh's resolvable ``k``);
 - :func:`block_spectrum`: the complete search: every eigenvalue of the block in a box
   (:class:`forms.solvers.region.RegionSolver`) with its certificate (found == counted by the
   argument principle, conjugate symmetry, the estimate against degree + 1), rows of
@@ -33,6 +35,7 @@ import dolfinx.fem
 from mpi4py import MPI
 
 from analytic.numerics import branches as exact_branches
+from analytic.numerics.spectrum import Region
 from analytic.numerics.tracking import Branch, waveguide_lambda
 from analytic.params import Params
 from forms.mode_postprocessing import normalise
@@ -50,6 +53,13 @@ from forms.solvers.spatial_stability import kulikovskii_limit
 #: Columns of :meth:`BlockMode.row` (the CSV of ``finite_block.py``).
 ROW_COLUMNS = ("L", "re_lambda", "im_lambda", "residual", "candidates", "re_lambda_inf",
                "im_lambda_inf", "k_inf")
+
+
+#: Nodes per wavelength below which the block's mesh is taken not to resolve a wavenumber
+#: (:func:`resolvable_k`): 8 nodes, i.e. 4 cells of degree 2.
+NODES_PER_WAVELENGTH = 8
+#: Growth floor and ceiling of :func:`auto_box`, in units of the strip's reference growth.
+AUTO_GROWTH = (0.5, 2.0)
 
 
 #: Columns of :meth:`BlockSpectrum.rows` (``finite_block_spectrum.csv``: every eigenvalue in the
@@ -203,6 +213,34 @@ def _exact_reference(comm: MPI.Comm, params: Params, branches: Sequence[tuple[in
         label, k_inf, lam_inf = max(per_branch, key=lambda t: np.nan_to_num(t[2].real, nan=-1e300))
         out = StripReference(per_branch, label, k_inf, lam_inf, _distinct(targets, 1e-6))
     return comm.bcast(out, root=0)
+
+
+def resolvable_k(cells_per_unit: int, degree: int) -> float:
+    """Largest wavenumber along ``x`` the block's mesh resolves (a stated rule, not a bound).
+
+    :data:`NODES_PER_WAVELENGTH` nodes per wavelength, the nodes of degree ``degree`` spaced
+    ``1 / (cells_per_unit degree)``: ``k = 2 pi cells_per_unit degree / NODES_PER_WAVELENGTH``.
+    """
+    return 2.0 * np.pi * cells_per_unit * degree / NODES_PER_WAVELENGTH
+
+
+def auto_box(params: Params, lam_ref: complex, cells_per_unit: int, degree: int
+             ) -> tuple[float, float, float, float]:
+    """The complete search's default box ``(re_min, re_max, -W, W)``.
+
+    ``Re Lambda`` from :data:`AUTO_GROWTH` ``[0]`` to ``[1]`` times the reference growth
+    ``Re lam_ref`` (the strip's fastest ``0-``/``0+`` mode): the floor only leaves out modes
+    slower than half of it, which cannot be the block's fastest once the box holds one mode;
+    the ceiling is checked against the infinite strip's fastest growth over all modes and all
+    ``k`` by a test (committed envelopes). ``|Im Lambda| <= W``, the frequency of the
+    sweep's default region (:class:`analytic.numerics.spectrum.Region`, phase velocities up to
+    ``4 c_d``) at :func:`resolvable_k`: the frequencies of every mode of the infinite strip the
+    mesh resolves, at the phase velocities the region holds. Neither bound is a proof about the
+    block; a wider box at one length is the check (README).
+    """
+    g = abs(lam_ref.real)
+    w = Region().im_max(params, resolvable_k(cells_per_unit, degree))
+    return AUTO_GROWTH[0] * g, AUTO_GROWTH[1] * g, -w, w
 
 
 def most_unstable_block_mode(comm: MPI.Comm, params: Params, length: float, *,

@@ -23,7 +23,8 @@ import pytest
 from analytic import Params
 from analytic.numerics.spectrum import Region, families
 from forms.solvers import banded
-from forms.solvers.certified import CertifiedSolver, default_discretisation
+from forms.solvers.certified import CertifiedSolver, default_discretisation, split_box
+from forms.solvers.condensed import CondensedOperator
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: Same discrete eigenvalue from two paths (Newton-polished both times): measured at most
@@ -163,6 +164,31 @@ def test_moment_eigs_agree_with_newton_from_the_exact_roots():
     vals = np.array(sorted((e.value for e in found), key=lambda z: (z.imag, z.real)))
     assert np.max(np.abs(vals - _values(ref.rows)) / np.abs(vals)) < SAME_VALUE_RTOL
     assert all(e.converged for e in found)
+
+
+@pytest.mark.parametrize("bc", ["velocity", "stress"])
+def test_split_box_counts_add_up_and_values_agree(bc):
+    """Sub-boxes of at most 3 eigenvalues (forms.solvers.certified.split_box): their counts add
+    up to the whole box's, they tile it, and the values equal those of one block of moments."""
+    p, region, k = Params(bc=bc), Region(), 5.0
+    deg, cells, ratio = default_discretisation(p, region, k, 1e-8)
+    whole, split = (CertifiedSolver(p, region, deg, cells, ratio, k, 1e-8, check_exact=False,
+                                    max_per_box=m) for m in (10**6, 3))
+    try:
+        a, b = whole.solve(k), split.solve(k)
+        cond = CondensedOperator(split.banded[0].operator(k))
+        box = tuple(b.box)
+        n, t = cond.count_and_samples(box)
+        parts = split_box(cond.count_and_samples, box, n, t, 3)
+    finally:
+        whole.destroy()
+        split.destroy()
+    assert a.closed and b.closed and a.n_fe == b.n_fe == n == len(b.rows) > 3
+    assert sum(m for _, m, _ in parts) == n and max(m for _, m, _ in parts) <= 3
+    assert len(parts) >= 2 and parts[0][0][2] == box[2] and parts[-1][0][3] == box[3]
+    assert all(lo[0][3] == hi[0][2] for lo, hi in zip(parts[:-1], parts[1:], strict=True))
+    assert np.max(np.abs(_values(a.rows) - _values(b.rows)) / np.abs(_values(a.rows))) \
+        < SAME_VALUE_RTOL
 
 
 def _scene(args, out, nproc=1, preamble="", timeout=600):

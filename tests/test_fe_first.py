@@ -218,13 +218,21 @@ def _read(out):
         return rows, json.load(fh)
 
 
-def _compare_scenes(tmp_path, k_spec, bc, nproc, timeout=600):
+def _compare_scenes(tmp_path, k_spec, bc, nproc, timeout=600, unlabelled_ok=False):
+    """Same counts and values; ``unlabelled_ok``: the reference may flag rows whose only problem
+    is an uncertified label (its counts closed, its values checked)."""
     ref_out, out = str(tmp_path / "ref"), str(tmp_path / "fe")
     # one fixed region for both: without the exact roots the adaptive region stays at its first
     # rung (the summary's tail bound says whether that proves), with them it may grow
     ref = _scene(["--k", k_spec, "--bc", bc, "--solver", "newton", "--c-max", "4"], ref_out,
                  timeout=timeout)
-    assert ref.returncode == 0, ref.stderr[-2000:]
+    if unlabelled_ok and ref.returncode == 1:
+        rows, summary = _read(ref_out)
+        assert summary["certificate"]["k_not_closed"] == []
+        assert all(r["status"] == "ok" or r["status"].startswith("label not certified")
+                   and ";" not in r["status"] for r in rows)
+    else:
+        assert ref.returncode == 0, ref.stderr[-2000:]
     got = _scene(["--k", k_spec, "--bc", bc, "--check-exact", "no", "--c-max", "4"], out, nproc,
                  NO_EXACT, timeout=timeout)
     assert got.returncode == 0, got.stderr[-2000:]
@@ -261,8 +269,10 @@ def test_sweep_without_analytic_equals_exact_seeded_default_grid(tmp_path, bc, c
 @pytest.mark.slow
 def test_sweep_without_analytic_equals_exact_seeded_large_k(tmp_path):
     """Scene, --k 50,51 (one rank): about 50 eigenvalues per k, the box split for the moments
-    (forms.solvers.certified.split_box)."""
-    assert _compare_scenes(tmp_path, "50,51", "velocity", 1, timeout=1500) > 0
+    (forms.solvers.certified.split_box). The exact-seeded reference leaves 14 of its 96 labels
+    uncertified there (families passing close to each other; its counts close)."""
+    assert _compare_scenes(tmp_path, "50,51", "velocity", 1, timeout=1500,
+                           unlabelled_ok=True) == 96
 
 
 @pytest.mark.serial

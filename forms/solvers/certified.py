@@ -110,6 +110,28 @@ def split_box(counter: Callable[[Box], tuple[int, np.ndarray]], box: Box, count:
     return out
 
 
+def _find(fe: BandedOperator, counter: Callable, box: Box, count: int, t: np.ndarray,
+          most: int, sums: Callable | None) -> tuple[list[Eigen], bool, str]:
+    """The eigenpairs in ``box`` by moments per part of :func:`split_box`.
+
+    Returns:
+        ``(found, the parts' counts add up to count, note)``.
+    """
+    note = ""
+    try:
+        parts = split_box(counter, box, count, t, most)
+    except ContourError as err:  # no usable cut: the whole box in one block
+        parts, note = [(box, count, t)], f"box not split: {err}"
+    ok = sum(n for _, n, _ in parts) == count
+    if not ok:
+        note = "; ".join(x for x in (note, f"counts of the sub-boxes {[n for _, n, _ in parts]}"
+                                     f" do not add up to {count}") if x)
+    found: list[Eigen] = []
+    for part in parts:
+        found += _moments_in(fe, *part, sums)
+    return found, ok, note
+
+
 def _moments_in(fe: BandedOperator, box: Box, count: int, t: np.ndarray,
                 sums: Callable | None) -> list[Eigen]:
     """:meth:`BandedOperator.moment_eigs` in one box, one retry if it finds too few."""
@@ -296,18 +318,8 @@ class CertifiedSolver:
         out.box = tuple(float(v) for v in used)
         found, parts_ok = [], True
         if t is not None:
-            try:
-                parts = split_box(counter, used, out.n_fe, t, self.max_per_box)
-                parts_ok = sum(n for _, n, _ in parts) == out.n_fe
-            except ContourError as err:  # no usable cut: the whole box in one block
-                parts = [(used, out.n_fe, t)]
-                out.note = "; ".join(x for x in (out.note, f"box not split: {err}") if x)
-            if not parts_ok:
-                out.note = "; ".join(x for x in (out.note, "counts of the sub-boxes "
-                                                 f"{[n for _, n, _ in parts]} do not add up to "
-                                                 f"{out.n_fe}") if x)
-            for part in parts:
-                found += _moments_in(fe, *part, sums)
+            found, parts_ok, why = _find(fe, counter, used, out.n_fe, t, self.max_per_box, sums)
+            out.note = "; ".join(x for x in (out.note, why) if x)
         rows = [self._row(k, e, fine) for e in found]
         matched = self._match_exact(rows, labelled, exact_box, used) if self.check_exact else True
         if not self.check_exact:

@@ -262,7 +262,9 @@ def test_sweep_without_analytic_equals_exact_seeded_sparse(tmp_path, bc, nproc):
 @pytest.mark.parametrize("bc, count", [("velocity", 559), ("stress", 834)])
 def test_sweep_without_analytic_equals_exact_seeded_default_grid(tmp_path, bc, count):
     """Scene, the whole default grid (120 k) on 2 ranks: 559 and 834 eigenvalues."""
-    assert _compare_scenes(tmp_path, "0.05:6:120", bc, 2) == count
+    # 1500 s per scene: the stress reference (--solver newton, one rank) ran over 600 s at a
+    # load average of 25 on the shared 2-core machine (2026-11-24)
+    assert _compare_scenes(tmp_path, "0.05:6:120", bc, 2, timeout=1500) == count
 
 
 @pytest.mark.serial

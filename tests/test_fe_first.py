@@ -268,7 +268,7 @@ def test_sweep_without_analytic_equals_exact_seeded_default_grid(tmp_path, bc, c
 
 
 @pytest.mark.serial
-@pytest.mark.slow
+@pytest.mark.slow  # 1124 s at a load average of 14-25 on the shared 2-core machine (2026-11-24)
 def test_sweep_without_analytic_equals_exact_seeded_large_k(tmp_path):
     """Scene, --k 50,51 (one rank): about 50 eigenvalues per k, the box split for the moments
     (forms.solvers.certified.split_box). The exact-seeded reference leaves 14 of its 96 labels

@@ -23,7 +23,8 @@ import pytest
 from analytic import Params
 from analytic.numerics.spectrum import Region, families
 from forms.solvers import banded
-from forms.solvers.certified import CertifiedSolver, default_discretisation
+from forms.solvers.certified import CertifiedSolver, default_discretisation, split_box
+from forms.solvers.condensed import CondensedOperator
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: Same discrete eigenvalue from two paths (Newton-polished both times): measured at most
@@ -165,6 +166,31 @@ def test_moment_eigs_agree_with_newton_from_the_exact_roots():
     assert all(e.converged for e in found)
 
 
+@pytest.mark.parametrize("bc", ["velocity", "stress"])
+def test_split_box_counts_add_up_and_values_agree(bc):
+    """Sub-boxes of at most 3 eigenvalues (forms.solvers.certified.split_box): their counts add
+    up to the whole box's, they tile it, and the values equal those of one block of moments."""
+    p, region, k = Params(bc=bc), Region(), 5.0
+    deg, cells, ratio = default_discretisation(p, region, k, 1e-8)
+    whole, split = (CertifiedSolver(p, region, deg, cells, ratio, k, 1e-8, check_exact=False,
+                                    max_per_box=m) for m in (10**6, 3))
+    try:
+        a, b = whole.solve(k), split.solve(k)
+        cond = CondensedOperator(split.banded[0].operator(k))
+        box = tuple(b.box)
+        n, t = cond.count_and_samples(box)
+        parts = split_box(cond.count_and_samples, box, n, t, 3)
+    finally:
+        whole.destroy()
+        split.destroy()
+    assert a.closed and b.closed and a.n_fe == b.n_fe == n == len(b.rows) > 3
+    assert sum(m for _, m, _ in parts) == n and max(m for _, m, _ in parts) <= 3
+    assert len(parts) >= 2 and parts[0][0][2] == box[2] and parts[-1][0][3] == box[3]
+    assert all(lo[0][3] == hi[0][2] for lo, hi in zip(parts[:-1], parts[1:], strict=True))
+    assert np.max(np.abs(_values(a.rows) - _values(b.rows)) / np.abs(_values(a.rows))) \
+        < SAME_VALUE_RTOL
+
+
 def _scene(args, out, nproc=1, preamble="", timeout=600):
     """workflows/sweep_k.py in a subprocess after ``preamble`` (run in every rank)."""
     code = (f"import sys, runpy\nsys.path[:0] = [{ROOT!r}, {os.path.join(ROOT, 'workflows')!r}]\n"
@@ -192,14 +218,23 @@ def _read(out):
         return rows, json.load(fh)
 
 
-def _compare_scenes(tmp_path, k_spec, bc, nproc):
+def _compare_scenes(tmp_path, k_spec, bc, nproc, timeout=600, unlabelled_ok=False):
+    """Same counts and values; ``unlabelled_ok``: the reference may flag rows whose only problem
+    is an uncertified label (its counts closed, its values checked)."""
     ref_out, out = str(tmp_path / "ref"), str(tmp_path / "fe")
     # one fixed region for both: without the exact roots the adaptive region stays at its first
     # rung (the summary's tail bound says whether that proves), with them it may grow
-    ref = _scene(["--k", k_spec, "--bc", bc, "--solver", "newton", "--c-max", "4"], ref_out)
-    assert ref.returncode == 0, ref.stderr[-2000:]
+    ref = _scene(["--k", k_spec, "--bc", bc, "--solver", "newton", "--c-max", "4"], ref_out,
+                 timeout=timeout)
+    if unlabelled_ok and ref.returncode == 1:
+        rows, summary = _read(ref_out)
+        assert summary["certificate"]["k_not_closed"] == []
+        assert all(r["status"] == "ok" or r["status"].startswith("label not certified")
+                   and ";" not in r["status"] for r in rows)
+    else:
+        assert ref.returncode == 0, ref.stderr[-2000:]
     got = _scene(["--k", k_spec, "--bc", bc, "--check-exact", "no", "--c-max", "4"], out, nproc,
-                 NO_EXACT)
+                 NO_EXACT, timeout=timeout)
     assert got.returncode == 0, got.stderr[-2000:]
     (ra, sa), (rb, sb) = _read(ref_out), _read(out)
     assert sb["check_exact"] is False and sb["families"]["count"] == 0
@@ -227,17 +262,19 @@ def test_sweep_without_analytic_equals_exact_seeded_sparse(tmp_path, bc, nproc):
 @pytest.mark.parametrize("bc, count", [("velocity", 559), ("stress", 834)])
 def test_sweep_without_analytic_equals_exact_seeded_default_grid(tmp_path, bc, count):
     """Scene, the whole default grid (120 k) on 2 ranks: 559 and 834 eigenvalues."""
-    assert _compare_scenes(tmp_path, "0.05:6:120", bc, 2) == count
+    # 1500 s per scene: the stress reference (--solver newton, one rank) ran over 600 s at a
+    # load average of 25 on the shared 2-core machine (2026-11-24)
+    assert _compare_scenes(tmp_path, "0.05:6:120", bc, 2, timeout=1500) == count
 
 
 @pytest.mark.serial
-@pytest.mark.slow
-@pytest.mark.skip(reason="known gap: FE first at k = 50, 51 (about 280 eigenvalues per k) did not "
-                  "finish in 10 minutes on one rank (2026-11-24): the moment block is too wide; "
-                  "the box must be split for large counts")
+@pytest.mark.slow  # 1124 s at a load average of 14-25 on the shared 2-core machine (2026-11-24)
 def test_sweep_without_analytic_equals_exact_seeded_large_k(tmp_path):
-    """Scene, --k 50,51 (one rank)."""
-    assert _compare_scenes(tmp_path, "50,51", "velocity", 1) > 0
+    """Scene, --k 50,51 (one rank): about 50 eigenvalues per k, the box split for the moments
+    (forms.solvers.certified.split_box). The exact-seeded reference leaves 14 of its 96 labels
+    uncertified there (families passing close to each other; its counts close)."""
+    assert _compare_scenes(tmp_path, "50,51", "velocity", 1, timeout=1500,
+                           unlabelled_ok=True) == 96
 
 
 @pytest.mark.serial

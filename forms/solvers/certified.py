@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -60,6 +61,87 @@ ROW_FIELDS = ("k", "label", "re_lambda", "im_lambda", "re_lambda_exact", "im_lam
 SOLVERS = ("moments", "newton")
 #: Ways of evaluating ``det T_h`` on the contour: condensed (default) or one banded LU a point.
 COUNTS = ("condensed", "banded")
+#: Largest count of one box of contour moments (:func:`split_box`): the moments' cost per contour
+#: point grows with the block width (about ``3/4`` of the count), the count's does not.
+MAX_PER_BOX = 16
+
+
+def split_box(counter: Callable[[Box], tuple[int, np.ndarray]], box: Box, count: int,
+              t: np.ndarray, most: int) -> list[tuple[Box, int, np.ndarray]]:
+    """Boxes tiling ``box``, each with at most ``most`` eigenvalues by its own count.
+
+    ``box`` (counted ``count``, contour parameters ``t``) is cut across its longer side, in
+    units of ``Im`` for the tall boxes of the sweep, into ``ceil(2 count / most)`` equal parts;
+    each part is counted by the argument principle (``counter``), a part over ``most`` is split
+    again. A cut through (or too near) an eigenvalue makes its part's count fail
+    (:class:`~analytic.numerics.roots.ContourError`): the cut is moved by ``1e-4``, ``-1e-4``,
+    ``3e-4`` ... of the part's size. The parts' counts are returned as counted: the caller
+    checks that they add up to ``count`` (the contour integrals along the cuts cancel).
+
+    Returns:
+        ``[(part, count, t), ...]``, from the bottom (or left) up.
+
+    Raises:
+        ContourError: No usable cut.
+    """
+    if count <= most:
+        return [(box, count, t)]
+    a, b, c, d = box
+    pieces = max(2, math.ceil(2 * count / most))
+    tall = (d - c) >= (b - a)
+    lo, hi = (c, d) if tall else (a, b)
+    step = (hi - lo) / pieces
+    out: list[tuple[Box, int, np.ndarray]] = []
+    start = lo
+    for i in range(1, pieces + 1):
+        for shift in (0.0, 1e-4, -1e-4, 3e-4, -3e-4, 1e-3, -1e-3):
+            cut = hi if i == pieces else lo + i * step + shift * step
+            part = (a, b, start, cut) if tall else (start, cut, c, d)
+            try:
+                n, tp = counter(part)
+                break
+            except ContourError:
+                if i == pieces:
+                    raise
+        else:
+            raise ContourError(f"no usable cut near {lo + i * step:.6g} in {box}")
+        out += split_box(counter, part, n, tp, most) if n > most else [(part, n, tp)]
+        start = cut
+    return out
+
+
+def _find(fe: BandedOperator, counter: Callable, box: Box, count: int, t: np.ndarray,
+          most: int, sums: Callable | None) -> tuple[list[Eigen], bool, str]:
+    """The eigenpairs in ``box`` by moments per part of :func:`split_box`.
+
+    Returns:
+        ``(found, the parts' counts add up to count, note)``.
+    """
+    note = ""
+    try:
+        parts = split_box(counter, box, count, t, most)
+    except ContourError as err:  # no usable cut: the whole box in one block
+        parts, note = [(box, count, t)], f"box not split: {err}"
+    ok = sum(n for _, n, _ in parts) == count
+    if not ok:
+        note = "; ".join(x for x in (note, f"counts of the sub-boxes {[n for _, n, _ in parts]}"
+                                     f" do not add up to {count}") if x)
+    found: list[Eigen] = []
+    for part in parts:
+        found += _moments_in(fe, *part, sums)
+    return found, ok, note
+
+
+def _moments_in(fe: BandedOperator, box: Box, count: int, t: np.ndarray,
+                sums: Callable | None) -> list[Eigen]:
+    """:meth:`BandedOperator.moment_eigs` in one box, one retry if it finds too few."""
+    found = fe.moment_eigs(box, count, t, sums=sums)
+    if len(found) != count:
+        # one retry with a larger subspace and another random block; merged, distinct
+        for e in fe.moment_eigs(box, count, t, moments=4, extra=count + 8, seed=7, sums=sums):
+            if all(abs(e.value - f.value) > 1e-9 * max(1.0, abs(e.value)) for f in found):
+                found.append(e)
+    return found
 
 
 def _condensed(fe: BandedOperator) -> CondensedOperator | None:
@@ -166,15 +248,17 @@ class CertifiedSolver:
         count: ``"condensed"`` (``log det T_h`` and the moments' solves in the condensed form
             of :class:`forms.solvers.condensed.CondensedOperator`, the same determinant) or
             ``"banded"`` (one banded LU per contour point, kept for comparison).
+        max_per_box: Largest count of one block of moments: a box counting more is split
+            (:func:`split_box`).
     """
 
     def __init__(self, params: Params, region: Region, degree: int, cells: int, ratio: float,
                  k_max: float, rtol: float, material: SliderMaterial | None = None, *,
                  check_exact: bool = True, solver: str = "moments",
-                 count: str = "condensed") -> None:
+                 count: str = "condensed", max_per_box: int = MAX_PER_BOX) -> None:
         if count not in COUNTS:
             raise ValueError(f"count = {count!r} is outside its allowed values {COUNTS}")
-        self.count = count
+        self.count, self.max_per_box = count, max_per_box
         if solver not in SOLVERS:
             raise ValueError(f"solver = {solver!r} is outside its allowed values {SOLVERS}")
         if solver == "newton" and not check_exact:
@@ -232,13 +316,10 @@ class CertifiedSolver:
             out.note = "; ".join(x for x in (out.note, f"FE count failed: {err}") if x)
             used, t = want, None
         out.box = tuple(float(v) for v in used)
-        found = fe.moment_eigs(used, out.n_fe, t, sums=sums) if t is not None else []
-        if t is not None and len(found) != out.n_fe:
-            # one retry with a larger subspace and another random block; merged, distinct
-            for e in fe.moment_eigs(used, out.n_fe, t, moments=4, extra=out.n_fe + 8, seed=7,
-                                    sums=sums):
-                if all(abs(e.value - f.value) > 1e-9 * max(1.0, abs(e.value)) for f in found):
-                    found.append(e)
+        found, parts_ok = [], True
+        if t is not None:
+            found, parts_ok, why = _find(fe, counter, used, out.n_fe, t, self.max_per_box, sums)
+            out.note = "; ".join(x for x in (out.note, why) if x)
         rows = [self._row(k, e, fine) for e in found]
         matched = self._match_exact(rows, labelled, exact_box, used) if self.check_exact else True
         if not self.check_exact:
@@ -248,7 +329,8 @@ class CertifiedSolver:
         vals = np.array([e.value for e in found], dtype=complex)
         distinct = all(abs(vals[a] - vals[b]) > 1e-9 * max(1.0, abs(vals[a]))
                        for a in range(len(vals)) for b in range(a))
-        fe_closed = out.n_fe is not None and out.n_fe == len(found) and distinct
+        fe_closed = (out.n_fe is not None and out.n_fe == len(found) and distinct
+                     and parts_ok)
         out.closed = fe_closed and matched
         for row in rows:
             row["certificate"] = "+".join(

@@ -351,6 +351,43 @@ def test_failed_run_says_resume_only_if_something_finished(tmp_path, write):
         assert json.loads((out / "done.json").read_text()) == {"x": None}  # strict JSON
 
 
+# ------------------------------------------------------------------- the watcher's exits
+@pytest.mark.serial
+@pytest.mark.parametrize("code,said", [("print('x')", None),
+                                       ("raise KeyboardInterrupt", "stopped by SIGINT (Ctrl-C)")])
+def test_importing_cli_without_run(tmp_path, code, said):
+    """A script in workflows/ importing _cli without run(): no 'stopped' line at a normal exit.
+
+    (Before: the watcher started at import printed 'stopped: the run ended without finishing'
+    after every such script.) Ctrl-C before run() is still said.
+    """
+    res = subprocess.run([sys.executable, "-c", f"import _cli; {code}"], capture_output=True,
+                         text=True, timeout=60, cwd=os.path.join(ROOT, "workflows"),
+                         env=_env(tmp_path))
+    stops = [ln for ln in _lines(res.stderr) if ln.startswith("stopped")]
+    if said is None:
+        assert res.returncode == 0 and stops == [], res.stderr
+    else:
+        assert len(stops) == 1 and stops[0].startswith(said), res.stderr
+
+
+# ---------------------------------------------------------------------------- strict JSON
+@pytest.mark.serial
+@pytest.mark.slow  # measured 10 s on a quiet machine
+def test_stability_map_json_is_strict(tmp_path):
+    """--f 0 has no closed-form boundary (NaN): null in raw/*.json and summary.json."""
+    out = tmp_path / "out"
+    res = _run("stability_map.py", ["--x", "Delta:-0.5:2:2", "--y", "gamma:0.1:1:2", "--f", "0",
+                                    "--H", "1", "--kH-max", "1", "--nk", "2", "--out", str(out)],
+               tmp_path)
+    assert res.returncode == 0, res.stderr[-3000:]
+    names = [out / "summary.json", *sorted((out / "raw").glob("*.json"))]
+    assert len(names) == 5
+    for name in names:
+        data = json.loads(name.read_text(), parse_constant=_no_constant)
+    assert data["delta_closed_form"] is None
+
+
 # ----------------------------------------------------------------------------- stale locks
 def _open(out):
     from mpi4py import MPI

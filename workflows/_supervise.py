@@ -22,6 +22,7 @@ removes its ``run.json``). With several ranks a failing rank calls ``MPI_Abort``
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import os
 import signal
@@ -77,6 +78,18 @@ def start_watcher() -> None:
             stdin=subprocess.PIPE, text=True, start_new_session=True)
     except OSError:
         _STATE["proc"] = None
+        return
+    # A normal interpreter exit is not a stop: a script that imports _cli and never calls
+    # run() (or returns from it) tells its watcher so. Stops leave through os._exit (no atexit).
+    atexit.register(_at_exit)
+
+
+def _at_exit() -> None:
+    """Normal interpreter exit: the watcher is done, unless Ctrl-C ended the script."""
+    if isinstance(getattr(sys, "last_value", None), KeyboardInterrupt):  # before run()
+        _tell_watcher("why", "stopped by SIGINT (Ctrl-C)")
+        return
+    _watcher_done()
 
 
 def _watcher_done() -> None:

@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from analytic.cli import dumps
 from forms.timedomain.model import Mode, NonlinearLaw, Sample, TimeDomainStrip, build_time_domain
 
 #: Columns of ``timeseries.csv``.
@@ -215,9 +216,9 @@ class RunWriter:
         self.comm.barrier()
         if self._rank0:
             with open(self._path("checkpoint.json"), "w") as fh:
-                json.dump({"config": self.config, "step": td.step, "chunk": self.chunk_index,
-                           "friction_theta": td.friction_theta, "theta_switch": theta_switch},
-                          fh)
+                fh.write(dumps({"config": self.config, "step": td.step,  # strict JSON
+                                "chunk": self.chunk_index, "friction_theta": td.friction_theta,
+                                "theta_switch": theta_switch}))
 
 
 def end_of_validity(s: Sample, fields: dict[str, np.ndarray]) -> dict[str, object]:

@@ -75,7 +75,7 @@ def start_watcher() -> None:
         _STATE["proc"] = subprocess.Popen(
             [sys.executable, "-S", "-E", _WATCHER, str(rank()), str(os.getpid()),
              str(os.getppid() if world_size() > 1 else 0)],
-            stdin=subprocess.PIPE, text=True, start_new_session=True)
+            stdin=subprocess.PIPE, text=True, start_new_session=world_size() == 1)
     except OSError:
         _STATE["proc"] = None
         return
@@ -135,8 +135,9 @@ def _on_signal(signum: int, frame: object) -> None:
     it stops the job, rank 0's watcher writes it to mpirun's own stderr.
     """
     name = signal.Signals(signum).name
-    cause = ("Ctrl-C" if signum == signal.SIGINT else
-             "under mpirun: another rank failed or was killed, Ctrl-C, or a kill")
+    cause = ("Ctrl-C" if signum == signal.SIGINT else "a kill or a closed terminal"
+             if world_size() == 1 else
+             "under mpirun: another rank failed or was killed, or mpirun was signalled")
     line = f"stopped by {name} ({cause}); {what_to_do()}"
     if world_size() == 1:
         _stop(line, 128 + signum)

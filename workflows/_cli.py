@@ -56,6 +56,7 @@ from _grids import (
     SWEEP_WH_MAX,
     check_sweep_limits,
     parse_grid,
+    progress_mapper,
     region_from_args,
 )
 from _options import (

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import sys
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -10,7 +12,8 @@ import numpy as np
 from analytic.cli import parse_k
 from analytic.params import ParameterError
 
-__all__ = ["SWEEP_DELTA_MAX", "SWEEP_WH_MAX", "SWEEP_W_MAX", "check_sweep_limits", "parse_grid"]
+__all__ = ["SWEEP_DELTA_MAX", "SWEEP_WH_MAX", "SWEEP_W_MAX", "check_sweep_limits", "parse_grid",
+           "progress_mapper"]
 
 
 def parse_grid(spec: str, name: str = "--k", max_count: int = 100000) -> np.ndarray:
@@ -107,3 +110,35 @@ def region_from_args(c_max: str, re_min: float, re_max: float = 2.0,
         return Region(re_min, re_max, c, omega0)
     except ParameterError as err:
         raise ParameterError("--" + str(err).replace("_", "-", 1)) from None
+
+
+def progress_mapper(comm: Any, desc: str, quiet: bool = False
+                    ) -> Callable[[Sequence[float], Callable[[int], Any]], dict[int, Any]]:
+    """A ``mapper(costs, fn)`` (:func:`_sharing.map_shared` on ``comm``) with rank 0's bar.
+
+    For a scene's stage that would otherwise be silent (the sweep's region bound at every k:
+    about 0.4 s per k serially, so minutes for thousands of k values): a progress bar of rank
+    0's share from its first item, on stderr, unless ``quiet``.
+    """
+    from _sharing import map_shared, my_share
+    from tqdm import tqdm
+
+    def mapper(costs: Sequence[float], fn: Callable[[int], Any]) -> dict[int, Any]:
+        mine = my_share(comm, costs)
+        bar = None if quiet or comm.rank != 0 or not len(mine) else tqdm(
+            total=len(mine), desc=f"{desc} (rank 0 of {comm.size})", unit=" k values",
+            file=sys.stderr)
+
+        def step(i: int) -> Any:
+            value = fn(i)
+            if bar is not None:
+                bar.update()
+            return value
+
+        try:
+            return map_shared(comm, costs, step)
+        finally:
+            if bar is not None:
+                bar.close()
+
+    return mapper

@@ -194,8 +194,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     params, k, merged, region = validate(args)  # every rank, before any collective or file
     check = args.check_exact == "yes"
     # the region at each k; the largest sets the family plan and the mesh
-    c_at_k, big = sweep.regions_at_k(params, region, k, check,
-                                     lambda c, fn: _cli.map_shared(comm, c, fn))
+    c_at_k, big = sweep.regions_at_k(params, region, k, check,  # a bar from the first second
+                                     _cli.progress_mapper(comm, "region bound", args.quiet))
     degree, cells, ratio = default_discretisation(params, big, float(k[-1]), args.rtol)
     disc = (args.degree or degree, args.cells or cells, ratio)
     config = {"params": params.as_dict(), "k": [float(v) for v in k],

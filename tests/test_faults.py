@@ -49,6 +49,10 @@ SCENES = {
     "mode_shape.py": ["--source", "cross-section", "--no-render", "--phases", "1"],
     "time_domain.py": ["--cells-per-wavelength", "16", "--ny", "4", "--amplitude", "1e-6",
                        "--quiet", "--chunk", "20", "--t-end", "1"],
+    "friction_patch.py": ["--length", "3", "--lp", "1,3", "--pictures", "1"],
+    "methods_chart.py": ["--k", "1", "--c-max", "2"],
+    "stability_map.py": ["--x", "Delta:-0.5:2:2", "--y", "gamma:0.1:1:2", "--H", "1",
+                         "--kH-max", "1", "--nk", "2"],
 }
 #: Seconds a cheap scene run may take on the loaded 2-core machine (measured: 4-40 s).
 QUICK = 180
@@ -135,7 +139,7 @@ def assert_one_stop_line(res, *needles: str) -> str:
 
 # ------------------------------------------------------------------------ disk full, injected
 @pytest.mark.serial
-@pytest.mark.slow  # 11 scenes, 4-40 s each
+@pytest.mark.slow  # 14 scenes, 4-40 s each
 @pytest.mark.parametrize("script", sorted(SCENES))
 def test_disk_fills_during_the_run_every_scene(tmp_path, script):
     """ENOSPC at the first output: one line, exit 1, no traceback, nothing untrustworthy."""

@@ -113,7 +113,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         failed = sum(rows[i]["failed_counts"] for i in rows)
         if comm.rank == 0:
             rows = [rows[i] for i in range(nx * ny)]
-            with open(run.file("stability_map.csv"), "w", newline="") as fh:
+            with _cli.atomic_open(run.file("stability_map.csv"), "w", newline="") as fh:
                 w = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")
                 w.writeheader()
                 w.writerows(rows)

@@ -331,6 +331,7 @@ def test_analytic_negative_value_after_option(capsys):
     ("time_domain.py", ["--H", "1e-9"], "mesh"),  # was: run.json left before exit 2
     ("envelope.py", ["--k", "1e7"], "region's height"),  # was: silent (W = 8e7)
     ("contrast.py", ["--k", "0.1:300:3log"], "region's height"),  # W = 2425 > 1700
+    ("mode_shape.py", ["--k", "1e7"], "k*H = 5e+06"),  # was: silent for more than 200 s
 ])
 def test_scene_limits_refused_before_any_file(tmp_path, script, args, needle):
     """Validation by what the solver can do: one line, exit 2, no run.json, no lock."""

@@ -13,7 +13,7 @@ from analytic.cli import parse_k
 from analytic.params import ParameterError
 
 __all__ = ["SWEEP_DELTA_MAX", "SWEEP_WH_MAX", "SWEEP_W_MAX", "check_sweep_limits", "parse_grid",
-           "check_roots_region", "progress_mapper"]
+           "check_branch_kh", "check_roots_region", "progress_mapper"]
 
 
 def parse_grid(spec: str, name: str = "--k", max_count: int = 100000) -> np.ndarray:
@@ -114,6 +114,27 @@ def check_roots_region(params: Any, kmax: float, region: Any, what: str = "k") -
             f"the region's height |Im Lambda| <= {w:.4g} at k = {kmax:g} (c_max k times the "
             f"largest c_d, plus omega0) is above {ROOTS_W_MAX:g}, beyond which the exact root "
             f"count takes more than about 4 minutes per k value; use a smaller {what}")
+
+
+def check_branch_kh(params: Any, k: float, name: str = "--k") -> None:
+    """Refuse ``k*H`` above ``analytic.cli.BRANCH_KH_MAX`` for a branch followed from small k.
+
+    mode_shape.py follows its branch from small k to ``k`` in steps that scale with ``k*H``, as
+    ``python -m analytic branch`` does (whose measured limit this is). Measured with
+    mode_shape.py on the loaded 2-core machine: ``--k 100`` (k*H = 50, the limit) 74 s,
+    ``--k 1e7`` more than 200 s without a line before this check.
+
+    Raises:
+        ParameterError: One line naming ``name``, the limit and why.
+    """
+    from analytic.cli import BRANCH_KH_MAX
+
+    kh = float(k) * params.H
+    if not kh <= BRANCH_KH_MAX:
+        raise ParameterError(f"{name} = {k:g}: k*H = {kh:g} is above {BRANCH_KH_MAX:g}, the "
+                             "largest for which the branch is followed from small k in bounded "
+                             f"time (steps scale with k*H); use k <= {BRANCH_KH_MAX / params.H:g}"
+                             " or a smaller H")
 
 
 def region_from_args(c_max: str, re_min: float, re_max: float = 2.0,

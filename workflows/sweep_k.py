@@ -49,24 +49,24 @@ import sys  # noqa: E402
 import time  # noqa: E402
 
 import _cli  # noqa: E402
+import _sweep_strip  # noqa: E402
 import numpy as np  # noqa: E402
 from _plot_dispersion import plot_dispersion  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
-from analytic.numerics.spectrum import Region  # noqa: E402
+from analytic.numerics.spectrum import C_LADDER, Region  # noqa: E402
 from analytic.params import Params  # noqa: E402
 from forms.models.profiles import SliderMaterial, homogeneous_params, slider_material  # noqa: E402
 from forms.solvers.certified import (  # noqa: E402
     ROW_FIELDS,
     SOLVERS,
     KResult,
-    default_discretisation,
 )
 from forms.studies import sweep  # noqa: E402
 
 #: Default k grid: the paper's range (k H up to 3 at H = 0.5).
 DEFAULT_K = "0.05:6:120"
-PETSC_PREFIXES: tuple[str, ...] = ()
+PETSC_PREFIXES: tuple[str, ...] = _sweep_strip.PETSC_PREFIXES  # --model strip only
 OUTPUTS = ("spectrum.csv", "summary.json", "dispersion.png", "raw", "run.json", "run.lock")
 
 
@@ -98,14 +98,15 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--check-exact", default="yes",
                     help="yes: match the FE values to the exact roots; no: never consult them")
     m = ap.add_argument_group("slider (1D model; forms.models.profiles)")
-    m.add_argument("--model", default="section", help="section (homogeneous, default) or "
-                   "layers (--layers and/or profiles)")
+    m.add_argument("--model", default="section", help="section (homogeneous, default), "
+                   "layers (--layers and/or profiles) or strip (2D Bloch cell, below)")
     m.add_argument("--layers", default=None, metavar="FILE",
                    help="CSV y_top,mu,rho,beta, one layer per row from y = 0 up (--model layers)")
     for name in ("mu", "rho", "beta"):
         m.add_argument(f"--{name}-profile", default=None, metavar="EXPR",
                        help=f"{name}(y) as an expression of y, e.g. '1 - 0.6*exp(-y/0.05)' "
                        "(--model layers)")
+    _sweep_strip.add_arguments(ap)
     ap.add_argument("--out", default=os.path.join("out", "sweep_k"), help="output directory")
     ap.add_argument("--resume", action="store_true",
                     help="continue a sweep in --out with the same settings")
@@ -191,16 +192,21 @@ def write_outputs(out: str, params: Params, region: Region, k: np.ndarray,
 def main(comm: object = None, argv: list[str] | None = None) -> int:
     """Run the sweep on ``comm`` (every rank calls this)."""
     args, comm = _cli.start(build_parser(), argv, comm)
+    if args.model == "strip":  # the 2D Bloch cell, workflows/_sweep_strip.py
+        return _sweep_strip.run(comm, args, OUTPUTS)
     params, k, merged, region = validate(args)  # every rank, before any collective or file
     check = args.check_exact == "yes"
-    # the region at each k; the largest sets the family plan and the mesh
-    c_at_k, big = sweep.regions_at_k(params, region, k, check,  # a bar from the first second
-                                     _cli.progress_mapper(comm, "region bound", args.quiet))
-    degree, cells, ratio = default_discretisation(params, big, float(k[-1]), args.rtol)
-    disc = (args.degree or degree, args.cells or cells, ratio)
+    # FE first: the FE climbs its own region at each k (exact roots only referee it); the
+    # exact-seeded path and the family plan take the exact roots' region
+    fe_climbs = args.solver == "moments" and region.c_max is None
+    c_at_k, big = (([], region.fixed(C_LADDER[0])) if fe_climbs and not check else
+                   sweep.regions_at_k(params, region, k, check,  # a bar from the first second
+                                      _cli.progress_mapper(comm, "region bound", args.quiet)))
+    fixed = (args.degree, args.cells, 1.0)
     config = {"params": params.as_dict(), "k": [float(v) for v in k],
               "region": region.as_dict(params), "c_max_at_k": c_at_k, "rtol": args.rtol,
-              "degree": disc[0], "cells": disc[1], "grading_ratio": ratio,
+              "degree": args.degree, "cells": args.cells, "region_by": (
+                  "fe" if fe_climbs else "exact"),
               "solver": args.solver, "check_exact": check,
               **({"material": args.material.as_dict()} if args.material is not None else {})}
     with _cli.RunFolder(comm, args.out, "sweep_k", config, resume=args.resume, resumable=True,
@@ -208,7 +214,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         out, t_start = run.path, time.perf_counter()
         if merged and not args.quiet:
             _cli.say(f"note: {merged} duplicate k value(s) merged", err=True)
-        todo = sweep.pending_k(comm, out, len(k), run.resumed)
+        todo = (parts := run.parts("raw", "k{:05d}", count=len(k))).todo  # --resume: k left
         t_fam, fams = time.perf_counter(), []
         if check:
             def fam_share(n: int) -> object:  # progress from the first second
@@ -225,23 +231,30 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         if comm.rank == 0 and not args.quiet and mine:
             bar = tqdm(total=len(mine), desc=f"k values (rank 0 of {comm.size})", unit=" k values",
                        file=sys.stderr)
-        share = sweep.solve_k_values(params, big, disc, args.rtol, k, mine, fams, out,
-                                     bar.update if bar is not None else None, args.material,
-                                     c_at_k, check_exact=check, solver=args.solver)
+        rungs = sweep.RungSolvers(params, region, float(k[-1]), args.rtol, fixed, args.material,
+                                  check_exact=check, solver=args.solver)
+        share = sweep.solve_k_values(params, region, rungs, k, mine, fams, parts.save,
+                                     bar.update if bar is not None else None,
+                                     None if fe_climbs else c_at_k)
         if bar is not None:
             bar.close()
         times = comm.gather({"rank": comm.rank, "families_s": t_fam, "solve_s": share.seconds,
-                             "k_values": share.k_values})
+                             "k_values": share.k_values, "unknowns": share.rungs})
         comm.Barrier()
         code = 0
         if comm.rank == 0:
             t2 = time.perf_counter()
+            results, used = sweep.results_from_json(parts.load(i) for i in range(len(k)))
+            disc = rungs.discretisation(max(used))
             meta = sweep.run_meta(params, args.k, k, merged, disc, share, args.rtol, args.solver,
                                   check, {"ranks": comm.size, "per_rank": times}, run.resumed,
                                   len(todo)) | {"versions": _cli.versions(),
                                                 "command": _cli.command()}
-            summary = write_outputs(out, params, region, k, sweep.load_results(out, len(k)),
-                                    fams, meta, not args.no_plot, c_at_k)
+            meta["discretisation"] |= sweep.rung_table(rungs, used, times)
+            summary = write_outputs(out, params, region, k, results, fams, meta,
+                                    not args.no_plot, used)
+            summary["region"] |= sweep.region_referee(
+                k, used, c_at_k if fe_climbs and check else [], "fe" if fe_climbs else "exact")
             wall = time.perf_counter() - t_start
             summary["timing_s"] = {"wall": wall, "post_processing_rank0": time.perf_counter()
                                    - t2}
@@ -254,14 +267,13 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
 def report(summary: dict, n_k: int, wall: float, ranks: int, out: str, quiet: bool) -> int:
     """Rank 0: the warning (flagged rows or open counts) and the most unstable line; exit code."""
     cert = summary["certificate"]
-    code = 0
-    if cert["k_not_closed"] or cert["rows_ok"] < cert["rows"]:
-        code = 1
+    code = int(bool(cert["k_not_closed"]) or cert["rows_ok"] < cert["rows"])
+    if code:
         print(f"warning: {cert['rows'] - cert['rows_ok']} of {cert['rows']} "
               f"eigenvalue(s) flagged, count not closed at {len(cert['k_not_closed'])}"
               f" of {n_k} k value(s); see status in {out}/spectrum.csv", file=sys.stderr)
-    best = summary["most_unstable"]
-    if best is not None:  # the result line, also with --quiet (it removes progress only)
+    # the result line, also with --quiet (it removes progress only)
+    if (best := summary["most_unstable"]) is not None:
         sure = "certified" if best["certificate"]["certified"] else "NOT certified"
         print(f"most unstable ({sure}): {best['branch']} at k = {best['k']:.6g}: "
               f"Lambda = {best['re_lambda']:.10g} {best['im_lambda']:+.10g}i "

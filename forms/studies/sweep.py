@@ -2,9 +2,8 @@
 
 docs/design.md section 8. The steps of a sweep, each a call of the scene:
 
-1. :func:`pending_k`: the per-``k`` result files ``DIR/raw/k#####.json`` (one per requested
-   ``k``, written as soon as it is finished) tell which ``k`` are still to compute, so that a
-   resumed sweep continues where it stopped;
+1. the scene's saved results (one per requested ``k``, kept as soon as it is finished) tell
+   which ``k`` are still to compute, so that a resumed sweep continues where it stopped;
 1b. :func:`region_at_k` (adaptive region, ``c_max = None``): at each ``k`` the phase-velocity
    bound that provably holds the fastest mode (:func:`analytic.numerics.spectrum.fastest_mode`,
    exact roots); the largest of them (:func:`largest_region`) sets the family plan and the mesh;
@@ -13,9 +12,9 @@ docs/design.md section 8. The steps of a sweep, each a call of the scene:
    exact continuation; the families are shared over the ranks and gathered on all of them;
 3. :func:`k_costs` and :func:`solve_k_values`: each rank solves its share of the pending ``k``
    with one :class:`forms.solvers.certified.CertifiedSolver` (its models live on ``COMM_SELF``;
-   FE first by default) and writes each :class:`forms.solvers.certified.KResult` to its raw
-   file;
-4. :func:`load_results` and :func:`summarise` (rank 0): the rows of every ``k`` and the summary:
+   FE first by default) and hands each :class:`forms.solvers.certified.KResult` to the scene
+   to keep (:func:`k_result_from_json` reads one back);
+4. :func:`summarise` (rank 0): the rows of every ``k`` and the summary:
    certificate (counts closed, rows ok or flagged), accuracy, families, the most unstable
    eigenvalue with its certificate, per-``k`` counts and costs.
 
@@ -25,17 +24,13 @@ Sharing work over the ranks is left to the caller: the functions take this rank'
 
 from __future__ import annotations
 
-import glob
-import json
 import math
-import os
 import time
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from analytic.cli import dumps
 from analytic.numerics.branches import BranchResult
 from analytic.numerics.roots import ContourError
 from analytic.numerics.spectrum import (
@@ -46,11 +41,12 @@ from analytic.numerics.spectrum import (
     follow_family,
     plan_families,
     plan_items,
+    provable_region,
 )
 from analytic.params import Params
 from analytic.physics.tail import tail_bound, why_no_tail_bound
 from forms.models.profiles import SliderMaterial
-from forms.solvers.certified import CertifiedSolver, KResult
+from forms.solvers.certified import CertifiedSolver, KResult, default_discretisation
 
 #: What ``summary.json`` says the certificate of the most unstable eigenvalue states, per mode
 #: ``(solver, check_exact)``.
@@ -79,19 +75,6 @@ FASTEST_STATEMENT = (
 MAX_FLAGGED_LISTED = 200
 
 
-def raw_file(folder: str, i: int) -> str:
-    """Path of the result file of the ``i``-th requested ``k`` in the run folder ``folder``."""
-    return os.path.join(folder, "raw", f"k{i:05d}.json")
-
-
-def write_json(path: str, data: dict) -> None:
-    """Write ``data`` to ``path`` atomically (a temporary file beside it, then a rename)."""
-    tmp = os.path.join(os.path.dirname(path), "." + os.path.basename(path) + ".tmp")
-    with open(tmp, "w") as fh:  # strict JSON: NaN -> null, +-inf -> "inf"/"-inf" (read_k_result)
-        fh.write(dumps(data, indent=1) + "\n")
-    os.replace(tmp, path)
-
-
 def _float_back(v: object) -> object:
     """Inverse of the strict encoding of one number: ``None`` -> NaN, ``"inf"`` -> inf."""
     if v is None:
@@ -101,35 +84,18 @@ def _float_back(v: object) -> object:
     return v
 
 
-def read_k_result(path: str) -> KResult:
-    """A result file written by :func:`write_json` (NaN and infinities restored)."""
-    with open(path) as fh:
-        d = json.load(fh)
+def results_from_json(saved: Iterable[dict]) -> tuple[list[KResult], list[float]]:
+    """The :class:`KResult` of each saved ``k`` (in order) and the bound ``c_max`` it used."""
+    saved = list(saved)
+    return [k_result_from_json(d) for d in saved], [float(d["c_max"]) for d in saved]
+
+
+def k_result_from_json(d: dict) -> KResult:
+    """A :class:`KResult` from its ``as_dict()`` read back from strict JSON (NaN, inf restored)."""
+    d = dict(d)
     d["rows"] = [{key: _float_back(v) for key, v in row.items()} for row in d["rows"]]
     d["box"] = [_float_back(v) for v in d["box"]]
     return KResult.from_dict(d)
-
-
-def pending_k(comm: object, folder: str, count: int, resumed: bool) -> list[int]:
-    """Indices of the requested ``k`` (``0 .. count - 1``) that have no result file yet.
-
-    Rank 0 creates ``folder/raw`` and, unless the run is ``resumed``, deletes the result files
-    of an earlier run there; the list is rank 0's, the same on every rank (collective).
-
-    Args:
-        comm: The communicator of the sweep.
-        folder: The run folder.
-        count: Number of requested ``k``.
-        resumed: Keep the existing result files (continue a sweep).
-    """
-    if comm.rank == 0:
-        os.makedirs(os.path.join(folder, "raw"), exist_ok=True)
-        if not resumed:
-            for name in glob.glob(os.path.join(folder, "raw", "k*.json")):
-                os.remove(name)
-    comm.Barrier()
-    todo = [i for i in range(count) if not os.path.exists(raw_file(folder, i))]
-    return comm.bcast(todo)
 
 
 def region_at_k(params: Params, region: Region, k: float, exact: bool = True) -> float:
@@ -254,68 +220,161 @@ class ShareRun:
     Attributes:
         seconds: Wall time of the share, solver set-up included.
         k_values: Number of ``k`` solved.
-        unknowns: Unknowns of the degree-``p`` model.
+        unknowns: Unknowns of the degree-``p`` model (the largest rung's used here).
         substrate_cells: Cells of the substrate mesh (0: rigid substrate).
+        rungs: Unknowns of the degree-``p`` model per bound ``c`` used here.
     """
 
     seconds: float
     k_values: int
     unknowns: int
     substrate_cells: int
+    rungs: dict[float, int] = field(default_factory=dict)
 
 
-def solve_k_values(params: Params, region: Region, discretisation: tuple[int, int, float],
-                   rtol: float, k: np.ndarray, mine: Sequence[int], fams: list[BranchResult],
-                   folder: str, progress: Callable[[], object] | None = None,
-                   material: SliderMaterial | None = None,
-                   c_max_at_k: Sequence[float] | None = None, *,
-                   check_exact: bool = True, solver: str = "moments") -> ShareRun:
-    """The certified spectrum at ``k[i]`` for each ``i`` of ``mine``, each written to its file.
+class RungSolvers:
+    """One :class:`forms.solvers.certified.CertifiedSolver` per phase-velocity bound ``c``.
 
-    One :class:`forms.solvers.certified.CertifiedSolver` (on ``COMM_SELF``, for ``k`` up to
-    ``k[-1]``) solves every ``k`` of the share; each :class:`forms.solvers.certified.KResult` goes
-    to
-    :func:`raw_file` as soon as it is finished. Not collective.
+    Each rung's mesh is planned for that rung's region (``default_discretisation`` at the
+    sweep's largest ``k``) unless the user fixed the degree or the cells; built when first
+    asked for, on ``COMM_SELF``. Not collective.
 
     Args:
         params: Parameters.
-        region: The region ``R``.
-        discretisation: ``(degree, cells, grading ratio)`` of the FE model.
+        region: The sweep's region (its ``fixed(c)`` copies are the rungs' regions).
+        k_max: The sweep's largest ``k``.
         rtol: Relative accuracy a row must reach to be ``ok``.
+        fixed: ``(degree, cells)`` given by the user (0: from the rule), and the grading ratio.
+        material: The slider's layers/profiles (``None``: homogeneous).
+        check_exact: Match the FE values to the exact roots.
+        solver: ``"moments"`` or ``"newton"``.
+    """
+
+    def __init__(self, params: Params, region: Region, k_max: float, rtol: float,
+                 fixed: tuple[int, int, float], material: SliderMaterial | None = None, *,
+                 check_exact: bool = True, solver: str = "moments") -> None:
+        self.params, self.region, self.k_max, self.rtol = params, region, k_max, rtol
+        self.fixed, self.material = fixed, material
+        self.check_exact, self.solver = check_exact, solver
+        self.solvers: dict[float, CertifiedSolver] = {}
+
+    def discretisation(self, c: float) -> tuple[int, int, float]:
+        """``(degree, cells, ratio)`` of rung ``c``."""
+        degree, cells, ratio = default_discretisation(self.params, self.region.fixed(c),
+                                                      self.k_max, self.rtol)
+        return self.fixed[0] or degree, self.fixed[1] or cells, self.fixed[2] or ratio
+
+    def __call__(self, c: float) -> CertifiedSolver:
+        """The solver of rung ``c``."""
+        if c not in self.solvers:
+            degree, cells, ratio = self.discretisation(c)
+            self.solvers[c] = CertifiedSolver(
+                self.params, self.region.fixed(c), degree, cells, ratio, self.k_max, self.rtol,
+                self.material, check_exact=self.check_exact, solver=self.solver)
+        return self.solvers[c]
+
+    def destroy(self) -> None:
+        """Free every rung's solver."""
+        for cs in self.solvers.values():
+            cs.destroy()
+        self.solvers.clear()
+
+
+def climb(params: Params, region: Region, k: float, fams: list[BranchResult],
+          rungs: Callable[[float], CertifiedSolver]) -> tuple[KResult, float]:
+    """The FE's own provable region at ``k``: the certified spectrum of the rung it accepts.
+
+    :func:`analytic.numerics.spectrum.provable_region` with the fastest FE eigenvalue of each
+    rung (solved by ``rungs(c)``) as ``fastest_inside``: the FE decides how far the region
+    grows, no exact root is consulted for it. A fixed region is solved once.
+
+    Returns:
+        ``(result, c)``: the result at the accepted rung ``c``.
+    """
+    got: dict[float, KResult] = {}
+
+    def fastest_inside(c: float) -> float | None:
+        got[c] = rungs(c).solve(k, fams, region.fixed(c))
+        return max((r["re_lambda"] for r in got[c].rows), default=None)
+
+    c, _ = provable_region(params, k, region, fastest_inside)
+    return got[c], c
+
+
+def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.ndarray,
+                   mine: Sequence[int], fams: list[BranchResult],
+                   save: Callable[[int, dict], object],
+                   progress: Callable[[], object] | None = None,
+                   c_max_at_k: Sequence[float] | None = None) -> ShareRun:
+    """The certified spectrum at ``k[i]`` for each ``i`` of ``mine``, each handed to ``save``.
+
+    Each :class:`forms.solvers.certified.KResult` goes to ``save(i, result.as_dict() |
+    {"c_max": c})`` (with the bound ``c_max`` it used) as soon as it is finished: the scene
+    keeps it (a resumed sweep skips it). Not collective.
+
+    Args:
+        params: Parameters.
+        region: The sweep's region ``R`` (adaptive: ``c_max = None``).
+        rungs: The solvers per bound.
         k: Every requested wavenumber, sorted.
         mine: Indices into ``k`` to solve here.
-        fams: The followed families (:func:`follow_families`).
-        folder: The run folder (``folder/raw`` exists).
+        fams: The followed families (:func:`follow_families`; unused without the exact check).
+        save: Called with ``(i, result dict)`` after every finished ``k``.
         progress: Called after every finished ``k`` (e.g. a progress bar's update).
-        material: The slider's layers/profiles (``None``: homogeneous), see
-            :func:`forms.models.section.section_stack`.
-        c_max_at_k: The bound used at each ``k`` (:func:`region_at_k`, indexed like ``k``);
-            ``region`` must then be the largest of them (:func:`largest_region`).
-        check_exact: Match the FE values to the exact roots (``fams``; else ``fams`` is unused).
-        solver: ``"moments"`` (FE first) or ``"newton"`` (exact-seeded).
+        c_max_at_k: The bound to use at each ``k`` (indexed like ``k``; the exact-seeded
+            sweep's :func:`region_at_k`); ``None``: the FE climbs its own (:func:`climb`).
     """
     t0 = time.perf_counter()
-    degree, cells, ratio = discretisation
-    cs = CertifiedSolver(params, region, degree, cells, ratio, float(k[-1]), rtol, material,
-                         check_exact=check_exact, solver=solver)
     try:
         for i in mine:
-            reg = region.fixed(c_max_at_k[i]) if c_max_at_k is not None else region
-            write_json(raw_file(folder, i), cs.solve(float(k[i]), fams, reg).as_dict())
+            if c_max_at_k is not None:
+                c = c_max_at_k[i]
+                res = rungs(c).solve(float(k[i]), fams, region.fixed(c))
+            else:
+                res, c = climb(params, region, float(k[i]), fams, rungs)
+            save(i, res.as_dict() | {"c_max": c})
             if progress is not None:
                 progress()
-        unknowns, cells2 = cs.unknowns, cs.cells2
+        sizes = {c: cs.unknowns for c, cs in rungs.solvers.items()}
+        cells2 = max((cs.cells2 for cs in rungs.solvers.values()), default=0)
     finally:
-        cs.destroy()
-    return ShareRun(time.perf_counter() - t0, len(mine), unknowns, cells2)
+        rungs.destroy()
+    return ShareRun(time.perf_counter() - t0, len(mine), max(sizes.values(), default=0), cells2,
+                    sizes)
 
 
-def load_results(folder: str, count: int) -> list[KResult]:
-    """The results of the ``count`` requested ``k``, read back from their files (in order)."""
-    results = []
-    for i in range(count):
-        results.append(read_k_result(raw_file(folder, i)))
-    return results
+def rung_table(rungs: RungSolvers, used: Sequence[float], per_rank: list[dict]) -> dict:
+    """``summary.json`` discretisation keys of the rungs used: cells and unknowns per bound.
+
+    Args:
+        rungs: The solvers per bound (only their rule is read).
+        used: The bound each ``k`` used (``c_max`` of its saved result).
+        per_rank: Each rank's ``{"unknowns": {c: n}}`` (:attr:`ShareRun.rungs`).
+    """
+    sizes: dict[float, int] = {}
+    for d in per_rank:
+        sizes |= d["unknowns"]
+    table = [{"c_max": c, "degree": rungs.discretisation(c)[0],
+              "cells": rungs.discretisation(c)[1], "unknowns": sizes.get(c),
+              "k_values": sum(1 for u in used if u == c)} for c in sorted(set(used))]
+    return {"unknowns": max((r["unknowns"] or 0 for r in table), default=0), "per_rung": table}
+
+
+def region_referee(k: np.ndarray, used: Sequence[float], exact: Sequence[float], by: str
+                   ) -> dict:
+    """``summary.json`` region keys: who chose the bound at each ``k``, and the exact referee.
+
+    Args:
+        k: The requested wavenumbers.
+        used: The bound each ``k`` used.
+        exact: The exact roots' bound at each ``k`` when they refereed the FE's (else empty).
+        by: ``"fe"`` (the FE climbed, :func:`climb`) or ``"exact"`` (:func:`region_at_k`).
+    """
+    out: dict = {"by": by}
+    if exact:
+        out["exact_disagrees_at_k"] = [float(kk) for kk, a, b in zip(k, used, exact, strict=True)
+                                       if a != b]
+    return out
 
 
 def describe_discretisation(params: Params, discretisation: tuple[int, int, float],

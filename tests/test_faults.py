@@ -49,6 +49,10 @@ SCENES = {
     "mode_shape.py": ["--source", "cross-section", "--no-render", "--phases", "1"],
     "time_domain.py": ["--cells-per-wavelength", "16", "--ny", "4", "--amplitude", "1e-6",
                        "--quiet", "--chunk", "20", "--t-end", "1"],
+    "friction_patch.py": ["--length", "3", "--lp", "1,3", "--pictures", "1"],
+    "methods_chart.py": ["--k", "1", "--c-max", "2"],
+    "stability_map.py": ["--x", "Delta:-0.5:2:2", "--y", "gamma:0.1:1:2", "--H", "1",
+                         "--kH-max", "1", "--nk", "2"],
 }
 #: Seconds a cheap scene run may take on the loaded 2-core machine (measured: 4-40 s).
 QUICK = 180
@@ -135,7 +139,7 @@ def assert_one_stop_line(res, *needles: str) -> str:
 
 # ------------------------------------------------------------------------ disk full, injected
 @pytest.mark.serial
-@pytest.mark.slow  # 11 scenes, 4-40 s each
+@pytest.mark.slow  # 14 scenes, 4-40 s each
 @pytest.mark.parametrize("script", sorted(SCENES))
 def test_disk_fills_during_the_run_every_scene(tmp_path, script):
     """ENOSPC at the first output: one line, exit 1, no traceback, nothing untrustworthy."""
@@ -257,8 +261,10 @@ def test_real_full_disk(tmp_path, tiny_disk, nproc):
 
 # ------------------------------------------------------------------------- signals, kills
 def _start(script, args, tmp_path, nproc=1):
+    # its own process group (a shell's job): a terminal's Ctrl-C is SIGINT to that group
     return subprocess.Popen(_command(script, args, nproc), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, cwd=ROOT, env=_env(tmp_path))
+                            stderr=subprocess.PIPE, text=True, cwd=ROOT, env=_env(tmp_path),
+                            process_group=0)
 
 
 def _wait_for_first_result(proc, out, timeout=120) -> None:
@@ -288,6 +294,30 @@ def test_signal_says_what_and_resume(tmp_path, sig):
     assert proc.returncode == 128 + sig, err[-3000:]
     res = subprocess.CompletedProcess([], proc.returncode, "", err)
     assert_one_stop_line(res, f"stopped by {signal.Signals(sig).name}", "--resume", str(out))
+    assert_trustworthy(out)
+
+
+@pytest.mark.serial
+@pytest.mark.slow  # about 20 s
+def test_ctrl_c_under_mpirun(tmp_path):
+    """Ctrl-C (SIGINT to mpirun's process group) is said as Ctrl-C, with the --resume hint.
+
+    mpirun (OpenMPI 4.1) puts each rank in a process group of its own and stops them with
+    SIGTERM; rank 0's watcher, in mpirun's group, sees the SIGINT. mpirun's exit code is then
+    1 whatever the ranks return (measured with ranks exiting 0, 130 and 143).
+    """
+    out = tmp_path / "out"
+    proc = _start("sweep_k.py", ["--k", "0.5:2:64", "--out", str(out)], tmp_path, nproc=2)
+    try:
+        _wait_for_first_result(proc, out)
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode != 0, err[-3000:]
+    res = subprocess.CompletedProcess([], proc.returncode, "", err)
+    assert_one_stop_line(res, "stopped by SIGINT (Ctrl-C", "--resume", str(out))
     assert_trustworthy(out)
 
 
@@ -366,6 +396,97 @@ def test_failed_run_says_resume_only_if_something_finished(tmp_path, write):
     assert not (out / _cli.LOCK).exists()
     if write:
         assert json.loads((out / "done.json").read_text()) == {"x": None}  # strict JSON
+
+
+# ------------------------------------------------------------------- the watcher's exits
+@pytest.mark.serial
+@pytest.mark.parametrize("code,said", [("print('x')", None),
+                                       ("raise KeyboardInterrupt", "stopped by SIGINT (Ctrl-C)")])
+def test_importing_cli_without_run(tmp_path, code, said):
+    """A script in workflows/ importing _cli without run(): no 'stopped' line at a normal exit.
+
+    (Before: the watcher started at import printed 'stopped: the run ended without finishing'
+    after every such script.) Ctrl-C before run() is still said.
+    """
+    res = subprocess.run([sys.executable, "-c", f"import _cli; {code}"], capture_output=True,
+                         text=True, timeout=60, cwd=os.path.join(ROOT, "workflows"),
+                         env=_env(tmp_path))
+    stops = [ln for ln in _lines(res.stderr) if ln.startswith("stopped")]
+    if said is None:
+        assert res.returncode == 0 and stops == [], res.stderr
+    else:
+        assert len(stops) == 1 and stops[0].startswith(said), res.stderr
+
+
+LAUNCHER = textwrap.dedent('''
+    import os, signal, sys, time
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # like mpirun: survives, stops its ranks
+    sys.stderr.write("progress " * 40 + "\\n")
+    sys.stderr.flush()
+    print(os.getpid(), flush=True)
+    sys.stdin.readline()  # the watcher has written its line
+    sys.stderr.write("late progress\\n")  # e.g. a dying rank's last bar, forwarded
+    sys.stderr.flush()
+''')
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("ctrl_c", [False, True])
+def test_watcher_line_under_a_launcher(tmp_path, ctrl_c):
+    """Rank 0's watcher under a fake mpirun whose stderr is a file (``2> file``).
+
+    The line is not overwritten by output the launcher writes after it (before: a fresh open
+    of /proc/PID/fd/2 had its own offset, and the late write landed over the line), and a
+    Ctrl-C (SIGINT to the launcher's process group, as a terminal sends it) is said as such
+    (before: mpirun turns it into SIGTERM for the ranks: "stopped by SIGTERM").
+    """
+    err = tmp_path / "err.txt"
+    with open(err, "w") as fh:
+        launcher = subprocess.Popen([sys.executable, "-c", LAUNCHER], stdin=subprocess.PIPE,
+                                    stdout=subprocess.PIPE, stderr=fh, text=True,
+                                    process_group=0)  # a job group of this session
+    try:
+        pid = int(launcher.stdout.readline())
+        watcher = subprocess.Popen([sys.executable, "-S", "-E",
+                                    os.path.join(ROOT, "workflows", "_watcher.py"), "0",
+                                    str(os.getpid()), str(pid)], stdin=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + 30  # it joins the launcher's group at start
+        while os.getpgid(watcher.pid) != pid and time.monotonic() < deadline:
+            time.sleep(0.05)
+        if ctrl_c:
+            os.killpg(pid, signal.SIGINT)
+            time.sleep(0.5)
+        watcher.stdin.write("why\tstopped by SIGTERM (under mpirun: ...)\n")
+        watcher.stdin.close()  # the rank is gone
+        assert watcher.wait(timeout=30) == 0
+        launcher.communicate("go\n", timeout=30)
+    finally:
+        for proc in (launcher, watcher):
+            if proc.poll() is None:
+                proc.kill()
+    lines = _lines(err.read_text())
+    assert lines[0].startswith("progress") and lines[-1] == "late progress", lines
+    said = [ln for ln in lines if ln.startswith("stopped")]
+    assert len(said) == 1, lines
+    want = "stopped by SIGINT (Ctrl-C" if ctrl_c else "stopped by SIGTERM (under mpirun"
+    assert said[0].startswith(want) and said[0].endswith("run the same command again"), said
+
+
+# ---------------------------------------------------------------------------- strict JSON
+@pytest.mark.serial
+@pytest.mark.slow  # measured 10 s on a quiet machine
+def test_stability_map_json_is_strict(tmp_path):
+    """--f 0 has no closed-form boundary (NaN): null in raw/*.json and summary.json."""
+    out = tmp_path / "out"
+    res = _run("stability_map.py", ["--x", "Delta:-0.5:2:2", "--y", "gamma:0.1:1:2", "--f", "0",
+                                    "--H", "1", "--kH-max", "1", "--nk", "2", "--out", str(out)],
+               tmp_path)
+    assert res.returncode == 0, res.stderr[-3000:]
+    names = [out / "summary.json", *sorted((out / "raw").glob("*.json"))]
+    assert len(names) == 5
+    for name in names:
+        data = json.loads(name.read_text(), parse_constant=_no_constant)
+    assert data["delta_closed_form"] is None
 
 
 # ----------------------------------------------------------------------------- stale locks

@@ -224,7 +224,7 @@ def _run_scene(script: str, argv: list[str], out: str) -> subprocess.CompletedPr
 
 
 @pytest.mark.serial
-@pytest.mark.slow  # 12 scenes x 2 examples x 3-5 s
+@pytest.mark.slow  # 15 scenes x 2 examples x 3-12 s
 @pytest.mark.parametrize("script", sorted(SCENES))
 def test_scene_command_lines(tmp_path_factory, script):
     """Each scene with drawn parameters and options: a result or one line, no traceback.

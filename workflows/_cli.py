@@ -53,11 +53,15 @@ if ROOT not in sys.path:
 
 # ruff: noqa: E402, F401 - re-exports, after the sys.path line above
 from _grids import (
+    ROOTS_W_MAX,
     SWEEP_DELTA_MAX,
     SWEEP_W_MAX,
     SWEEP_WH_MAX,
+    check_branch_kh,
+    check_roots_region,
     check_sweep_limits,
     parse_grid,
+    progress_mapper,
     region_from_args,
 )
 from _options import (

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import sys
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -10,7 +12,8 @@ import numpy as np
 from analytic.cli import parse_k
 from analytic.params import ParameterError
 
-__all__ = ["SWEEP_DELTA_MAX", "SWEEP_WH_MAX", "SWEEP_W_MAX", "check_sweep_limits", "parse_grid"]
+__all__ = ["SWEEP_DELTA_MAX", "SWEEP_WH_MAX", "SWEEP_W_MAX", "check_sweep_limits", "parse_grid",
+           "check_branch_kh", "check_roots_region", "progress_mapper"]
 
 
 def parse_grid(spec: str, name: str = "--k", max_count: int = 100000) -> np.ndarray:
@@ -86,6 +89,54 @@ def check_sweep_limits(params: Any, k: np.ndarray, region: Any) -> None:
             "--c-max")
 
 
+#: The exact roots' region (envelope.py, contrast.py: argument principle on det_M at every k),
+#: its height ``W = Region.im_max`` at the largest k and the first rung of an adaptive region,
+#: measured serially on this project's loaded 2-core machine at the defaults (H = beta = 0.5,
+#: c_max = 4): W = 105 took 1.4 s per k value, 425 took 18 s, 825 (k = 100, envelope's largest
+#: default k) 47 s, 1625 (k = 200) 226 s; the time grows as about W^2.3, so ``--k 1e7``
+#: (W = 8e7) would run for years without a line.
+ROOTS_W_MAX = 1700.0
+
+
+def check_roots_region(params: Any, kmax: float, region: Any, what: str = "k") -> None:
+    """Refuse a region of exact roots taller than :data:`ROOTS_W_MAX` at ``kmax``.
+
+    Raises:
+        ParameterError: One line naming the height, the limit and why.
+    """
+    if region.c_max is None:  # adaptive: the first rung is what every k value needs at least
+        from analytic.numerics.spectrum import C_LADDER
+
+        region = region.fixed(C_LADDER[0])
+    w = region.im_max(params, kmax)
+    if not w <= ROOTS_W_MAX:
+        raise ParameterError(
+            f"the region's height |Im Lambda| <= {w:.4g} at k = {kmax:g} (c_max k times the "
+            f"largest c_d, plus omega0) is above {ROOTS_W_MAX:g}, beyond which the exact root "
+            f"count takes more than about 4 minutes per k value; use a smaller {what}")
+
+
+def check_branch_kh(params: Any, k: float, name: str = "--k") -> None:
+    """Refuse ``k*H`` above ``analytic.cli.BRANCH_KH_MAX`` for a branch followed from small k.
+
+    mode_shape.py follows its branch from small k to ``k`` in steps that scale with ``k*H``, as
+    ``python -m analytic branch`` does (whose measured limit this is). Measured with
+    mode_shape.py on the loaded 2-core machine: ``--k 100`` (k*H = 50, the limit) 74 s,
+    ``--k 1e7`` more than 200 s without a line before this check.
+
+    Raises:
+        ParameterError: One line naming ``name``, the limit and why.
+    """
+    from analytic.cli import BRANCH_KH_MAX
+
+    kh = float(k) * params.H
+    if not kh <= BRANCH_KH_MAX:
+        raise ParameterError(f"{name} = {k:g}: k*H = {kh:g} is above {BRANCH_KH_MAX:g}, the "
+                             "largest for which the branch is followed from small k in bounded "
+                             f"time (steps scale with k*H); use k <= {BRANCH_KH_MAX / params.H:g}"
+                             " or a smaller H")
+
+
 def region_from_args(c_max: str, re_min: float, re_max: float = 2.0,
                      omega0: float | None = None) -> Any:
     """The region of ``--c-max``, ``--re-min``, ``--re-max``, ``--omega0``.
@@ -107,3 +158,35 @@ def region_from_args(c_max: str, re_min: float, re_max: float = 2.0,
         return Region(re_min, re_max, c, omega0)
     except ParameterError as err:
         raise ParameterError("--" + str(err).replace("_", "-", 1)) from None
+
+
+def progress_mapper(comm: Any, desc: str, quiet: bool = False, unit: str = " k values"
+                    ) -> Callable[[Sequence[float], Callable[[int], Any]], dict[int, Any]]:
+    """A ``mapper(costs, fn)`` (:func:`_sharing.map_shared` on ``comm``) with rank 0's bar.
+
+    For a scene's stage that would otherwise be silent (the sweep's region bound at every k:
+    about 0.4 s per k serially, so minutes for thousands of k values): a progress bar of rank
+    0's share from its first item, on stderr, unless ``quiet``; ``unit`` counts the items.
+    """
+    from _sharing import map_shared, my_share
+    from tqdm import tqdm
+
+    def mapper(costs: Sequence[float], fn: Callable[[int], Any]) -> dict[int, Any]:
+        mine = my_share(comm, costs)
+        bar = None if quiet or comm.rank != 0 or not len(mine) else tqdm(
+            total=len(mine), desc=f"{desc} (rank 0 of {comm.size})", unit=unit,
+            file=sys.stderr)
+
+        def step(i: int) -> Any:
+            value = fn(i)
+            if bar is not None:
+                bar.update()
+            return value
+
+        try:
+            return map_shared(comm, costs, step)
+        finally:
+            if bar is not None:
+                bar.close()
+
+    return mapper

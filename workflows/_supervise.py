@@ -22,6 +22,7 @@ removes its ``run.json``). With several ranks a failing rank calls ``MPI_Abort``
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import os
 import signal
@@ -74,9 +75,21 @@ def start_watcher() -> None:
         _STATE["proc"] = subprocess.Popen(
             [sys.executable, "-S", "-E", _WATCHER, str(rank()), str(os.getpid()),
              str(os.getppid() if world_size() > 1 else 0)],
-            stdin=subprocess.PIPE, text=True, start_new_session=True)
+            stdin=subprocess.PIPE, text=True, start_new_session=world_size() == 1)
     except OSError:
         _STATE["proc"] = None
+        return
+    # A normal interpreter exit is not a stop: a script that imports _cli and never calls
+    # run() (or returns from it) tells its watcher so. Stops leave through os._exit (no atexit).
+    atexit.register(_at_exit)
+
+
+def _at_exit() -> None:
+    """Normal interpreter exit: the watcher is done, unless Ctrl-C ended the script."""
+    if isinstance(getattr(sys, "last_value", None), KeyboardInterrupt):  # before run()
+        _tell_watcher("why", "stopped by SIGINT (Ctrl-C)")
+        return
+    _watcher_done()
 
 
 def _watcher_done() -> None:
@@ -122,8 +135,9 @@ def _on_signal(signum: int, frame: object) -> None:
     it stops the job, rank 0's watcher writes it to mpirun's own stderr.
     """
     name = signal.Signals(signum).name
-    cause = ("Ctrl-C" if signum == signal.SIGINT else
-             "under mpirun: another rank failed or was killed, Ctrl-C, or a kill")
+    cause = ("Ctrl-C" if signum == signal.SIGINT else "a kill or a closed terminal"
+             if world_size() == 1 else
+             "under mpirun: another rank failed or was killed, or mpirun was signalled")
     line = f"stopped by {name} ({cause}); {what_to_do()}"
     if world_size() == 1:
         _stop(line, 128 + signum)

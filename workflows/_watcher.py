@@ -10,9 +10,11 @@ SIGKILL. Standard library only (it starts in a few milliseconds).
 
 import json
 import os
+import signal
 import sys
 
 RECORD, LOCK, PARTIAL = "run.json", "run.lock", ".partial"
+SEEN: list[int] = []  # signals received (under mpirun: see _join_launcher)
 
 
 def _holds_outputs(folder: str) -> bool:
@@ -33,15 +35,57 @@ def _remove_lock(folder: str, pid: int) -> None:
         pass
 
 
+def _note(signum: int, frame: object) -> None:
+    SEEN.append(signum)
+
+
+def _join_launcher(launcher: int) -> None:
+    """Move into mpirun's process group, so that a terminal's Ctrl-C reaches this process too.
+
+    mpirun puts every rank in a process group of its own, and on SIGINT it stops them with
+    SIGTERM: the ranks cannot tell Ctrl-C from a kill, but the watcher in mpirun's (the
+    terminal's foreground) group sees the SIGINT itself. SIGINT/SIGTERM/SIGHUP only noted here.
+    """
+    for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(s, _note)
+    try:
+        os.setpgid(0, os.getpgid(launcher))
+    except OSError:  # another session (a launcher started with setsid): not seen, said as TERM
+        pass
+
+
+def _launcher_stderr(launcher: int, default: int) -> int:
+    """The launcher's (mpirun's) own stderr, the very open file (pidfd_getfd): a shared offset.
+
+    With ``2> file`` a new open of ``/proc/PID/fd/2`` has an offset of its own: output mpirun
+    forwards later (a dying rank's last progress bar) was written over the line. The shared
+    offset puts it after the line. Falls back to that open where pidfd_getfd is not allowed.
+    """
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        pidfd = libc.syscall(434, launcher, 0)  # pidfd_open (Linux >= 5.3)
+        if pidfd >= 0:
+            fd = libc.syscall(438, pidfd, 2, 0)  # pidfd_getfd (Linux >= 5.6, ptrace rights)
+            os.close(pidfd)
+            if fd >= 0:
+                return fd
+    except (OSError, AttributeError):
+        pass
+    try:
+        return os.open(f"/proc/{launcher}/fd/2", os.O_WRONLY | os.O_APPEND)
+    except OSError:
+        return default
+
+
 def main() -> int:
     """Watch the rank; see the module docstring."""
     rank, parent, launcher = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
     err = 2
     if launcher:  # mpirun's own stderr: the rank's pipe to mpirun dies with the rank
-        try:
-            err = os.open(f"/proc/{launcher}/fd/2", os.O_WRONLY | os.O_APPEND)
-        except OSError:
-            pass
+        _join_launcher(launcher)
+        err = _launcher_stderr(launcher, err)
     folder, resumable, why = None, False, None
     for line in sys.stdin:
         key, _, rest = line.rstrip("\n").partition("\t")
@@ -56,6 +100,8 @@ def main() -> int:
         _remove_lock(folder, parent)
     if rank != 0:
         return 0
+    if signal.SIGINT in SEEN:
+        why = "stopped by SIGINT (Ctrl-C; mpirun then stops every rank)"
     if why is None:
         why = ("stopped: the run ended without finishing (killed or interrupted; under mpirun"
                " every rank is stopped when one of them fails or is killed)")

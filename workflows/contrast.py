@@ -79,11 +79,14 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     cases = [(m, h) for h in h2s for m in mus]
     params = [p0.replace(mu2=float(m), rho2=float(p0.rho2 * m ** args.rho2_exponent), H2=h)
               for m, h in cases]  # validates every case before any work
+    for q in params:  # the largest c_d sets the region's height
+        _cli.check_roots_region(q, float(ks[-1]), region, "--k or --c-max")
     config = {"params": p0.as_dict(), "mu2_grid": args.mu2_grid, "H2s": h2s, "k": args.k,
               "rho2_exponent": args.rho2_exponent, "region": region.as_dict(p0)}
     with _cli.RunFolder(comm, args.out, "contrast", config, outputs=OUTPUTS) as run:
-        res = _cli.map_shared(comm, [1.0 + (not math.isfinite(h)) for _, h in cases],
-                              lambda i: best_over_k(params[i], ks, region))
+        res = _cli.progress_mapper(comm, "(mu2, H2) cases", False, " cases")(
+            [1.0 + (not math.isfinite(h)) for _, h in cases],  # a bar: minutes per case
+            lambda i: best_over_k(params[i], ks, region))
         if comm.rank == 0:
             rows = [{"mu2": float(m), "rho2": params[i].rho2, "H2": h, **res[i]}
                     for i, (m, h) in enumerate(cases)]

@@ -81,6 +81,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         raise _cli.ParameterError(f"--refine-rounds = {args.refine_rounds} is outside its "
                                   "allowed range 0 .. 50")
     region = _cli.region_from_args(args.c_max, args.re_min)
+    _cli.check_roots_region(p, float(k[-1]), region, "k or --c-max")
     config = {"params": p.as_dict(), "k": args.k, "region": region.as_dict(p),
               "min_ratio": args.min_ratio, "refine_rounds": args.refine_rounds}
     with _cli.RunFolder(comm, args.out, "envelope", config, outputs=OUTPUTS) as run:

@@ -108,6 +108,8 @@ def validate(args: argparse.Namespace):
     _cli.check_k(args.k, name="k")
     branch = parse_branch_label(args.branch, name="--branch")
     k_scan = _cli.parse_k(args.k_scan, name="--k-scan") if args.most_unstable else None
+    _cli.check_branch_kh(params, max(k_scan) if args.most_unstable else args.k,
+                         "--k-scan" if args.most_unstable else "--k")
     _cli.positive_int("--wavelengths", args.wavelengths, 1, 64)
     _cli.positive_int("--cells-per-wavelength", args.cells_per_wavelength, 2)
     _cli.positive_int("--ny", args.ny, 1)

@@ -106,16 +106,14 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
             p = sm.point_params(base, (x[0], x[1][ix]), (y[0], y[1][iy]))
             row = {"ix": ix, "iy": iy, "x": float(x[1][ix]), "y": float(y[1][iy]),
                    **sm.map_point(p, khs, region), "delta_closed_form": sm.closed_form_delta(p)}
-            with open(path + ".part", "w") as fh:
-                json.dump(row, fh)
-            os.replace(path + ".part", path)
+            _cli.write_json(path, row, indent=None)  # strict JSON: NaN -> null
             return row
 
         rows = _cli.map_shared(comm, [1.0] * (nx * ny), point)
         failed = sum(rows[i]["failed_counts"] for i in rows)
         if comm.rank == 0:
             rows = [rows[i] for i in range(nx * ny)]
-            with open(run.file("stability_map.csv"), "w", newline="") as fh:
+            with _cli.atomic_open(run.file("stability_map.csv"), "w", newline="") as fh:
                 w = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")
                 w.writeheader()
                 w.writerows(rows)
@@ -130,8 +128,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                        "fastest_point": fastest, "failed_counts": failed,
                        "resumed": run.resumed, "mpi_ranks": comm.size,
                        "versions": _cli.versions(), "command": _cli.command()}
-            with open(run.file("summary.json"), "w") as fh:
-                json.dump(summary, fh, indent=1)
+            _cli.write_json(run.file("summary.json"), summary)
             plot(run.file("stability_map.png"), rows, x, y, base, config)
             _cli.say(f"{summary['stable_on_grid']} of {nx * ny} points stable on the k H grid "
                      f"(kH <= {args.kH_max:g}); fastest: " + ("none" if fastest is None else

@@ -200,8 +200,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     # exact-seeded path and the family plan take the exact roots' region
     fe_climbs = args.solver == "moments" and region.c_max is None
     c_at_k, big = (([], region.fixed(C_LADDER[0])) if fe_climbs and not check else
-                   sweep.regions_at_k(params, region, k, check,
-                                      lambda c, fn: _cli.map_shared(comm, c, fn)))
+                   sweep.regions_at_k(params, region, k, check,  # a bar from the first second
+                                      _cli.progress_mapper(comm, "region bound", args.quiet)))
     fixed = (args.degree, args.cells, 1.0)
     config = {"params": params.as_dict(), "k": [float(v) for v in k],
               "region": region.as_dict(params), "c_max_at_k": c_at_k, "rtol": args.rtol,

@@ -71,6 +71,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from analytic.cli import dumps
 from analytic.law import FrictionLaw
 from analytic.params import Material, ParameterError, Params
 from analytic.physics.finite_h import _even_pair, row_normalised_det
@@ -595,7 +596,6 @@ def write_gr_map(out: str, beta: float = 0.5, beta2: float | None = None,
     impedance (``mu2 rho2 = 1``) are drawn. Returns the written paths.
     """
     import csv
-    import json
     import os
 
     import matplotlib
@@ -625,7 +625,7 @@ def write_gr_map(out: str, beta: float = 0.5, beta2: float | None = None,
             "rayleigh_speed_body1": rayleigh_speed(beta),
             "model": "two half-spaces, frictionless contact without opening (Weertman 1963)"}
     with open(paths[1], "w") as fh:
-        json.dump(meta, fh, indent=2)
+        fh.write(dumps(meta, indent=2) + "\n")
     fig, ax = plt.subplots(figsize=(6.2, 5.0), constrained_layout=True)
     pc = ax.pcolormesh(mu2s, rho2s, speed / c_max, shading="auto", cmap="viridis")
     fig.colorbar(pc, ax=ax, label="GR speed / min(c_s1, c_s2)")

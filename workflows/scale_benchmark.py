@@ -10,7 +10,8 @@ MUMPS, covering the box) always, the argument-principle count of ``det T_h`` (MU
   time, setup, the count's time, LU factorisations and their PETSc-logged time, the tiles' time,
   tile solves, their LU and ``MatSolve`` times, the factorisation's share of the wall time, the
   peak resident memory (largest rank, MiB), MUMPS's ``INFOG(21)`` (MiB), found, counted, the
-  fastest eigenvalue (rows appended as each size finishes);
+  fastest eigenvalue, the 1-minute load average before and after (rewritten as each size
+  finishes);
 - ``scale_np<ranks>.json``: parameters, the machine's load average at start and end (other jobs
   share the machine: times are what this run got, not the machine's speed), the rows, and the
   cost model fitted to them (:func:`forms.studies.scale.fit_cost_model`).
@@ -90,21 +91,21 @@ def _run(comm, args, sizes, box, parameters, name) -> int:
     csv_path = os.path.join(args.out, name + ".csv")
     for target in sizes:
         nx, ny = scale.cells_for_unknowns(target, args.length, params.H)
+        load = os.getloadavg()[0]
         row = scale.measure_region_solve(comm, params, args.length, nx, ny, box=box,
                                          nev=args.nev, count=target <= args.count_up_to)
-        row["load"] = os.getloadavg()[0]
+        row.update(load_start=load, load_end=os.getloadavg()[0])
         rows.append(row)
         _cli.say(f"{row['unknowns']} unknowns: wall {row['wall']:.1f} s, found {row['found']},"
                  f" counted {row['counted']}, LU share {row['lu_share']:.2f}", err=False)
-        if comm.rank == 0:
+        record.update(load_end=os.getloadavg(), rows=rows,
+                      cost_model={str(k): v for k, v in scale.fit_cost_model(rows).items()})
+        if comm.rank == 0:  # after every size: a run stopped by a time limit keeps its rows
             with _cli.atomic_open(csv_path, "w", newline="") as f:
-                w = csv.DictWriter(f, [*scale.COLUMNS, "load"])
+                w = csv.DictWriter(f, [*scale.COLUMNS, "load_start", "load_end"])
                 w.writeheader()
                 w.writerows(rows)
-    record.update(load_end=os.getloadavg(), rows=rows,
-                  cost_model={str(k): v for k, v in scale.fit_cost_model(rows).items()})
-    if comm.rank == 0:
-        _cli.write_json(os.path.join(args.out, name + ".json"), record)
+            _cli.write_json(os.path.join(args.out, name + ".json"), record)
     return 0 if all(r["closed"] in ("", True) for r in rows) else 1
 
 

@@ -187,6 +187,13 @@ def _fmt(v: float, digits: int = 3) -> str:
     return "-" if not math.isfinite(v) else f"{v:.{digits}g}"
 
 
+def _load(row: dict) -> str:
+    """Load average before-after a row (one value in rows written with a single ``load``)."""
+    if "load_start" in row:
+        return f"{float(row['load_start']):.0f}-{float(row['load_end']):.0f}"
+    return f"{float(row['load']):.0f}"
+
+
 def markdown_table(rows: Sequence[dict]) -> str:
     """The README's table of the measured rows and the fitted model (recomputed by the tests).
 
@@ -202,7 +209,7 @@ def markdown_table(rows: Sequence[dict]) -> str:
                      f"{_fmt(float(r['count']))} ({int(r['count_evaluations'])}) | "
                      f"{_fmt(float(r['tiles_time']))} ({int(r['tiles'])}) | "
                      f"{float(r['lu_share']):.2f} | {float(r['rss_max']):.0f} | "
-                     f"{int(r['found'])} / {counted} | {float(r['load']):.1f} |")
+                     f"{int(r['found'])} / {counted} | {_load(r)} |")
     lines.append("")
     for ranks, m in fit_cost_model(rows).items():
         lines.append(f"- {ranks} rank(s), {m['points']} sizes: per count LU "

@@ -200,7 +200,7 @@ def markdown_table(rows: Sequence[dict]) -> str:
     Args:
         rows: Rows of :data:`COLUMNS` (values may be strings, as read from the CSV), any ranks.
     """
-    head = ("| ranks | unknowns | wall s | count s (LU) | tiles s (tiles) | LU share | peak RSS"
+    head = ("| ranks | unknowns | wall s | count s (E) | tiles s (T) | LU share | peak RSS"
             " MiB/rank | found / counted | load |\n|---|---|---|---|---|---|---|---|---|")
     lines = [head]
     for r in sorted(rows, key=lambda r: (int(r["ranks"]), int(r["unknowns"]))):

@@ -20,7 +20,10 @@ than the fastest root in R; summary.json states the bound and the tail bound at 
   equal the FE count and each FE value is matched to a distinct exact root, whose family
   gives its label. ``--check-exact no``: analytic's roots are never consulted, the labels are
   ``fe0, fe1, ...`` by increasing ``|Im Lambda|`` at each k (no tracking in k);
-- ``--solver newton``: the former path, FE Newton from each exact root (needs the check).
+- ``--solver newton``: the former path, FE Newton from each exact root (needs the check);
+- ``--model layers`` with several layers or profiles: FE only (``--check-exact no``), c_d the
+  stack's largest, no tail bound (R not proven to hold the fastest mode), labels ``c0, c1, ...``
+  by continuation of the FE eigenpairs in k (forms.studies.sweep.label_by_continuation).
 
 ``status = ok`` means: count closed, estimate (and, when checked, label and error) within
 ``--rtol``; the column ``certificate`` says what a row carries (``fe``, ``exact``).
@@ -94,8 +97,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="cells of the interval mesh (0: chosen from the region and --rtol)")
     ap.add_argument("--solver", default="moments",
                     help="moments (FE first, contour moments) or newton (FE from exact roots)")
-    ap.add_argument("--check-exact", default="yes",
-                    help="yes: match the FE values to the exact roots; no: never consult them")
+    ap.add_argument("--check-exact", default=None,
+                    help="yes (default): match the FE values to the exact roots; no: never "
+                    "consult them (always no for several layers or profiles)")
     m = ap.add_argument_group("slider (1D model; forms.models.profiles)")
     m.add_argument("--model", default="section", help="section (homogeneous, default) or "
                    "layers (--layers and/or profiles)")
@@ -116,18 +120,17 @@ def build_parser() -> argparse.ArgumentParser:
 def slider(args: argparse.Namespace, params: Params) -> tuple[Params, SliderMaterial | None]:
     """The model of ``--model``: ``(params, material)`` (``None``: homogeneous slider).
 
-    The certified path needs the exact roots: a layers model is accepted when it is one
-    homogeneous layer (then ``H`` and ``beta`` come from its row); more needs the FE-first sweep.
+    One homogeneous layer (``mu = rho = 1``, no profile) is today's slider with ``H`` and
+    ``beta`` of its row (exact roots checked). Several layers or profiles have no exact roots:
+    FE only (:func:`forms.studies.sweep.layered_params`; ``--check-exact`` then defaults to no).
     """
     material = slider_material(args.model, args.layers, args.mu_profile, args.rho_profile,
                                args.beta_profile)
     if material is None:
         return params, None
     exact = homogeneous_params(params, material)
-    if exact is None:
-        raise _cli.ParameterError("--model layers: only one layer with mu = rho = 1 and no "
-                                  "profile is allowed here (the certified sweep needs exact roots)")
-    return exact, material
+    return (exact if exact is not None else sweep.layered_params(
+        params, material, args.check_exact, args.solver)), material
 
 
 def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]:
@@ -138,6 +141,7 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
         duplicate values dropped.
     """
     params, args.material = slider(args, _cli.params_from_args(args))
+    layered = args.material is not None and homogeneous_params(params, args.material) is None
     if params.two_body and not math.isfinite(params.H2):
         raise _cli.ParameterError("H2 = inf is outside its allowed range here: the certified "
                                   "sweep needs a finite substrate (H2 > 0 finite)")
@@ -154,6 +158,7 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
     if args.solver not in SOLVERS:
         raise _cli.ParameterError(f"--solver = {args.solver} is outside its allowed values "
                                   + " | ".join(SOLVERS))
+    args.check_exact = args.check_exact or ("no" if layered else "yes")
     if args.check_exact not in ("yes", "no"):
         raise _cli.ParameterError(f"--check-exact = {args.check_exact} is outside its allowed "
                                   "values yes | no")
@@ -163,23 +168,27 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
     if not (math.isfinite(args.omega0) and args.omega0 >= 0):
         raise _cli.ParameterError(f"--omega0 = {args.omega0} is outside its allowed range >= 0")
     region = _cli.region_from_args(args.c_max, args.re_min, args.re_max, args.omega0 or None)
+    args.layered = sweep.layered_summary(params, args.material, region) if layered else None
+    if layered:  # phase velocities in units of the stack's largest c_d; no tail bound
+        region = sweep.layered_region(params, args.material, region)
     _cli.check_sweep_limits(params, k, region)
     return params, k, len(k_all) - len(k), region
 
 
 def write_outputs(out: str, params: Params, region: Region, k: np.ndarray,
                   results: list[KResult], fams: list, meta: dict, plot: bool,
-                  c_max_at_k: list[float]) -> dict:
+                  c_max_at_k: list[float], layered: dict | None = None) -> dict:
     """Rank 0: spectrum.csv and dispersion.png; returns the summary.
 
-    The caller adds the timings and writes ``summary.json`` once.
+    The caller adds the timings and writes ``summary.json`` once. ``layered``: the region's
+    keys of a layered slider (:func:`forms.studies.sweep.layered_summary`).
     """
     with _cli.atomic_open(os.path.join(out, "spectrum.csv"), "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(ROW_FIELDS))
         w.writeheader()
         w.writerows(sweep.csv_rows(results, ROW_FIELDS))
     summary = meta | sweep.summarise(params, region, k, results, fams, c_max_at_k,
-                                     meta["check_exact"])
+                                     meta["check_exact"], layered)
     if plot:
         plot_dispersion(os.path.join(out, "dispersion.png"), params,
                         sweep.largest_region(region, c_max_at_k), results, fams,
@@ -210,6 +219,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         out, t_start = run.path, time.perf_counter()
         if merged and not args.quiet:
             _cli.say(f"note: {merged} duplicate k value(s) merged", err=True)
+        if args.layered is not None and not args.quiet:
+            _cli.say(sweep.LAYERED_NOTE, err=True)
         todo = sweep.pending_k(comm, out, len(k), run.resumed)
         t_fam, fams = time.perf_counter(), []
         if check:
@@ -248,9 +259,10 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                                                 "command": _cli.command()}
             meta["discretisation"] |= sweep.rung_table(rungs, used, times)
             summary = write_outputs(out, params, region, k, sweep.load_results(out, len(k)),
-                                    fams, meta, not args.no_plot, used)
-            summary["region"] |= sweep.region_referee(
-                k, used, c_at_k if fe_climbs and check else [], "fe" if fe_climbs else "exact")
+                                    fams, meta, not args.no_plot, used, args.layered)
+            summary["region"] = sweep.region_referee(  # a layered slider's "by" stays
+                k, used, c_at_k if fe_climbs and check else [],
+                "fe" if fe_climbs else "exact") | summary["region"]
             wall = time.perf_counter() - t_start
             summary["timing_s"] = {"wall": wall, "post_processing_rank0": time.perf_counter()
                                    - t2}

@@ -24,7 +24,7 @@ from test_fe_first import NO_EXACT, _scene
 
 from analytic.numerics.roots import count_zeros
 from analytic.params import Params
-from analytic.physics.layered_exact import ExactLayer, det_layered, layered_root
+from analytic.physics.layered_exact import ExactLayer, det_layered, follow_layered, layered_root
 from forms.solvers.certified import KResult
 from forms.studies.sweep import label_by_continuation
 
@@ -129,3 +129,65 @@ def test_smooth_profile_converges_at_order_2p_through_the_scene(tmp_path):
     orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     # the package test (tests/test_profiles.py) measured P2 orders 3.92, 3.98 on these meshes
     assert np.all(orders > 4 - 0.6) and np.all(orders < 4 + 0.5), orders
+
+
+RESULTS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "workflows",
+                       "results")
+#: README "A damage zone": per committed sweep (default k grid, paper defaults, velocity top),
+#: the fastest row's peak over the grid (label, k, Re Lambda to the README's 6 digits) and the
+#: labels that lead along k with their first and last grid k.
+README_DAMAGE = {
+    "homogeneous": ("sweep_k", "0-", 1.75, 0.327450,
+                    [("0-", 0.05, 2.7), ("1-", 2.75, 5.0), ("2-", 5.05, 6.0)]),
+    "layer": ("damage_zone/layer", "c0", 1.7, 0.309091,
+              [("c0", 0.05, 2.6), ("c2", 2.65, 4.8), ("c3", 4.85, 6.0)]),
+    "smooth": ("damage_zone/smooth", "c0", 1.7, 0.314109,
+               [("c0", 0.05, 2.65), ("c2", 2.7, 5.05), ("c3", 5.1, 6.0)]),
+}
+#: The README's layer: mu = 0.6 for y < 0.05 (workflows/results/damage_zone/damage_zone_layers.csv).
+EXACT_DZ = [ExactLayer(0.0, 0.05, 0.6, 1.0, 0.5), ExactLayer(0.05, 0.5, 1.0, 1.0, 0.5)]
+
+
+def _committed(folder):
+    with open(os.path.join(RESULTS, folder, "spectrum.csv")) as fh:
+        return list(csv.DictReader(fh))
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("case", list(README_DAMAGE))
+def test_damage_zone_readme_numbers_from_the_committed_sweeps(case):
+    """The README's peaks and leaders, recomputed from the committed spectrum.csv files."""
+    from forms.studies.sweep import envelope, envelope_changes
+
+    folder, label, k_peak, re_peak, leaders = README_DAMAGE[case]
+    got = envelope_changes(envelope(_committed(folder)))
+    assert got["peak"]["label"] == label and got["peak"]["k"] == pytest.approx(k_peak, abs=1e-9)
+    assert round(got["peak"]["re_lambda"], 6) == re_peak
+    assert [(x["label"], round(x["k_from"], 6), round(x["k_to"], 6))
+            for x in got["leaders"]] == leaders
+    with open(os.path.join(RESULTS, "damage_zone", "fastest", "fastest.csv")) as fh:
+        picture = [r for r in csv.DictReader(fh) if r["run"].startswith(
+            {"homogeneous": "homogeneous", "layer": "mu = 0.6", "smooth": "mu = 1 -"}[case])]
+    assert len(picture) == 120 and max(float(r["re_lambda"]) for r in picture) == pytest.approx(
+        got["peak"]["re_lambda"], rel=1e-15)
+
+
+@pytest.mark.serial
+def test_damage_zone_layer_against_the_exact_layered_roots():
+    """The layer's peak lies on the exact branch 0- (through 0.27 - 6.6i at k = 1), and the
+    exact roots of the two leaders swap order between k = 2.6 and 2.65, as the FE rows say."""
+    p = Params()
+    rows = _committed("damage_zone/layer")
+
+    def row(label, k):
+        return next(_value(r) for r in rows
+                    if r["label"] == label and abs(float(r["k"]) - k) < 1e-9)
+
+    peak = row("c0", 1.7)
+    branch = follow_layered(0.27 - 6.6j, 1.0, np.arange(1.0, 1.71, 0.05), p, EXACT_DZ)[-1]
+    # the sweep's --rtol, 1e-8; measured 2026-11-24: 8.9e-13
+    assert abs(branch - peak) < 1e-8 * abs(branch)
+    for k, first in ((2.6, "c0"), (2.65, "c2")):
+        exact = {lab: layered_root(row(lab, k), k, p, EXACT_DZ) for lab in ("c0", "c2")}
+        assert all(r.converged for r in exact.values())
+        assert max(exact, key=lambda lab: exact[lab].value.real) == first

@@ -97,9 +97,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="cells of the interval mesh (0: chosen from the region and --rtol)")
     ap.add_argument("--solver", default="moments",
                     help="moments (FE first, contour moments) or newton (FE from exact roots)")
-    ap.add_argument("--check-exact", default=None,
-                    help="yes (default): match the FE values to the exact roots; no: never "
-                    "consult them (always no for several layers or profiles)")
+    ap.add_argument("--check-exact", default="auto",
+                    help="yes: match the FE values to the exact roots; no: never consult them; "
+                    "auto: no for several layers or profiles (no exact roots), else yes")
     m = ap.add_argument_group("slider (1D model; forms.models.profiles)")
     m.add_argument("--model", default="section", help="section (homogeneous, default) or "
                    "layers (--layers and/or profiles)")
@@ -122,7 +122,7 @@ def slider(args: argparse.Namespace, params: Params) -> tuple[Params, SliderMate
 
     One homogeneous layer (``mu = rho = 1``, no profile) is today's slider with ``H`` and
     ``beta`` of its row (exact roots checked). Several layers or profiles have no exact roots:
-    FE only (:func:`forms.studies.sweep.layered_params`; ``--check-exact`` then defaults to no).
+    FE only (:func:`forms.studies.sweep.layered_params`; ``--check-exact auto`` is then no).
     """
     material = slider_material(args.model, args.layers, args.mu_profile, args.rho_profile,
                                args.beta_profile)
@@ -158,10 +158,11 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
     if args.solver not in SOLVERS:
         raise _cli.ParameterError(f"--solver = {args.solver} is outside its allowed values "
                                   + " | ".join(SOLVERS))
-    args.check_exact = args.check_exact or ("no" if layered else "yes")
+    if args.check_exact == "auto":
+        args.check_exact = "no" if layered else "yes"
     if args.check_exact not in ("yes", "no"):
         raise _cli.ParameterError(f"--check-exact = {args.check_exact} is outside its allowed "
-                                  "values yes | no")
+                                  "values yes | no | auto")
     if args.solver == "newton" and args.check_exact == "no":
         raise _cli.ParameterError("--check-exact = no is outside its allowed values with "
                                   "--solver newton (it starts from the exact roots): yes")

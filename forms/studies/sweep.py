@@ -135,15 +135,15 @@ def layered_region(params: Params, material: SliderMaterial, region: Region) -> 
     return Region(region.re_min, region.re_max, c_max * c / velocity_scale(params), omega0)
 
 
-def layered_params(params: Params, material: SliderMaterial, check_exact: str | None,
+def layered_params(params: Params, material: SliderMaterial, check_exact: str,
                    solver: str) -> Params:
     """``params`` of a layered/graded slider (``H``: its height); refuse an exact check.
 
     Raises:
-        ParameterError: ``check_exact`` other than ``None`` (default) or ``"no"``, or
+        ParameterError: ``check_exact`` other than ``"auto"`` (default) or ``"no"``, or
             ``solver = "newton"`` (it starts from exact roots): one line.
     """
-    if check_exact not in (None, "no") or solver == "newton":
+    if check_exact not in ("auto", "no") or solver == "newton":
         bad = ("--solver = newton", "moments") if solver == "newton" else (
             f"--check-exact = {check_exact}", "no")
         raise ParameterError(f"{bad[0]} is outside its allowed values for several layers or "

@@ -58,7 +58,7 @@ from tqdm import tqdm  # noqa: E402
 
 from analytic.numerics.spectrum import C_LADDER, Region  # noqa: E402
 from analytic.params import Params  # noqa: E402
-from forms.models.profiles import SliderMaterial, homogeneous_params, slider_material  # noqa: E402
+from forms.models.profiles import homogeneous_params, slider_material  # noqa: E402
 from forms.solvers.certified import (  # noqa: E402
     ROW_FIELDS,
     SOLVERS,
@@ -117,22 +117,6 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
-def slider(args: argparse.Namespace, params: Params) -> tuple[Params, SliderMaterial | None]:
-    """The model of ``--model``: ``(params, material)`` (``None``: homogeneous slider).
-
-    One homogeneous layer (``mu = rho = 1``, no profile) is today's slider with ``H`` and
-    ``beta`` of its row (exact roots checked). Several layers or profiles have no exact roots:
-    FE only (:func:`forms.studies.sweep.layered_params`; ``--check-exact auto`` is then no).
-    """
-    material = slider_material(args.model, args.layers, args.mu_profile, args.rho_profile,
-                               args.beta_profile)
-    if material is None:
-        return params, None
-    exact = homogeneous_params(params, material)
-    return (exact if exact is not None else sweep.layered_params(
-        params, material, args.check_exact, args.solver)), material
-
-
 def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]:
     """Check every input (no side effects); raise ParameterError on the first bad one.
 
@@ -140,8 +124,16 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
         ``(params, k, merged, region)``: ``k`` sorted and unique, ``merged`` the number of
         duplicate values dropped.
     """
-    params, args.material = slider(args, _cli.params_from_args(args))
-    layered = args.material is not None and homogeneous_params(params, args.material) is None
+    # the slider of --model: one homogeneous layer (mu = rho = 1, no profile) is today's slider
+    # (H, beta of its row; exact roots checked); several layers or profiles have no exact roots
+    # (FE only: sweep.layered_params; --check-exact auto is then no)
+    args.material = slider_material(args.model, args.layers, args.mu_profile, args.rho_profile,
+                                    args.beta_profile)
+    params = _cli.params_from_args(args)
+    one = homogeneous_params(params, args.material) if args.material is not None else None
+    layered = args.material is not None and one is None
+    params = one or (sweep.layered_params(params, args.material, args.check_exact, args.solver)
+                     if layered else params)
     if params.two_body and not math.isfinite(params.H2):
         raise _cli.ParameterError("H2 = inf is outside its allowed range here: the certified "
                                   "sweep needs a finite substrate (H2 > 0 finite)")
@@ -173,7 +165,10 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
     if layered:  # phase velocities in units of the stack's largest c_d; no tail bound
         region = sweep.layered_region(params, args.material, region)
     _cli.check_sweep_limits(params, k, region)
-    return params, k, len(k_all) - len(k), region
+    merged = len(k_all) - len(k)
+    args.notes = ([f"note: {merged} duplicate k value(s) merged"] if merged else []) + (
+        [sweep.LAYERED_NOTE] if layered else [])  # said once the run folder is taken
+    return params, k, merged, region
 
 
 def write_outputs(out: str, params: Params, region: Region, k: np.ndarray,
@@ -208,20 +203,17 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     c_at_k, big = (([], region.fixed(C_LADDER[0])) if fe_climbs and not check else
                    sweep.regions_at_k(params, region, k, check,
                                       lambda c, fn: _cli.map_shared(comm, c, fn)))
-    fixed = (args.degree, args.cells, 1.0)
     config = {"params": params.as_dict(), "k": [float(v) for v in k],
               "region": region.as_dict(params), "c_max_at_k": c_at_k, "rtol": args.rtol,
-              "degree": args.degree, "cells": args.cells, "region_by": (
-                  "fe" if fe_climbs else "exact"),
+              "degree": args.degree, "cells": args.cells,
+              "region_by": "fe" if fe_climbs else "exact",
               "solver": args.solver, "check_exact": check,
               **({"material": args.material.as_dict()} if args.material is not None else {})}
     with _cli.RunFolder(comm, args.out, "sweep_k", config, resume=args.resume, resumable=True,
                         outputs=OUTPUTS) as run:
         out, t_start = run.path, time.perf_counter()
-        if merged and not args.quiet:
-            _cli.say(f"note: {merged} duplicate k value(s) merged", err=True)
-        if args.layered is not None and not args.quiet:
-            _cli.say(sweep.LAYERED_NOTE, err=True)
+        for note in [] if args.quiet else args.notes:
+            _cli.say(note, err=True)
         todo = sweep.pending_k(comm, out, len(k), run.resumed)
         t_fam, fams = time.perf_counter(), []
         if check:
@@ -235,11 +227,10 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
             fams = sweep.follow_all(comm, params, big, k, fam_share)
         t_fam = time.perf_counter() - t_fam
         mine = [todo[j] for j in _cli.my_share(comm, sweep.k_costs(params, big, k, todo))]
-        bar = None
-        if comm.rank == 0 and not args.quiet and mine:
-            bar = tqdm(total=len(mine), desc=f"k values (rank 0 of {comm.size})", unit=" k values",
-                       file=sys.stderr)
-        rungs = sweep.RungSolvers(params, region, float(k[-1]), args.rtol, fixed, args.material,
+        bar = tqdm(total=len(mine), desc=f"k values (rank 0 of {comm.size})", unit=" k values",
+                   file=sys.stderr) if comm.rank == 0 and not args.quiet and mine else None
+        rungs = sweep.RungSolvers(params, region, float(k[-1]), args.rtol,
+                                  (args.degree, args.cells, 1.0), args.material,
                                   check_exact=check, solver=args.solver)
         share = sweep.solve_k_values(params, region, rungs, k, mine, fams, out,
                                      bar.update if bar is not None else None,

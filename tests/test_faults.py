@@ -153,8 +153,10 @@ def test_disk_fills_during_the_run_every_scene(tmp_path, script):
 def test_disk_fills_during_sweep(tmp_path, nproc):
     """The main scene, serial and under mpirun -n 2 (the line comes from the rank that saw it)."""
     out = tmp_path / "out"
+    # Written whole (.partial names): the lock, run.json, the k's part (raw/k00000.json), then
+    # the first output: the 4th fails after the k is finished (with the 3rd, nothing is).
     res = _run("sweep_k.py", ["--k", "1", "--quiet", "--out", str(out)], tmp_path, nproc,
-               FAULT_ENOSPC_AT="3")
+               FAULT_ENOSPC_AT="4")
     assert res.returncode == 1, res.stderr[-3000:]
     assert_one_stop_line(res, "no space left on device", "--resume")
     assert_trustworthy(out)
@@ -164,6 +166,21 @@ def test_disk_fills_during_sweep(tmp_path, nproc):
     assert res.returncode == 0, res.stderr[-3000:]
     assert "most unstable" in res.stdout
     assert_trustworthy(out)
+
+
+@pytest.mark.serial
+@pytest.mark.slow  # two sweep runs
+def test_disk_full_before_anything_finished_says_again(tmp_path):
+    """ENOSPC at the first part (nothing finished): 'again', no record; the same command runs."""
+    out = tmp_path / "out"
+    args = ["--k", "1", "--quiet", "--out", str(out)]
+    res = _run("sweep_k.py", args, tmp_path, FAULT_ENOSPC_AT="3")
+    assert res.returncode == 1, res.stderr[-3000:]
+    line = assert_one_stop_line(res, "no space left on device", "run the same command again")
+    assert "--resume" not in line and not (out / _cli.RECORD).exists()
+    assert_trustworthy(out)
+    res = _run("sweep_k.py", args, tmp_path)
+    assert res.returncode == 0, res.stderr[-3000:]
 
 
 def test_full_disk_before_the_run_leaves_no_lock(tmp_path, monkeypatch):

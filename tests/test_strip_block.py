@@ -148,6 +148,7 @@ def test_finite_block_workflow(tmp_path, ranks):
         again = list(csv.DictReader(f))
     assert [float(r["L"]) for r in again] == [2.0, 4.0, 6.0]
     assert again[:2] == rows
+    assert sorted(os.listdir(out / "raw")) == ["L2.0.json", "L4.0.json", "L6.0.json"]  # parts
 
 
 @pytest.mark.slow  # measured ~40 s per run on a loaded machine (2026-11-24): three runs

@@ -117,15 +117,22 @@ def test_region_holds_the_fastest_mode():
 
 
 def test_distributed_solve_equals_the_serial_solve_and_resumes(tmp_path):
-    """forms.studies.sweep: families and k values shared over the ranks (round robin), written to
-    the
-    raw files, read back; equal to the serial solve at every k on every rank. A removed file
-    is the only pending k on resume; without resume every k is pending again."""
+    """forms.studies.sweep: families and k values shared over the ranks (round robin), saved as
+    parts (workflows/_parts.py, as the scene does), read back; equal to the serial solve at
+    every k on every rank. A removed part is the only pending k on resume; without resume
+    every k is pending again."""
+    from _parts import Parts
+
     comm = MPI.COMM_WORLD
     folder = comm.bcast(str(tmp_path) if comm.rank == 0 else None)
+    parts = Parts(os.path.join(folder, "raw"), "k{:05d}")
     p, region, k = Params(H=0.5), Region(), np.array([0.5, 1.5, 2.5])
     disc = default_discretisation(p, region, float(k[-1]), 1e-8)
-    todo = sweep.pending_k(comm, folder, len(k), resumed=False)
+
+    def pending(resumed):
+        return parts.begin(comm, resumed, count=len(k)).todo
+
+    todo = pending(resumed=False)
     assert todo == [0, 1, 2]
     plan, items = sweep.family_plan(comm, p, region, float(k[-1]))
     fams = sweep.follow_families(comm, p, region, plan, items, k,
@@ -134,11 +141,11 @@ def test_distributed_solve_equals_the_serial_solve_and_resumes(tmp_path):
     mine = todo[comm.rank::comm.size]
     calls = []
     rungs = sweep.RungSolvers(p, region, float(k[-1]), 1e-8, (0, 0, 0.0))
-    share = sweep.solve_k_values(p, region, rungs, k, mine, fams, folder,
+    share = sweep.solve_k_values(p, region, rungs, k, mine, fams, parts.save,
                                  lambda: calls.append(1))
     assert share.k_values == len(mine) == len(calls) and share.unknowns > 0
     comm.Barrier()
-    results = sweep.load_results(folder, len(k))
+    results = [sweep.k_result_from_json(d) for d in parts.load_all().values()]
     solver = CertifiedSolver(p, region, *disc, float(k[-1]), 1e-8)
     try:
         serial = [solver.solve(float(kk), fams) for kk in k]
@@ -153,9 +160,9 @@ def test_distributed_solve_equals_the_serial_solve_and_resumes(tmp_path):
             assert abs(complex(ra["re_lambda"], ra["im_lambda"]) - z) <= 1e-12 * abs(z)
     comm.Barrier()
     if comm.rank == 0:
-        os.remove(sweep.raw_file(folder, 1))
-    assert sweep.pending_k(comm, folder, len(k), resumed=True) == [1]
-    assert sweep.pending_k(comm, folder, len(k), resumed=False) == [0, 1, 2]
+        os.remove(os.path.join(folder, "raw", "k00001.json"))
+    assert pending(resumed=True) == [1]
+    assert pending(resumed=False) == [0, 1, 2]
 
 
 def _row(k, re, status="ok", err=1e-10, est=2e-10):

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import os
 
 import _cli
@@ -53,15 +52,6 @@ def box_for(box: tuple[float, float, float] | None, lam_inf: complex) -> tuple[f
         g, w = abs(lam_inf.real), abs(lam_inf.imag)
         box = (0.5 * g, 2.0 * g, 1.5 * max(w, 1.0))
     return box[0], box[1], -box[2], box[2]
-
-
-def earlier(json_path: str, key: str) -> dict:
-    """``key`` of an earlier run's ``finite_block.json`` (per-length timings or certificates)."""
-    if not os.path.exists(json_path):
-        return {}
-    with open(json_path) as f:
-        old = json.load(f).get(key, {})
-    return {name: v for name, v in old.items() if name != "total"}
 
 
 def start_spectrum(out: str, resumed: bool) -> None:

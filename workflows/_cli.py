@@ -34,6 +34,8 @@ one job each (docs/workflows.md):
 - :mod:`_writing`: whole-or-nothing output files (:func:`atomic_open`, :func:`write_json`,
   :func:`save_figure`, :func:`atomic_files`);
 - :mod:`_runfolder`: :class:`RunFolder` (checks, lock, record, ``--resume``);
+- :mod:`_parts`: :class:`Parts`, the one resume mechanism (finished pieces of work saved whole,
+  loaded back by ``--resume``);
 - :mod:`_supervise` (+ :mod:`_watcher`): :func:`run`, how a run ends (one line, exit code).
 
 Also re-exported from :mod:`analytic.cli`: :func:`add_param_arguments`,
@@ -67,6 +69,7 @@ from _options import (
     split_petsc,
     start,
 )
+from _parts import Parts
 from _provenance import (
     add_png_metadata,
     command,

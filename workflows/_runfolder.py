@@ -28,6 +28,7 @@ from collections.abc import Iterable
 from typing import Any
 
 import _supervise
+from _parts import Parts
 from _provenance import command, describe_difference, dumps, versions
 from _sharing import say
 from _writing import PARTIAL, atomic_open
@@ -111,6 +112,15 @@ class RunFolder:
     def file(self, *parts: str) -> str:
         """Path of a file inside the folder."""
         return os.path.join(self.path, *parts)
+
+    def parts(self, folder: str, names: str, count: int | None = None,
+              payloads: bool = False) -> Parts:
+        """The run's :class:`_parts.Parts` in ``folder`` (inside the run folder), started.
+
+        The one resume mechanism (collective): without ``--resume`` the parts of an earlier
+        run are deleted; see :meth:`_parts.Parts.begin` for ``count`` and ``payloads``.
+        """
+        return Parts(self.file(folder), names).begin(self.comm, self.resumed, count, payloads)
 
     def open(self) -> RunFolder:
         """Check, lock and record (rank 0 decides; collective). Returns ``self``."""

@@ -167,7 +167,8 @@ def run(main: Callable[..., int | None]) -> None:
         folder = _STATE["folder"]
         if is_no_space(err):
             where = folder.path if folder is not None else os.getcwd()
-            how = "with --resume" if folder is not None and folder.resumable else "again"
+            how = ("with --resume" if folder is not None and folder.resumable
+                   and folder.holds_outputs() else "again")  # nothing finished: no record kept
             _stop(f"stopped: no space left on device in {where}; free space and run the same "
                   f"command {how}", EXIT_FAILED, everyone=True)
         traceback.print_exc()

@@ -13,8 +13,9 @@ argument-principle count of ``det T_h`` == found, conjugate symmetry, P(p+1) est
 infinite-strip target. Written to ``--out``:
 
 - ``finite_block.csv``: ``L, re_lambda, im_lambda, residual, candidates`` plus the infinite-strip
-  reference ``re_lambda_inf, im_lambda_inf, k_inf`` (rows appended as each L finishes;
-  ``--resume`` skips the lengths already there);
+  reference ``re_lambda_inf, im_lambda_inf, k_inf`` (by increasing L, rewritten as each L
+  finishes from ``raw/L*.json``, one part per finished length (:mod:`_parts`): ``--resume``
+  skips the lengths there);
 - ``finite_block_spectrum.csv`` (complete search): every eigenvalue in the box per length, with
   ``found, counted, closed``; the per-length certificate is in ``finite_block.json``
   (``certificates``);
@@ -57,7 +58,7 @@ from forms.studies.strip_mode import interface_of
 PETSC_PREFIXES = ("block_", "block_region_", "block_region_det_", "xs_", "kroots_")
 #: Files this workflow writes.
 OUTPUTS = ("finite_block.csv", "finite_block_spectrum.csv", "finite_block.png", "block_mode.png",
-           "finite_block.json")
+           "finite_block.json", "raw")
 COLUMNS = list(block.ROW_COLUMNS)
 
 
@@ -112,11 +113,12 @@ def validate(args: argparse.Namespace):
     return params, np.unique(lengths), branches, k_scan
 
 
-def _read_done(path: str) -> dict[float, dict]:
-    if not os.path.exists(path):
-        return {}
-    with open(path) as f:
-        return {float(r["L"]): r for r in csv.DictReader(f)}
+def _write_table(path: str, done: dict[float, dict]) -> None:
+    """``finite_block.csv`` from the finished lengths' parts, by increasing L (rank 0)."""
+    with _cli.atomic_open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(COLUMNS)
+        w.writerows(done[L]["row"] for L in sorted(done))
 
 
 def plot_convergence(L: np.ndarray, lam: np.ndarray, g_inf: float, order_p: float,
@@ -199,19 +201,19 @@ def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, b
     ref = block.infinite_strip_reference(comm, params, branches, k_scan, args.targets)
     csv_path = os.path.join(args.out, "finite_block.csv")
     json_path = os.path.join(args.out, "finite_block.json")
-    done = comm.bcast(_read_done(csv_path) if (run.resumed and comm.rank == 0) else {}, root=0)
-    if comm.rank == 0 and not done:
-        with _cli.atomic_open(csv_path, "w", newline="") as f:
-            csv.writer(f).writerow(COLUMNS)
+    parts = run.parts("raw", "L*", payloads=True)  # one per finished length (--resume)
+    done = {float(d["L"]): d for d in parts.present.values()}
+    if comm.rank == 0:
+        _write_table(csv_path, done)
     if comm.rank == 0 and args.search == "complete":
         _block_search.start_spectrum(args.out, run.resumed)
     for lb_, kb_, zb_ in ref.per_branch:
         _cli.say(f"infinite strip, branch {lb_}: max Re Lambda = {zb_:.8g} at k = {kb_:.6g}")
     todo = [L for L in lengths if float(L) not in done]
     bar = tqdm(total=len(todo), desc="block lengths", file=sys.stderr) if comm.rank == 0 else None
-    # per-L times of the lengths kept from the earlier run
-    timings = _block_search.earlier(json_path, "timings") if done and comm.rank == 0 else {}
-    certificates = _block_search.earlier(json_path, "certificates") if done else {}
+    # per-L times and certificates of the lengths kept from the earlier run
+    timings = {f"{L:g}": d["seconds"] for L, d in done.items()}
+    certificates = {f"{L:g}": d["certificate"] for L, d in done.items() if d["certificate"]}
     failed, last = 0, None
     for L in todo:
         t0 = time.perf_counter()
@@ -219,12 +221,14 @@ def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, b
                                           bool(L == lengths[-1]), certificates)
         failed += not ok
         last = mode if mode.u is not None else last
-        if comm.rank == 0:
-            with open(csv_path, "a", newline="") as f:
-                csv.writer(f).writerow([f"{v:.12g}" if isinstance(v, float) else v
-                                        for v in mode.row(ref)])
-            bar.update(1)
         timings[f"{float(L):g}"] = time.perf_counter() - t0
+        if comm.rank == 0:
+            done[float(L)] = parts.save(f"L{float(L)!r}", {
+                "L": float(L), "seconds": timings[f"{float(L):g}"], "certificate":
+                certificates.get(f"{float(L):g}"), "row": [f"{v:.12g}" if isinstance(v, float)
+                                                          else v for v in mode.row(ref)]})
+            _write_table(csv_path, done)
+            bar.update(1)
     if bar is not None:
         bar.close()
 
@@ -241,7 +245,8 @@ def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, b
     if last is not None:
         interface = interface_of(last.u, params)
     if comm.rank == 0:
-        L_all, lam_all = block.converged_rows(list(_read_done(csv_path).values()))
+        L_all, lam_all = block.converged_rows([dict(zip(COLUMNS, d["row"], strict=True))
+                                               for d in done.values()])
         kul = None
         if len(L_all) and not args.no_kulikovskii:
             try:

@@ -5,9 +5,12 @@
 
 Paper defaults (velocity top, H = 0.5). At each (k, c_max) the section model of the sweep's
 default discretisation is solved by a shift-and-invert PEP tiling (``tiling``), the dense
-companion linearisation (``dense``, failed above a pencil size) and the sweep's default
-FE-first moments path (``moments``); each is set against the banded argument-principle count
-(found / missed / spurious, wall seconds), see :mod:`forms.studies.methods`.
+companion linearisation (``dense``, failed above a pencil size), the sweep's default
+FE-first moments path (``moments``), SLEPc PEP CISS on ellipses over the region (``ciss``),
+SLEPc NEP NLEIGS on the region (``nleigs``) and the exact-seeded Newton (``newton``, the
+sweep's ``--solver newton``); each is set against the banded argument-principle count
+(found / missed / spurious, wall seconds), see :mod:`forms.studies.methods`. A method that
+raises or does not converge at a point is a row with its reason in ``failed``.
 Writes ``DIR/methods.csv``, ``DIR/summary.json``, ``DIR/methods.png``.
 """
 
@@ -23,7 +26,7 @@ from _plot_methods import plot_methods
 from analytic.params import Params
 from forms.studies import methods as ms
 
-#: Options prefixes of the SLEPc objects (the tiling's PEP).
+#: Options prefixes of the SLEPc objects (the tiling's PEP, the CISS PEP, the NLEIGS NEP).
 PETSC_PREFIXES = ms.PREFIXES
 OUTPUT_FILES = ("methods.csv", "summary.json", "methods.png")
 

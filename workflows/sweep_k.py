@@ -214,7 +214,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         out, t_start = run.path, time.perf_counter()
         for note in [] if args.quiet else args.notes:
             _cli.say(note, err=True)
-        todo = sweep.pending_k(comm, out, len(k), run.resumed)
+        todo = (parts := run.parts("raw", "k{:05d}", count=len(k))).todo  # --resume: k left
         t_fam, fams = time.perf_counter(), []
         if check:
             def fam_share(n: int) -> object:  # progress from the first second
@@ -232,7 +232,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         rungs = sweep.RungSolvers(params, region, float(k[-1]), args.rtol,
                                   (args.degree, args.cells, 1.0), args.material,
                                   check_exact=check, solver=args.solver)
-        share = sweep.solve_k_values(params, region, rungs, k, mine, fams, out,
+        share = sweep.solve_k_values(params, region, rungs, k, mine, fams, parts.save,
                                      bar.update if bar is not None else None,
                                      None if fe_climbs else c_at_k)
         if bar is not None:
@@ -243,15 +243,15 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         code = 0
         if comm.rank == 0:
             t2 = time.perf_counter()
-            used = sweep.load_c_max(out, len(k))
+            results, used = sweep.results_from_json(parts.load(i) for i in range(len(k)))
             disc = rungs.discretisation(max(used))
             meta = sweep.run_meta(params, args.k, k, merged, disc, share, args.rtol, args.solver,
                                   check, {"ranks": comm.size, "per_rank": times}, run.resumed,
                                   len(todo)) | {"versions": _cli.versions(),
                                                 "command": _cli.command()}
             meta["discretisation"] |= sweep.rung_table(rungs, used, times)
-            summary = write_outputs(out, params, region, k, sweep.load_results(out, len(k)),
-                                    fams, meta, not args.no_plot, used, args.layered)
+            summary = write_outputs(out, params, region, k, results, fams, meta,
+                                    not args.no_plot, used, args.layered)
             summary["region"] = sweep.region_referee(  # a layered slider's "by" stays
                 k, used, c_at_k if fe_climbs and check else [],
                 "fe" if fe_climbs else "exact") | summary["region"]

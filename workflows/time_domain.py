@@ -15,14 +15,15 @@ model's validity (normal stress reaching zero: opening; slip rate reversing).
 Writes into ``--out`` as it goes: ``timeseries.csv`` (every step: Fourier coefficient,
 energies, friction work, extremes), ``interface_NNNN.npz`` (interface ``v/v0``, ``(tau -
 tau0)/sigma0``, ``(sigma - sigma0)/sigma0``, ``theta`` every ``--frame-every`` steps, in chunks),
-``checkpoint_rank*.npz`` (for ``--resume``); at the end ``summary.json`` (predicted, measured,
-relative difference, window, mesh, time step, parameters, nonlinear outcome, versions),
-``growth.png``, ``spacetime_linear.png``, ``spacetime.png``, ``spacetime_nonlinear.png``,
-``energy.png``; with ``--xdmf-every N`` also ``fields.xdmf`` (displacement perturbation, for
-ParaView).
+the checkpoint (``checkpoint.json``, ``checkpoint_rank*.npz``: parts of :mod:`_parts`, for
+``--resume``); at the end ``summary.json`` (predicted, measured, relative difference, window,
+mesh, time step, parameters, nonlinear outcome, versions), ``growth.png``,
+``spacetime_linear.png``, ``spacetime.png``, ``spacetime_nonlinear.png``, ``energy.png``; with
+``--xdmf-every N`` also ``fields.xdmf`` (displacement perturbation, for ParaView).
 
-The run itself is :mod:`forms.timedomain.run` (set-up, stepping loop, files), its measurement
-:mod:`analytic.studies.growth_fit` (fit, summary against the prediction, the figures' curves).
+The run itself is :mod:`forms.timedomain.run` (set-up, stepping loop), its files
+:mod:`_time_files`, its measurement :mod:`analytic.studies.growth_fit` (fit, summary against
+the prediction, the figures' curves).
 
 Example (the README pictures)::
 
@@ -39,20 +40,14 @@ import time
 
 import _cli
 from _plot_time import plot_all  # noqa: E402
+from _time_files import RunWriter, read_checkpoint, read_outputs
 from tqdm import tqdm
 
 from analytic import parse_branch_label
 from analytic.params import require_rigid
 from analytic.studies.growth_fit import excited_branch, figure_data, mode_period, summarise_run
 from forms.timedomain.model import NonlinearLaw
-from forms.timedomain.run import (
-    RunWriter,
-    read_checkpoint,
-    read_outputs,
-    run_record,
-    run_time_domain,
-    setup_strip,
-)
+from forms.timedomain.run import run_record, run_time_domain, setup_strip
 
 PETSC_PREFIXES = ("td_",)
 #: Files the scene writes (and the results folder's measured tables, made from its runs).

@@ -165,7 +165,8 @@ class StripProblem:
 
 
 def strip_mesh_for(comm: MPI.Comm, params: Params, length: float, nx: int, ny: int,
-                   grading: float = 1.0, ny2: int | None = None) -> StripMesh:
+                   grading: float = 1.0, ny2: int | None = None,
+                   cell: str = "triangle") -> StripMesh:
     """The mesh of ``params``: the gmsh slider alone (rigid substrate) or both bodies.
 
     Args:
@@ -176,9 +177,13 @@ def strip_mesh_for(comm: MPI.Comm, params: Params, length: float, nx: int, ny: i
         ny: Cells along y in the slider.
         grading: Cell-height ratio far/near the interface, both bodies.
         ny2: Cells along y in the substrate (default ``ny``).
+        cell: One body: ``"triangle"`` or ``"quadrilateral"`` (two bodies: triangles only).
     """
     if not params.two_body:
-        return strip_mesh(comm, length, params.H, nx, ny, grading=grading)
+        return strip_mesh(comm, length, params.H, nx, ny, grading=grading, cell=cell)
+    if cell != "triangle":
+        raise ParameterError(f"cell = {cell!r} is outside its allowed values here (two bodies:"
+                             " triangle)")
     if not np.isfinite(params.H2):
         raise ParameterError(f"H2 = {params.H2!r} is outside its allowed range here"
                              " (finite: the substrate is meshed)")
@@ -260,6 +265,75 @@ def explicit_operators(strip: StripMesh, params: Params, V: dolfinx.fem.Function
     for v in (lump, bvec):
         v.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
     return K, lump, bvec
+
+
+@dataclass
+class ExplicitStrip:
+    """The one 2D model set up for explicit time stepping: P1/Q1, lumped mass, periodic strip.
+
+    Same mesh, materials (:func:`explicit_operators`), periodic map
+    (:func:`forms.models.periodic.reduction_map` with phase exactly 1) and constrained rows
+    (those of :func:`build_strip_problem`) as the eigen-model; rigid substrate only.
+
+    Attributes:
+        V: Vector P1/Q1 space.
+        map: The reduction ``u = P x`` (plain periodicity).
+        stiffness: Reduced ``P^T K P``.
+        mass: Lumped mass ``P^T m`` of the owned reduced rows (local array).
+        interface_length: Lumped interface length ``P^T B`` of the owned reduced rows.
+        interface_x: Owned global rows of ``u_x`` at the interface nodes, sorted by ``x``.
+        interface_y: Owned global rows of ``u_y`` at the same nodes, in the same order.
+        interface_coordinate: ``x`` of those nodes (increasing).
+        top_x: Owned global rows of ``u_x`` on the top held by ``bc = velocity`` (else empty).
+        dirichlet: Owned global rows held fixed: ``interface_y`` and ``top_x``.
+    """
+
+    V: dolfinx.fem.FunctionSpace
+    map: ReductionMap
+    stiffness: PETSc.Mat
+    mass: np.ndarray
+    interface_length: np.ndarray
+    interface_x: np.ndarray
+    interface_y: np.ndarray
+    interface_coordinate: np.ndarray
+    top_x: np.ndarray
+    dirichlet: np.ndarray
+
+    def destroy(self) -> None:
+        """Free the PETSc objects."""
+        self.stiffness.destroy()
+        self.map.destroy()
+
+
+def explicit_strip(strip: StripMesh, params: Params) -> ExplicitStrip:
+    """Assemble :class:`ExplicitStrip` on a one-body periodic strip (collective).
+
+    Args:
+        strip: Mesh from :func:`strip_mesh_for` (triangles: P1, quadrilaterals: Q1).
+        params: Physical parameters (``bc`` chooses the top condition; rigid substrate).
+    """
+    if strip.two_body or params.two_body:
+        raise ParameterError(f"mu2 = {params.mu2!r} is outside its allowed range here (the"
+                             " explicit time domain has a rigid substrate: mu2 = inf)")
+    msh = strip.mesh
+    V = dolfinx.fem.FunctionSpace(msh, ufl.VectorElement("Lagrange", msh.ufl_cell(), 1))
+    K, lump, bvec = explicit_operators(strip, params, V)
+    body = node_bodies(strip, V)
+    rmap = reduction_map(V, strip, 0.0, body)  # k = 0: phase exactly 1
+    Kr = reduce_matrix(K, rmap.P)
+    K.destroy()
+    lumped = []
+    for full in (lump, bvec):
+        red = Kr.createVecRight()
+        rmap.P.multTranspose(full, red)
+        lumped.append(red.array.real.copy())
+        red.destroy()
+        full.destroy()
+    ix, iy, xi, rows = _constrained_rows(strip, params, V, rmap.reduced, body, False, "free")
+    order = np.argsort(xi)
+    top_x = np.setdiff1d(rows, iy).astype(PETSc.IntType)  # rigid: the rest are the top's u_x
+    return ExplicitStrip(V, rmap, Kr, lumped[0], lumped[1], ix[order], iy[order], xi[order],
+                         top_x, rows)
 
 
 def _reduce(mats: dict[str, PETSc.Mat], rmap: ReductionMap | None) -> dict[str, PETSc.Mat]:

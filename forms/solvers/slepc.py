@@ -370,3 +370,9 @@ def dense_companion_eigenvalues(op: FrictionOperator) -> np.ndarray:
     w = scipy.linalg.eig(big_a, big_b, right=False, overwrite_a=True, overwrite_b=True,
                          check_finite=False)
     return w[np.isfinite(w)]
+
+
+#: Public names of :func:`_collect` and :func:`_make_fn` for studies that build their own
+#: SLEPc objects (:mod:`forms.studies.methods`: PEP CISS, NEP NLEIGS on a region).
+collect_pairs = _collect
+rational_fn = _make_fn

@@ -2,9 +2,8 @@
 
 docs/design.md section 8. The steps of a sweep, each a call of the scene:
 
-1. :func:`pending_k`: the per-``k`` result files ``DIR/raw/k#####.json`` (one per requested
-   ``k``, written as soon as it is finished) tell which ``k`` are still to compute, so that a
-   resumed sweep continues where it stopped;
+1. the scene's saved results (one per requested ``k``, kept as soon as it is finished) tell
+   which ``k`` are still to compute, so that a resumed sweep continues where it stopped;
 1b. :func:`region_at_k` (adaptive region, ``c_max = None``): at each ``k`` the phase-velocity
    bound that provably holds the fastest mode (:func:`analytic.numerics.spectrum.fastest_mode`,
    exact roots); the largest of them (:func:`largest_region`) sets the family plan and the mesh;
@@ -13,9 +12,9 @@ docs/design.md section 8. The steps of a sweep, each a call of the scene:
    exact continuation; the families are shared over the ranks and gathered on all of them;
 3. :func:`k_costs` and :func:`solve_k_values`: each rank solves its share of the pending ``k``
    with one :class:`forms.solvers.certified.CertifiedSolver` (its models live on ``COMM_SELF``;
-   FE first by default) and writes each :class:`forms.solvers.certified.KResult` to its raw
-   file;
-4. :func:`load_results` and :func:`summarise` (rank 0): the rows of every ``k`` and the summary:
+   FE first by default) and hands each :class:`forms.solvers.certified.KResult` to the scene
+   to keep (:func:`k_result_from_json` reads one back);
+4. :func:`summarise` (rank 0): the rows of every ``k`` and the summary:
    certificate (counts closed, rows ok or flagged), accuracy, families, the most unstable
    eigenvalue with its certificate, per-``k`` counts and costs.
 
@@ -25,17 +24,13 @@ Sharing work over the ranks is left to the caller: the functions take this rank'
 
 from __future__ import annotations
 
-import glob
-import json
 import math
-import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from analytic.cli import dumps
 from analytic.numerics.branches import BranchResult
 from analytic.numerics.roots import ContourError
 from analytic.numerics.spectrum import (
@@ -164,19 +159,6 @@ def layered_summary(params: Params, material: SliderMaterial, region: Region) ->
             "by": "fixed (no tail bound for a layered slider to climb with)"}
 
 
-def raw_file(folder: str, i: int) -> str:
-    """Path of the result file of the ``i``-th requested ``k`` in the run folder ``folder``."""
-    return os.path.join(folder, "raw", f"k{i:05d}.json")
-
-
-def write_json(path: str, data: dict) -> None:
-    """Write ``data`` to ``path`` atomically (a temporary file beside it, then a rename)."""
-    tmp = os.path.join(os.path.dirname(path), "." + os.path.basename(path) + ".tmp")
-    with open(tmp, "w") as fh:  # strict JSON: NaN -> null, +-inf -> "inf"/"-inf" (read_k_result)
-        fh.write(dumps(data, indent=1) + "\n")
-    os.replace(tmp, path)
-
-
 def _float_back(v: object) -> object:
     """Inverse of the strict encoding of one number: ``None`` -> NaN, ``"inf"`` -> inf."""
     if v is None:
@@ -186,35 +168,25 @@ def _float_back(v: object) -> object:
     return v
 
 
-def read_k_result(path: str) -> KResult:
-    """A result file written by :func:`write_json` (NaN and infinities restored)."""
-    with open(path) as fh:
-        d = json.load(fh)
+def results_from_json(saved: Iterable[dict]) -> tuple[list[KResult], list[float]]:
+    """The :class:`KResult` of each saved ``k`` (in order) and the bound ``c_max`` it used.
+
+    Rows that carry their continued values (:func:`continue_rows`) are labelled by
+    :func:`label_by_continuation`.
+    """
+    saved = list(saved)
+    results = [k_result_from_json(d) for d in saved]
+    if any("re_next" in r for res in results for r in res.rows):
+        label_by_continuation(results)
+    return results, [float(d["c_max"]) for d in saved]
+
+
+def k_result_from_json(d: dict) -> KResult:
+    """A :class:`KResult` from its ``as_dict()`` read back from strict JSON (NaN, inf restored)."""
+    d = dict(d)
     d["rows"] = [{key: _float_back(v) for key, v in row.items()} for row in d["rows"]]
     d["box"] = [_float_back(v) for v in d["box"]]
     return KResult.from_dict(d)
-
-
-def pending_k(comm: object, folder: str, count: int, resumed: bool) -> list[int]:
-    """Indices of the requested ``k`` (``0 .. count - 1``) that have no result file yet.
-
-    Rank 0 creates ``folder/raw`` and, unless the run is ``resumed``, deletes the result files
-    of an earlier run there; the list is rank 0's, the same on every rank (collective).
-
-    Args:
-        comm: The communicator of the sweep.
-        folder: The run folder.
-        count: Number of requested ``k``.
-        resumed: Keep the existing result files (continue a sweep).
-    """
-    if comm.rank == 0:
-        os.makedirs(os.path.join(folder, "raw"), exist_ok=True)
-        if not resumed:
-            for name in glob.glob(os.path.join(folder, "raw", "k*.json")):
-                os.remove(name)
-    comm.Barrier()
-    todo = [i for i in range(count) if not os.path.exists(raw_file(folder, i))]
-    return comm.bcast(todo)
 
 
 def region_at_k(params: Params, region: Region, k: float, exact: bool = True) -> float:
@@ -421,13 +393,15 @@ def climb(params: Params, region: Region, k: float, fams: list[BranchResult],
 
 
 def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.ndarray,
-                   mine: Sequence[int], fams: list[BranchResult], folder: str,
+                   mine: Sequence[int], fams: list[BranchResult],
+                   save: Callable[[int, dict], object],
                    progress: Callable[[], object] | None = None,
                    c_max_at_k: Sequence[float] | None = None) -> ShareRun:
-    """The certified spectrum at ``k[i]`` for each ``i`` of ``mine``, each written to its file.
+    """The certified spectrum at ``k[i]`` for each ``i`` of ``mine``, each handed to ``save``.
 
-    Each :class:`forms.solvers.certified.KResult` goes to :func:`raw_file` (with the bound
-    ``c_max`` it used) as soon as it is finished. Not collective.
+    Each :class:`forms.solvers.certified.KResult` goes to ``save(i, result.as_dict() |
+    {"c_max": c})`` (with the bound ``c_max`` it used) as soon as it is finished: the scene
+    keeps it (a resumed sweep skips it). Not collective.
 
     Args:
         params: Parameters.
@@ -436,7 +410,7 @@ def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.nda
         k: Every requested wavenumber, sorted.
         mine: Indices into ``k`` to solve here.
         fams: The followed families (:func:`follow_families`; unused without the exact check).
-        folder: The run folder (``folder/raw`` exists).
+        save: Called with ``(i, result dict)`` after every finished ``k``.
         progress: Called after every finished ``k`` (e.g. a progress bar's update).
         c_max_at_k: The bound to use at each ``k`` (indexed like ``k``; the exact-seeded
             sweep's :func:`region_at_k`); ``None``: the FE climbs its own (:func:`climb`).
@@ -455,7 +429,7 @@ def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.nda
                 res, c = climb(params, region, float(k[i]), fams, rungs)
             if track and i + 1 < len(k):
                 continue_rows(rungs(c), res, float(k[i + 1]))
-            write_json(raw_file(folder, i), res.as_dict() | {"c_max": c})
+            save(i, res.as_dict() | {"c_max": c})
             if progress is not None:
                 progress()
         sizes = {c: cs.unknowns for c, cs in rungs.solvers.items()}
@@ -471,7 +445,7 @@ def rung_table(rungs: RungSolvers, used: Sequence[float], per_rank: list[dict]) 
 
     Args:
         rungs: The solvers per bound (only their rule is read).
-        used: The bound each ``k`` used (:func:`load_c_max`).
+        used: The bound each ``k`` used (``c_max`` of its saved result).
         per_rank: Each rank's ``{"unknowns": {c: n}}`` (:attr:`ShareRun.rungs`).
     """
     sizes: dict[float, int] = {}
@@ -497,29 +471,6 @@ def region_referee(k: np.ndarray, used: Sequence[float], exact: Sequence[float],
     if exact:
         out["exact_disagrees_at_k"] = [float(kk) for kk, a, b in zip(k, used, exact, strict=True)
                                        if a != b]
-    return out
-
-
-def load_results(folder: str, count: int) -> list[KResult]:
-    """The results of the ``count`` requested ``k``, read back from their files (in order).
-
-    Rows that carry their continued values (:func:`continue_rows`) are labelled by
-    :func:`label_by_continuation`.
-    """
-    results = []
-    for i in range(count):
-        results.append(read_k_result(raw_file(folder, i)))
-    if any("re_next" in r for res in results for r in res.rows):
-        label_by_continuation(results)
-    return results
-
-
-def load_c_max(folder: str, count: int) -> list[float]:
-    """The bound ``c_max`` each of the ``count`` requested ``k`` used (from its file)."""
-    out = []
-    for i in range(count):
-        with open(raw_file(folder, i)) as fh:
-            out.append(float(json.load(fh)["c_max"]))
     return out
 
 

@@ -53,10 +53,11 @@ Defaults: the PMMA worked example of ``analytic.units`` (README): ``a = 0.010``,
 equations scale with ``v0/c_s`` exactly, so results in units of ``v0`` and ``sigma0`` do not
 depend on it (it only fixes the physical scale).
 
-**Discretisation.** P1 or Q1 (``meshes.strip`` triangles or quadrilaterals), row-sum lumped mass
-``m`` and lumped interface length ``B``; periodicity by the map ``P`` of
-:mod:`forms.models.periodic`
-with phase 1 (``K_r = P^T K P``, ``m_r = P^T m``). Explicit central differences::
+**Discretisation.** The one 2D model (:func:`forms.models.strip.explicit_strip`): P1 or Q1
+(the mesh of :func:`forms.models.strip.strip_mesh_for`, triangles or quadrilaterals), row-sum
+lumped mass ``m`` and lumped interface length ``B``; periodicity by the model's map ``P`` with
+phase 1 (``K_r = P^T K P``, ``m_r = P^T m``), the model's interface and Dirichlet rows.
+Explicit central differences::
 
     m (v^{n+1/2} - v^{n-1/2}) / dt = -K w^n + F^n,    w^{n+1} = w^n + dt v^{n+1/2},
 
@@ -94,18 +95,16 @@ from dataclasses import dataclass, field
 import numpy as np
 
 import dolfinx.fem
-import dolfinx.fem.petsc
-import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
 from analytic.law import FrictionLaw
 from analytic.params import ParameterError, Params
 from forms.friction import apply_dirichlet, friction_operator
-from forms.models.periodic import reduce_matrix, reduction_map
-from forms.models.strip import explicit_operators
+from forms.models.periodic import ReductionMap
+from forms.models.strip import explicit_strip
 from forms.solvers.slepc import PolynomialSolver
-from meshes.strip import INTERFACE, TOP, StripMesh, edge_dofs
+from meshes.strip import StripMesh
 
 #: PMMA worked example (README, ``analytic.units``): direct effect and v0/c_s = 1 mm/s / 1345 m/s.
 PMMA_A = 0.010
@@ -318,7 +317,8 @@ class TimeDomainStrip:
         dt: Time step.
         dt_stable: ``2 / sqrt(Gershgorin bound of m^{-1} K)``.
         top_x: Local indices of the top ``w_x`` (Dirichlet for ``bc = velocity``).
-        periodic_map: ``P`` (full strip from reduced unknowns), for output.
+        periodic_map: The one 2D model's periodic map (``P``: full strip from reduced
+            unknowns), for output.
         w, vh: Displacement ``w^n`` and velocity ``v^{n-1/2}`` (local, real).
         iface: Interface state.
         step: Current step ``n``.
@@ -340,7 +340,7 @@ class TimeDomainStrip:
     dt: float
     dt_stable: float
     top_x: np.ndarray
-    periodic_map: PETSc.Mat | None = None
+    periodic_map: ReductionMap | None = None
     friction_theta: float = 0.5
     w: np.ndarray = field(default_factory=lambda: np.zeros(0))
     vh: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -452,10 +452,10 @@ class TimeDomainStrip:
         u.interpolate(xs.field)
         u.x.scatter_forward()
         red, counts = self.K.createVecRight(), self.K.createVecRight()
-        self.periodic_map.multTranspose(u.vector, red)
-        ones = self.periodic_map.createVecLeft()
+        self.periodic_map.P.multTranspose(u.vector, red)
+        ones = self.periodic_map.P.createVecLeft()
         ones.set(1.0)
-        self.periodic_map.multTranspose(ones, counts)  # 2 on the left edge (its image added)
+        self.periodic_map.P.multTranspose(ones, counts)  # 2 on the left edge (its image added)
         vec = red.array / counts.array.real * self.free
         for v in (red, counts, ones):
             v.destroy()
@@ -715,7 +715,7 @@ class TimeDomainStrip:
         """The perturbation displacement ``w^{n}`` on the full strip (``P w_r``), collective."""
         u = dolfinx.fem.Function(self.V, name=name)
         self._wvec.array[:] = self.w
-        self.periodic_map.mult(self._wvec, u.vector)
+        self.periodic_map.P.mult(self._wvec, u.vector)
         u.x.scatter_forward()
         return u
 
@@ -765,17 +765,6 @@ def _gershgorin(K: PETSc.Mat, mass: np.ndarray, free: np.ndarray) -> float:
     return K.getComm().tompi4py().allreduce(local, op=MPI.MAX)
 
 
-def _edge_rows(strip: StripMesh, coords: np.ndarray, reduced: np.ndarray, rstart: int,
-               which: int, comp: int) -> tuple[np.ndarray, np.ndarray]:
-    """Local reduced rows of component ``comp`` on one edge, and their owned blocks."""
-    n_owned = len(reduced)
-    blocks = edge_dofs(strip, coords, which)
-    blocks = blocks[blocks < n_owned]
-    red = reduced[blocks, comp]
-    keep = red >= 0
-    return (red[keep] - rstart).astype(np.int64), blocks[keep]
-
-
 def build_time_domain(strip: StripMesh, law: NonlinearLaw, k: float, cfl: float = 0.9,
                       dt: float | None = None, friction_theta: float = 0.5) -> TimeDomainStrip:
     """Assemble the stepper on ``strip`` (collective).
@@ -806,38 +795,13 @@ def build_time_domain(strip: StripMesh, law: NonlinearLaw, k: float, cfl: float 
     if not (math.isfinite(cfl) and 0 < cfl <= 1):
         raise ParameterError(f"cfl = {cfl!r} is outside its allowed range 0 < cfl <= 1")
     p = law.params
-    msh = strip.mesh
-    V = dolfinx.fem.FunctionSpace(msh, ufl.VectorElement("Lagrange", msh.ufl_cell(), 1))
-    K, lump, bvec = explicit_operators(strip, p, V)
-    n_owned = V.dofmap.index_map.size_local
-    # The eigen-model's map (forms.models.strip), phase exactly 1: plain periodicity.
-    bloch = reduction_map(V, strip, 0.0, np.ones(n_owned, dtype=int))
-    Kr = reduce_matrix(K, bloch.P)
-    K.destroy()
-    m_r, b_r = Kr.createVecRight(), Kr.createVecRight()
-    bloch.P.multTranspose(lump, m_r)
-    bloch.P.multTranspose(bvec, b_r)
-    mass = m_r.array.real.copy()
-    bfull = b_r.array.real.copy()
-    for v in (lump, bvec, m_r, b_r):
-        v.destroy()
-
+    model = explicit_strip(strip, p)  # the one 2D model: space, operators, rows
+    Kr, mass = model.stiffness, model.mass
     rstart = Kr.getOwnershipRange()[0]
-    coords = V.tabulate_dof_coordinates()
-
-    def local_rows(which: int, comp: int) -> tuple[np.ndarray, np.ndarray]:
-        return _edge_rows(strip, coords, bloch.reduced, rstart, which, comp)
-
-    ix, blocks = local_rows(INTERFACE, 0)
-    iy, _ = local_rows(INTERFACE, 1)
-    order = np.argsort(coords[blocks, 0])
-    ix, iy, blocks = ix[order], iy[order], blocks[order]
+    ix, iy, top_x = ((rows - rstart).astype(np.int64) for rows in
+                     (model.interface_x, model.interface_y, model.top_x))
     free = np.ones_like(mass)
-    free[iy] = 0.0
-    top_x = np.zeros(0, dtype=np.int64)
-    if p.bc == "velocity":
-        top_x, _ = local_rows(TOP, 0)
-        free[top_x] = 0.0
+    free[model.dirichlet - rstart] = 0.0
     bound = _gershgorin(Kr, mass, free)
     dt_stable = 2.0 / math.sqrt(bound)
     if dt is None:
@@ -845,8 +809,9 @@ def build_time_domain(strip: StripMesh, law: NonlinearLaw, k: float, cfl: float 
     elif not (math.isfinite(dt) and 0 < dt <= dt_stable):
         raise ParameterError(f"dt = {dt!r} is outside its allowed range 0 < dt <= {dt_stable:.6g}"
                              " (stable step of this mesh)")
-    td = TimeDomainStrip(strip, law, float(k), V, Kr, mass, ix, iy, coords[blocks, 0].copy(),
-                         bfull[ix].copy(), free, float(dt), dt_stable, top_x, bloch.P)
+    td = TimeDomainStrip(strip, law, float(k), model.V, Kr, mass, ix, iy,
+                         model.interface_coordinate, model.interface_length[ix].copy(), free,
+                         float(dt), dt_stable, top_x, model.map)
     td.friction_theta = float(friction_theta)
     td._wvec, td._rvec = Kr.createVecs()
     n = len(mass)

@@ -52,6 +52,7 @@ import sys  # noqa: E402
 import time  # noqa: E402
 
 import _cli  # noqa: E402
+import _sweep_strip  # noqa: E402
 import numpy as np  # noqa: E402
 from _plot_dispersion import plot_dispersion  # noqa: E402
 from tqdm import tqdm  # noqa: E402
@@ -68,7 +69,7 @@ from forms.studies import sweep  # noqa: E402
 
 #: Default k grid: the paper's range (k H up to 3 at H = 0.5).
 DEFAULT_K = "0.05:6:120"
-PETSC_PREFIXES: tuple[str, ...] = ()
+PETSC_PREFIXES: tuple[str, ...] = _sweep_strip.PETSC_PREFIXES  # --model strip only
 OUTPUTS = ("spectrum.csv", "summary.json", "dispersion.png", "raw", "run.json", "run.lock")
 
 
@@ -101,14 +102,15 @@ def build_parser() -> argparse.ArgumentParser:
                     help="yes: match the FE values to the exact roots; no: never consult them; "
                     "auto: no for several layers or profiles (no exact roots), else yes")
     m = ap.add_argument_group("slider (1D model; forms.models.profiles)")
-    m.add_argument("--model", default="section", help="section (homogeneous, default) or "
-                   "layers (--layers and/or profiles)")
+    m.add_argument("--model", default="section", help="section (homogeneous, default), "
+                   "layers (--layers and/or profiles) or strip (2D Bloch cell, below)")
     m.add_argument("--layers", default=None, metavar="FILE",
                    help="CSV y_top,mu,rho,beta, one layer per row from y = 0 up (--model layers)")
     for name in ("mu", "rho", "beta"):
         m.add_argument(f"--{name}-profile", default=None, metavar="EXPR",
                        help=f"{name}(y) as an expression of y, e.g. '1 - 0.6*exp(-y/0.05)' "
                        "(--model layers)")
+    _sweep_strip.add_arguments(ap)
     ap.add_argument("--out", default=os.path.join("out", "sweep_k"), help="output directory")
     ap.add_argument("--resume", action="store_true",
                     help="continue a sweep in --out with the same settings")
@@ -195,6 +197,8 @@ def write_outputs(out: str, params: Params, region: Region, k: np.ndarray,
 def main(comm: object = None, argv: list[str] | None = None) -> int:
     """Run the sweep on ``comm`` (every rank calls this)."""
     args, comm = _cli.start(build_parser(), argv, comm)
+    if args.model == "strip":  # the 2D Bloch cell, workflows/_sweep_strip.py
+        return _sweep_strip.run(comm, args, OUTPUTS)
     params, k, merged, region = validate(args)  # every rank, before any collective or file
     check = args.check_exact == "yes"
     # FE first: the FE climbs its own region at each k (exact roots only referee it); the
@@ -267,14 +271,13 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
 def report(summary: dict, n_k: int, wall: float, ranks: int, out: str, quiet: bool) -> int:
     """Rank 0: the warning (flagged rows or open counts) and the most unstable line; exit code."""
     cert = summary["certificate"]
-    code = 0
-    if cert["k_not_closed"] or cert["rows_ok"] < cert["rows"]:
-        code = 1
+    code = int(bool(cert["k_not_closed"]) or cert["rows_ok"] < cert["rows"])
+    if code:
         print(f"warning: {cert['rows'] - cert['rows_ok']} of {cert['rows']} "
               f"eigenvalue(s) flagged, count not closed at {len(cert['k_not_closed'])}"
               f" of {n_k} k value(s); see status in {out}/spectrum.csv", file=sys.stderr)
-    best = summary["most_unstable"]
-    if best is not None:  # the result line, also with --quiet (it removes progress only)
+    # the result line, also with --quiet (it removes progress only)
+    if (best := summary["most_unstable"]) is not None:
         sure = "certified" if best["certificate"]["certified"] else "NOT certified"
         print(f"most unstable ({sure}): {best['branch']} at k = {best['k']:.6g}: "
               f"Lambda = {best['re_lambda']:.10g} {best['im_lambda']:+.10g}i "

@@ -13,6 +13,7 @@ cross-section set at ``harmonic * k``. Collective on the mesh communicator.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -20,14 +21,21 @@ import numpy as np
 
 from mpi4py import MPI
 
+from analytic.numerics.spectrum import Region
 from analytic.params import Params
+from analytic.physics.tail import velocity_scale
 from forms.mode_postprocessing import harmonic_content
 from forms.models.strip import build_strip_problem, friction_operator_for
+from forms.solvers.certified import CertifiedSolver, default_discretisation
 from forms.solvers.region import RegionSolver
 from forms.studies.strip_mode import bloch_strip
 
 PREFIX = "strip_region_"
 """Options prefix of the strip's region solve (the count's LU: ``strip_region_det_``)."""
+PREFIXES = (PREFIX, PREFIX + "det_")
+"""Every options prefix of the strip's SLEPc/PETSc objects."""
+EXTRA_FIELDS = ("harmonic", "rel_distance_1d")
+"""The strip's columns after the cross-section sweep's (``harmonic``: wavenumber / ``k``)."""
 
 
 @dataclass
@@ -106,3 +114,181 @@ def strip_spectrum(comm: MPI.Comm, params: Params, k: float, box: Sequence[float
         solver.destroy()
         op.destroy()
         problem.destroy()
+
+
+def strip_box(params: Params, k: float, re_min: float, re_max: float, c_max: float,
+              omega0: float = 0.0) -> tuple[float, float, float, float]:
+    """The strip's box at ``k``: ``re_min <= Re <= re_max``, ``|Im| <= c_max k c_d + omega0``.
+
+    The cross-section sweep's region (:class:`analytic.numerics.spectrum.Region`) with a fixed
+    phase-velocity bound ``c_max`` (units of :func:`analytic.physics.tail.velocity_scale`) and
+    the allowance ``omega0`` (here 0 by default: no cut-off allowance).
+    """
+    w = c_max * float(k) * velocity_scale(params) + omega0
+    return (float(re_min), float(re_max), -w, w)
+
+
+def section_sets(params: Params, k: float, harmonics: Sequence[float], box: Sequence[float],
+                 rtol: float = 1e-8, degree: int = 0, cells: int = 0) -> dict[float, SectionSet]:
+    """The cross-section model's eigenvalues at ``h k`` for every harmonic ``h`` (one process).
+
+    Each set is the complete FE spectrum (:class:`forms.solvers.certified.CertifiedSolver`,
+    ``check_exact=False``: no exact root) in ``box`` widened by :func:`_padded` (so that a strip
+    eigenvalue near the edge finds its partner just outside). At a negative wavenumber the set
+    is the conjugate of the one at ``|h| k`` (the unreduced operators are real); ``h = 0`` is
+    ``k = 0``.
+
+    Args:
+        params: Parameters.
+        k: The strip's wavenumber.
+        harmonics: Harmonics whose sets are wanted.
+        box: The strip's box.
+        rtol: Accuracy that sets the 1D discretisation (:func:`default_discretisation`).
+        degree: 1D Lagrange degree (0: from ``rtol``).
+        cells: 1D cells (0: from ``rtol``).
+    """
+    wide = _padded(box)
+    hs = sorted({float(h) for h in harmonics})
+    q_max = max([abs(h) * k for h in hs] + [k])
+    w = max(abs(wide[2]), abs(wide[3]))
+    region = Region(re_min=wide[0], re_max=wide[1], c_max=1e-6, omega0=w)
+    d, c, ratio = default_discretisation(params, region, q_max, rtol)
+    solver = CertifiedSolver(params, region, degree or d, cells or c, ratio, q_max, rtol,
+                             check_exact=False)
+    out = {}
+    for h in hs:
+        flip = h < 0
+        sub = (wide[0], wide[1], -wide[3], -wide[2]) if flip else tuple(wide)
+        res = solver.solve(abs(h) * k, box=sub)
+        vals = np.array([complex(r["re_lambda"], r["im_lambda"]) for r in res.rows])
+        vals = vals.conj() if flip else vals
+        inside = [z for z in vals if _inside(z, box)]
+        out[h] = SectionSet(h, abs(h) * k * (-1.0 if flip else 1.0), vals, len(inside),
+                            bool(res.closed))
+    return out
+
+
+@dataclass
+class SectionSet:
+    """The cross-section model's eigenvalues at the wavenumber of one harmonic.
+
+    Attributes:
+        harmonic: The harmonic ``h`` (wavenumber ``h k``).
+        wavenumber: ``h k``.
+        values: Every eigenvalue in the widened box.
+        in_box: How many of them lie in the strip's box.
+        closed: The 1D count closed.
+    """
+
+    harmonic: float
+    wavenumber: float
+    values: np.ndarray
+    in_box: int
+    closed: bool
+
+
+def _padded(box: Sequence[float]) -> tuple[float, float, float, float]:
+    """``box`` widened by 5 % of its height (imaginary) and 0.05 (real, staying above -1)."""
+    re_pad = min(0.05, (box[0] + 1.0) / 2.0)
+    im_pad = 0.05 * (box[3] - box[2])
+    return (box[0] - re_pad, box[1] + 0.05, box[2] - im_pad, box[3] + im_pad)
+
+
+def _inside(z: complex, box: Sequence[float]) -> bool:
+    return box[0] < z.real < box[1] and box[2] < z.imag < box[3]
+
+
+def compare_with_section(spectrum: StripSpectrum, sets: dict[float, SectionSet]
+                         ) -> tuple[np.ndarray, dict]:
+    """Distance of each strip eigenvalue to the 1D set of its harmonic, and per-harmonic counts.
+
+    Returns:
+        ``(distances, per_harmonic)``: ``min |z - w| / |z|`` over the 1D set ``w`` of the
+        eigenvalue's harmonic (``inf`` if that set is empty), and, per harmonic (key ``str(h)``),
+        ``strip`` (eigenvalues of the strip), ``section`` (1D eigenvalues in the box),
+        ``section_closed`` and ``max_rel_distance``.
+    """
+    dist = np.full(len(spectrum.values), np.inf)
+    for j, (z, h) in enumerate(zip(spectrum.values, spectrum.harmonics, strict=True)):
+        w = sets[float(h)].values if float(h) in sets else np.array([])
+        if len(w):
+            dist[j] = float(np.min(np.abs(w - z)) / abs(z))
+    per = {}
+    for h, s in sorted(sets.items()):
+        mine = dist[spectrum.harmonics == h]
+        per[f"{h:g}"] = {"wavenumber": s.wavenumber, "strip": int(len(mine)),
+                         "section": s.in_box, "section_closed": s.closed,
+                         "max_rel_distance": float(mine.max()) if len(mine) else None}
+    return dist, per
+
+
+def strip_rows(spectrum: StripSpectrum, distances: np.ndarray) -> list[dict]:
+    """The sweep's rows (:data:`forms.solvers.certified.ROW_FIELDS` + :data:`EXTRA_FIELDS`).
+
+    No exact root and no ``p + 1`` estimate: those columns are empty. ``status`` is ``ok`` when
+    the strip's count closed; ``certificate`` is ``count`` then (found == counted), else empty.
+    Labels ``h<harmonic>_<j>``, ``j`` by increasing ``|Im Lambda|`` within the harmonic.
+    """
+    ok = spectrum.closed
+    rows = []
+    order = sorted(range(len(spectrum.values)),
+                   key=lambda j: (spectrum.harmonics[j], abs(spectrum.values[j].imag),
+                                  spectrum.values[j].imag))
+    seen: dict[float, int] = {}
+    for j in order:
+        z, h = spectrum.values[j], float(spectrum.harmonics[j])
+        n = seen[h] = seen.get(h, -1) + 1
+        rows.append({"k": spectrum.k, "label": f"h{h:g}_{n}", "re_lambda": float(z.real),
+                     "im_lambda": float(z.imag), "residual": float(spectrum.residuals[j]),
+                     "status": "ok" if ok else "count not closed",
+                     "certificate": "count" if ok else "", "harmonic": h,
+                     "rel_distance_1d": float(distances[j])})
+    return rows
+
+
+def spectrum_cost(comm: MPI.Comm, params: Params, k: float, box: Sequence[float], *,
+                  cells_per_wavelength: int = 12, ny: int = 6, degree: int = 2,
+                  rtol: float = 1e-8) -> dict:
+    """Cost per eigenvalue of the strip's complete spectrum at ``k`` against the 1D model's.
+
+    Side by side in one call: the strip in ``box`` (:func:`strip_spectrum`, wall time from
+    the mesh to the harmonics, slowest rank), then on rank 0 the cross-section model's
+    certified FE spectrum (:class:`forms.solvers.certified.CertifiedSolver`, no exact root,
+    P4 for ``rtol``) at ``k`` in the same box and in the cross-section sweep's default region
+    at ``k`` (:class:`analytic.numerics.spectrum.Region` with ``c_max = 4``), each timed from
+    the model's construction. Collective.
+
+    Returns:
+        ``{"strip": ..., "section_same_box": ..., "section_region": ...}`` (the 1D entries on
+        rank 0 only), each with ``unknowns``, ``eigenvalues``, ``closed``, ``seconds``,
+        ``seconds_per_eigenvalue``, the strip's also its phases (``count``, ``solve``,
+        ``harmonics``).
+    """
+    comm.Barrier()
+    t0 = MPI.Wtime()
+    s = strip_spectrum(comm, params, k, box, cells_per_wavelength=cells_per_wavelength, ny=ny,
+                       degree=degree)
+    wall = comm.allreduce(MPI.Wtime() - t0, op=MPI.MAX)
+    out = {"strip": _cost(s.unknowns, len(s.values), s.closed, wall)
+           | {"box": list(s.box), "phases": dict(s.seconds), "ranks": comm.size,
+              "mesh": {"cells_per_wavelength": cells_per_wavelength, "ny": ny,
+                       "degree": degree}}}
+    if comm.rank == 0:
+        full = Region()
+        for name, region, bx in (
+                ("section_same_box", Region(re_min=box[0], re_max=box[1], c_max=1e-6,
+                                            omega0=max(abs(box[2]), abs(box[3]))), box),
+                ("section_region", full, full.box(params, k))):
+            t0 = time.perf_counter()
+            d, c, ratio = default_discretisation(params, region, k, rtol)
+            solver = CertifiedSolver(params, region, d, c, ratio, k, rtol, check_exact=False)
+            res = solver.solve(k, box=tuple(bx))
+            out[name] = _cost(solver.unknowns, len(res.rows), bool(res.closed),
+                              time.perf_counter() - t0) | {"box": list(res.box),
+                                                           "degree": d, "cells": c}
+    return out
+
+
+def _cost(unknowns: int, n: int, closed: bool, seconds: float) -> dict:
+    return {"unknowns": int(unknowns), "eigenvalues": int(n), "closed": closed,
+            "seconds": seconds, "seconds_per_eigenvalue": seconds / n if n else None}

@@ -205,10 +205,12 @@ def test_sweep_one_layer_file_gives_todays_numbers(tmp_path):
 @pytest.mark.parametrize("bad,word,nproc", [
     (["--mu-profile", "1 + y"], "--mu-profile needs --model layers", 1),
     (["--model", "layers"], "--model layers needs", 1),
-    (["--model", "strip"], "--model", 1),
+    (["--model", "cube"], "--model", 1),  # strip is a model now (workflows/_sweep_strip.py)
     (["--model", "layers", "--rho-profile", "exp(y"], "--rho-profile", 1),
-    (["--model", "layers", "--beta-profile", "0.45"], "only one layer", 1),
-    (["--model", "layers", "--layers", "TWO"], "only one layer", 2),
+    (["--model", "layers", "--beta-profile", "0.45", "--check-exact", "yes"], "--check-exact",
+     1),
+    (["--model", "layers", "--layers", "TWO", "--solver", "newton"], "--solver = newton", 2),
+    (["--model", "layers", "--layers", "TWO", "--check-exact", "maybe"], "--check-exact", 1),
     (["--model", "layers", "--layers", "missing.csv"], "cannot be read", 1),
 ])
 def test_sweep_bad_slider_one_line_exit_2(tmp_path, bad, word, nproc):

@@ -20,7 +20,10 @@ than the fastest root in R; summary.json states the bound and the tail bound at 
   equal the FE count and each FE value is matched to a distinct exact root, whose family
   gives its label. ``--check-exact no``: analytic's roots are never consulted, the labels are
   ``fe0, fe1, ...`` by increasing ``|Im Lambda|`` at each k (no tracking in k);
-- ``--solver newton``: the former path, FE Newton from each exact root (needs the check).
+- ``--solver newton``: the former path, FE Newton from each exact root (needs the check);
+- ``--model layers`` with several layers or profiles: FE only (``--check-exact no``), c_d the
+  stack's largest, no tail bound (R not proven to hold the fastest mode), labels ``c0, c1, ...``
+  by continuation of the FE eigenpairs in k (forms.studies.sweep.label_by_continuation).
 
 ``status = ok`` means: count closed, estimate (and, when checked, label and error) within
 ``--rtol``; the column ``certificate`` says what a row carries (``fe``, ``exact``).
@@ -54,9 +57,9 @@ import numpy as np  # noqa: E402
 from _plot_dispersion import plot_dispersion  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
-from analytic.numerics.spectrum import C_LADDER, Region  # noqa: E402
+from analytic.numerics.spectrum import Region  # noqa: E402
 from analytic.params import Params  # noqa: E402
-from forms.models.profiles import SliderMaterial, homogeneous_params, slider_material  # noqa: E402
+from forms.models.profiles import homogeneous_params, slider_material  # noqa: E402
 from forms.solvers.certified import (  # noqa: E402
     ROW_FIELDS,
     SOLVERS,
@@ -95,8 +98,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="cells of the interval mesh (0: chosen from the region and --rtol)")
     ap.add_argument("--solver", default="moments",
                     help="moments (FE first, contour moments) or newton (FE from exact roots)")
-    ap.add_argument("--check-exact", default="yes",
-                    help="yes: match the FE values to the exact roots; no: never consult them")
+    ap.add_argument("--check-exact", default="auto",
+                    help="yes: match the FE values to the exact roots; no: never consult them; "
+                    "auto: no for several layers or profiles (no exact roots), else yes")
     m = ap.add_argument_group("slider (1D model; forms.models.profiles)")
     m.add_argument("--model", default="section", help="section (homogeneous, default), "
                    "layers (--layers and/or profiles) or strip (2D Bloch cell, below)")
@@ -115,23 +119,6 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
-def slider(args: argparse.Namespace, params: Params) -> tuple[Params, SliderMaterial | None]:
-    """The model of ``--model``: ``(params, material)`` (``None``: homogeneous slider).
-
-    The certified path needs the exact roots: a layers model is accepted when it is one
-    homogeneous layer (then ``H`` and ``beta`` come from its row); more needs the FE-first sweep.
-    """
-    material = slider_material(args.model, args.layers, args.mu_profile, args.rho_profile,
-                               args.beta_profile)
-    if material is None:
-        return params, None
-    exact = homogeneous_params(params, material)
-    if exact is None:
-        raise _cli.ParameterError("--model layers: only one layer with mu = rho = 1 and no "
-                                  "profile is allowed here (the certified sweep needs exact roots)")
-    return exact, material
-
-
 def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]:
     """Check every input (no side effects); raise ParameterError on the first bad one.
 
@@ -139,7 +126,16 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
         ``(params, k, merged, region)``: ``k`` sorted and unique, ``merged`` the number of
         duplicate values dropped.
     """
-    params, args.material = slider(args, _cli.params_from_args(args))
+    # the slider of --model: one homogeneous layer (mu = rho = 1, no profile) is today's slider
+    # (H, beta of its row; exact roots checked); several layers or profiles have no exact roots
+    # (FE only: sweep.layered_params; --check-exact auto is then no)
+    args.material = slider_material(args.model, args.layers, args.mu_profile, args.rho_profile,
+                                    args.beta_profile)
+    params = _cli.params_from_args(args)
+    one = homogeneous_params(params, args.material) if args.material is not None else None
+    layered = args.material is not None and one is None
+    params = one or (sweep.layered_params(params, args.material, args.check_exact, args.solver)
+                     if layered else params)
     if params.two_body and not math.isfinite(params.H2):
         raise _cli.ParameterError("H2 = inf is outside its allowed range here: the certified "
                                   "sweep needs a finite substrate (H2 > 0 finite)")
@@ -156,32 +152,41 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
     if args.solver not in SOLVERS:
         raise _cli.ParameterError(f"--solver = {args.solver} is outside its allowed values "
                                   + " | ".join(SOLVERS))
+    if args.check_exact == "auto":
+        args.check_exact = "no" if layered else "yes"
     if args.check_exact not in ("yes", "no"):
         raise _cli.ParameterError(f"--check-exact = {args.check_exact} is outside its allowed "
-                                  "values yes | no")
+                                  "values yes | no | auto")
     if args.solver == "newton" and args.check_exact == "no":
         raise _cli.ParameterError("--check-exact = no is outside its allowed values with "
                                   "--solver newton (it starts from the exact roots): yes")
     if not (math.isfinite(args.omega0) and args.omega0 >= 0):
         raise _cli.ParameterError(f"--omega0 = {args.omega0} is outside its allowed range >= 0")
     region = _cli.region_from_args(args.c_max, args.re_min, args.re_max, args.omega0 or None)
+    args.layered = sweep.layered_summary(params, args.material, region) if layered else None
+    if layered:  # phase velocities in units of the stack's largest c_d; no tail bound
+        region = sweep.layered_region(params, args.material, region)
     _cli.check_sweep_limits(params, k, region)
-    return params, k, len(k_all) - len(k), region
+    merged = len(k_all) - len(k)
+    args.notes = ([f"note: {merged} duplicate k value(s) merged"] if merged else []) + (
+        [sweep.LAYERED_NOTE] if layered else [])  # said once the run folder is taken
+    return params, k, merged, region
 
 
 def write_outputs(out: str, params: Params, region: Region, k: np.ndarray,
                   results: list[KResult], fams: list, meta: dict, plot: bool,
-                  c_max_at_k: list[float]) -> dict:
+                  c_max_at_k: list[float], layered: dict | None = None) -> dict:
     """Rank 0: spectrum.csv and dispersion.png; returns the summary.
 
-    The caller adds the timings and writes ``summary.json`` once.
+    The caller adds the timings and writes ``summary.json`` once. ``layered``: the region's
+    keys of a layered slider (:func:`forms.studies.sweep.layered_summary`).
     """
     with _cli.atomic_open(os.path.join(out, "spectrum.csv"), "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(ROW_FIELDS))
         w.writeheader()
         w.writerows(sweep.csv_rows(results, ROW_FIELDS))
     summary = meta | sweep.summarise(params, region, k, results, fams, c_max_at_k,
-                                     meta["check_exact"])
+                                     meta["check_exact"], layered)
     if plot:
         plot_dispersion(os.path.join(out, "dispersion.png"), params,
                         sweep.largest_region(region, c_max_at_k), results, fams,
@@ -196,25 +201,21 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         return _sweep_strip.run(comm, args, OUTPUTS)
     params, k, merged, region = validate(args)  # every rank, before any collective or file
     check = args.check_exact == "yes"
-    # FE first: the FE climbs its own region at each k (exact roots only referee it); the
-    # exact-seeded path and the family plan take the exact roots' region
-    fe_climbs = args.solver == "moments" and region.c_max is None
-    c_at_k, big = (([], region.fixed(C_LADDER[0])) if fe_climbs and not check else
-                   sweep.regions_at_k(params, region, k, check,  # a bar from the first second
-                                      _cli.progress_mapper(comm, "region bound", args.quiet)))
-    fixed = (args.degree, args.cells, 1.0)
     config = {"params": params.as_dict(), "k": [float(v) for v in k],
-              "region": region.as_dict(params), "c_max_at_k": c_at_k, "rtol": args.rtol,
-              "degree": args.degree, "cells": args.cells, "region_by": (
-                  "fe" if fe_climbs else "exact"),
+              "region": region.as_dict(params), "rtol": args.rtol,
+              "degree": args.degree, "cells": args.cells,
               "solver": args.solver, "check_exact": check,
               **({"material": args.material.as_dict()} if args.material is not None else {})}
     with _cli.RunFolder(comm, args.out, "sweep_k", config, resume=args.resume, resumable=True,
                         outputs=OUTPUTS) as run:
         out, t_start = run.path, time.perf_counter()
-        if merged and not args.quiet:
-            _cli.say(f"note: {merged} duplicate k value(s) merged", err=True)
+        for note in [] if args.quiet else args.notes:
+            _cli.say(note, err=True)
         todo = (parts := run.parts("raw", "k{:05d}", count=len(k))).todo  # --resume: k left
+        # FE first: the FE climbs its own region at each k (exact roots only referee it); the
+        # exact-seeded path and the family plan take the exact roots' region
+        plan = sweep.plan_regions(params, region, k, check, args.solver,  # a bar from the start
+                                  _cli.progress_mapper(comm, "region bound", args.quiet))
         t_fam, fams = time.perf_counter(), []
         if check:
             def fam_share(n: int) -> object:  # progress from the first second
@@ -224,18 +225,17 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                 return mine if comm.rank or args.quiet else tqdm(
                     mine, desc=f"root families (rank 0 of {comm.size})", unit=" families",
                     file=sys.stderr)
-            fams = sweep.follow_all(comm, params, big, k, fam_share)
+            fams = sweep.follow_all(comm, params, plan.big, k, fam_share)
         t_fam = time.perf_counter() - t_fam
-        mine = [todo[j] for j in _cli.my_share(comm, sweep.k_costs(params, big, k, todo))]
-        bar = None
-        if comm.rank == 0 and not args.quiet and mine:
-            bar = tqdm(total=len(mine), desc=f"k values (rank 0 of {comm.size})", unit=" k values",
-                       file=sys.stderr)
-        rungs = sweep.RungSolvers(params, region, float(k[-1]), args.rtol, fixed, args.material,
+        mine = [todo[j] for j in _cli.my_share(comm, sweep.k_costs(params, plan.big, k, todo))]
+        bar = tqdm(total=len(mine), desc=f"k values (rank 0 of {comm.size})", unit=" k values",
+                   file=sys.stderr) if comm.rank == 0 and not args.quiet and mine else None
+        rungs = sweep.RungSolvers(params, region, float(k[-1]), args.rtol,
+                                  (args.degree, args.cells, 1.0), args.material,
                                   check_exact=check, solver=args.solver)
         share = sweep.solve_k_values(params, region, rungs, k, mine, fams, parts.save,
                                      bar.update if bar is not None else None,
-                                     None if fe_climbs else c_at_k)
+                                     plan.given)
         if bar is not None:
             bar.close()
         times = comm.gather({"rank": comm.rank, "families_s": t_fam, "solve_s": share.seconds,
@@ -245,16 +245,12 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         if comm.rank == 0:
             t2 = time.perf_counter()
             results, used = sweep.results_from_json(parts.load(i) for i in range(len(k)))
-            disc = rungs.discretisation(max(used))
-            meta = sweep.run_meta(params, args.k, k, merged, disc, share, args.rtol, args.solver,
-                                  check, {"ranks": comm.size, "per_rank": times}, run.resumed,
-                                  len(todo)) | {"versions": _cli.versions(),
-                                                "command": _cli.command()}
-            meta["discretisation"] |= sweep.rung_table(rungs, used, times)
+            meta = sweep.sweep_meta(params, args.k, k, merged, rungs, used, share, args.solver,
+                                    check, times, run.resumed, len(todo)) | {
+                "versions": _cli.versions(), "command": _cli.command()}
             summary = write_outputs(out, params, region, k, results, fams, meta,
-                                    not args.no_plot, used)
-            summary["region"] |= sweep.region_referee(
-                k, used, c_at_k if fe_climbs and check else [], "fe" if fe_climbs else "exact")
+                                    not args.no_plot, used, args.layered)
+            summary["region"] = plan.referee(k, used, check) | summary["region"]  # layered: "by"
             wall = time.perf_counter() - t_start
             summary["timing_s"] = {"wall": wall, "post_processing_rank0": time.perf_counter()
                                    - t2}

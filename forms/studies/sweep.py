@@ -43,10 +43,10 @@ from analytic.numerics.spectrum import (
     plan_items,
     provable_region,
 )
-from analytic.params import Params
-from analytic.physics.tail import tail_bound, why_no_tail_bound
+from analytic.params import ParameterError, Params
+from analytic.physics.tail import SCALE_CAP, tail_bound, velocity_scale, why_no_tail_bound
 from forms.models.profiles import SliderMaterial
-from forms.solvers.certified import CertifiedSolver, KResult, default_discretisation
+from forms.solvers.certified import CertifiedSolver, KResult, continue_fe, default_discretisation
 
 #: What ``summary.json`` says the certificate of the most unstable eigenvalue states, per mode
 #: ``(solver, check_exact)``.
@@ -73,6 +73,90 @@ FASTEST_STATEMENT = (
     "most unstable value: no mode outside R grows faster")
 #: Flagged rows listed in the summary at most (all of them are in the CSV).
 MAX_FLAGGED_LISTED = 200
+#: Why a layered or graded slider has no tail bound (``summary.json``, ``fastest_mode_statement``).
+LAYERED_NO_TAIL = (
+    "no tail bound derived for a layered or graded slider (analytic.physics.tail assumes one "
+    "homogeneous layer on the substrate): the region R is the box used at each k, not proven "
+    "to hold the fastest mode")
+#: How rows are labelled with ``track=True`` (``summary.json``, key ``labels``).
+TRACK_STATEMENT = (
+    "c0, c1, ...: continuation of the FE eigenpairs in k; each row at k_i is followed by Newton "
+    "on the discrete NEP (eigenvector kept, secant predictor, 4 sub-steps) to k_(i+1) and "
+    "linked to the row there that is the mutually nearest one and within 1e-6 relative; a row "
+    "without such a link starts a new label (numbered by first appearance, then |Im Lambda|)")
+#: The scene's one-line note for a layered/graded slider (stderr).
+LAYERED_NOTE = ("note: several layers or profiles: FE only (--check-exact no), certificate 'fe'; "
+                "the region is not proven to hold the fastest mode (no tail bound for layers)")
+#: Sub-steps of the continuation from one swept ``k`` to the next (``track=True``).
+TRACK_SUBSTEPS = 4
+#: Largest relative gap between a continued value and the row it is linked to.
+TRACK_LINK_RTOL = 1e-6
+
+
+def slider_velocity_scale(params: Params, material: SliderMaterial) -> float:
+    """The largest dilatational wave speed of a layered/graded stack (units of ``mu = rho = 1``).
+
+    ``sqrt(mu/rho)/beta`` over every layer (a profiled coefficient at 2001 points of its layer);
+    with a deformable substrate also its ``c_d2``, capped at
+    :data:`analytic.physics.tail.SCALE_CAP` times the slider's (the rule of
+    :func:`analytic.physics.tail.velocity_scale`).
+    """
+    prof, below, c = dict(material.profiles), 0.0, 0.0
+    for row in material.layer_rows(params.H, params.beta):
+        y = np.linspace(below, row.y_top, 2001)
+        mu, rho, beta = (prof[n](y) if n in prof else np.full_like(y, getattr(row, n))
+                         for n in ("mu", "rho", "beta"))
+        c, below = max(c, float(np.max(np.sqrt(mu / rho) / beta))), row.y_top
+    if params.two_body:
+        c2 = math.sqrt(params.mu2 / params.rho2) / params.substrate_beta
+        c = min(max(c, c2), SCALE_CAP * c)
+    return c
+
+
+def layered_region(params: Params, material: SliderMaterial, region: Region) -> Region:
+    """``region`` for a layered slider: phase velocities in units of its largest ``c_d``.
+
+    :class:`analytic.numerics.spectrum.Region` scales ``c_max`` by the homogeneous slider's
+    :func:`analytic.physics.tail.velocity_scale` of ``params``; the copy returned has ``c_max``
+    (``None``, adaptive, is its first rung :data:`analytic.numerics.spectrum.C_LADDER` ``[0]``:
+    without a tail bound nothing tells a larger rung is needed) rescaled so that
+    ``im_max = c_max k c_d,max + omega0``, ``c_d,max`` of :func:`slider_velocity_scale`, and
+    ``omega0`` (unless given) ``2 pi c_d,max / H`` with ``H`` the slider's height.
+    """
+    c = slider_velocity_scale(params, material)
+    c_max = C_LADDER[0] if region.c_max is None else region.c_max
+    height = material.layer_rows(params.H, params.beta)[-1].y_top
+    omega0 = region.omega0 if region.omega0 is not None else 2.0 * math.pi * c / height
+    return Region(region.re_min, region.re_max, c_max * c / velocity_scale(params), omega0)
+
+
+def layered_params(params: Params, material: SliderMaterial, check_exact: str,
+                   solver: str) -> Params:
+    """``params`` of a layered/graded slider (``H``: its height); refuse an exact check.
+
+    Raises:
+        ParameterError: ``check_exact`` other than ``"auto"`` (default) or ``"no"``, or
+            ``solver = "newton"`` (it starts from exact roots): one line.
+    """
+    if check_exact not in ("auto", "no") or solver == "newton":
+        bad = ("--solver = newton", "moments") if solver == "newton" else (
+            f"--check-exact = {check_exact}", "no")
+        raise ParameterError(f"{bad[0]} is outside its allowed values for several layers or "
+                             f"profiles (no exact roots): {bad[1]}")
+    return params.replace(H=material.layer_rows(params.H, params.beta)[-1].y_top)
+
+
+def layered_summary(params: Params, material: SliderMaterial, region: Region) -> dict:
+    """``summary.json`` keys of a layered slider's region (``region`` as given by the user)."""
+    c_max = C_LADDER[0] if region.c_max is None else region.c_max
+    return {"velocity_scale": slider_velocity_scale(params, material),
+            "c_max": c_max,
+            "definition": ("re_min <= Re Lambda <= re_max and |Im Lambda| <= c_max * k * "
+                           "velocity_scale + omega0 (velocity_scale: the largest c_d of the "
+                           "layered/graded stack, units of mu = rho = 1; c_max = auto is the "
+                           "first rung, 4: no tail bound tells whether more is needed)"),
+            "proven_to_hold_fastest_mode": False, "why_not": LAYERED_NO_TAIL,
+            "by": "fixed (no tail bound for a layered slider to climb with)"}
 
 
 def _float_back(v: object) -> object:
@@ -85,9 +169,16 @@ def _float_back(v: object) -> object:
 
 
 def results_from_json(saved: Iterable[dict]) -> tuple[list[KResult], list[float]]:
-    """The :class:`KResult` of each saved ``k`` (in order) and the bound ``c_max`` it used."""
+    """The :class:`KResult` of each saved ``k`` (in order) and the bound ``c_max`` it used.
+
+    Rows that carry their continued values (:func:`continue_rows`) are labelled by
+    :func:`label_by_continuation`.
+    """
     saved = list(saved)
-    return [k_result_from_json(d) for d in saved], [float(d["c_max"]) for d in saved]
+    results = [k_result_from_json(d) for d in saved]
+    if any("re_next" in r for res in results for r in res.rows):
+        label_by_continuation(results)
+    return results, [float(d["c_max"]) for d in saved]
 
 
 def k_result_from_json(d: dict) -> KResult:
@@ -160,6 +251,75 @@ def run_meta(params: Params, k_spec: str, k: np.ndarray, merged: int,
                   "min": float(k[0]), "max": float(k[-1])},
             **describe_discretisation(params, discretisation, share, rtol, solver, check_exact),
             "mpi": mpi, "resumed": resumed, "computed_this_run": computed}
+
+
+@dataclass
+class RegionPlan:
+    """Who sets the region's bound at each ``k``, and the exact roots' bounds when consulted.
+
+    Attributes:
+        fe_climbs: The FE climbs its own bound per ``k`` (:func:`climb`; FE first, adaptive).
+        c_at_k: The exact roots' bound at each ``k`` (:func:`regions_at_k`; empty when they are
+            not consulted).
+        big: The region the families are planned for and the ``k`` costs are read from.
+    """
+
+    fe_climbs: bool
+    c_at_k: list[float]
+    big: Region
+
+    @property
+    def given(self) -> list[float] | None:
+        """The bounds :func:`solve_k_values` must use (``None``: the FE climbs)."""
+        return None if self.fe_climbs else self.c_at_k
+
+    def referee(self, k: np.ndarray, used: Sequence[float], check_exact: bool) -> dict:
+        """:func:`region_referee` of a finished sweep that used the bounds ``used``."""
+        return region_referee(k, used, self.c_at_k if self.fe_climbs and check_exact else [],
+                              "fe" if self.fe_climbs else "exact")
+
+
+def plan_regions(params: Params, region: Region, k: np.ndarray, check_exact: bool,
+                 solver: str, mapper: Callable[[list[float], Callable[[int], float]], list]
+                 ) -> RegionPlan:
+    """The :class:`RegionPlan` of a sweep (collective via ``mapper``, see :func:`regions_at_k`).
+
+    FE first with an adaptive region: the FE climbs; the exact roots climb their own ladder only
+    when checked (to plan the families and referee the FE's bounds). Otherwise (exact-seeded, or
+    a fixed region) the exact roots' bounds are used.
+    """
+    fe_climbs = solver == "moments" and region.c_max is None
+    if fe_climbs and not check_exact:
+        return RegionPlan(True, [], region.fixed(C_LADDER[0]))
+    c_at_k, big = regions_at_k(params, region, k, check_exact, mapper)
+    return RegionPlan(fe_climbs, c_at_k, big)
+
+
+def sweep_meta(params: Params, k_spec: str, k: np.ndarray, merged: int, rungs: RungSolvers,
+               used: Sequence[float], share: ShareRun, solver: str, check_exact: bool,
+               per_rank: list[dict], resumed: bool, computed: int) -> dict:
+    """:func:`run_meta` of a finished sweep, with the mesh of every rung used (:func:`rung_table`).
+
+    Args:
+        params: Parameters.
+        k_spec: The ``--k`` text.
+        k: The requested wavenumbers, sorted and unique.
+        merged: Duplicate ``k`` values dropped.
+        rungs: The solvers per bound (their rule gives the largest rung's mesh).
+        used: The bound each ``k`` used.
+        share: Rank 0's :class:`ShareRun`.
+        solver: ``--solver``.
+        check_exact: The exact roots were consulted.
+        per_rank: Every rank's timings and rung sizes (gathered).
+        resumed: The run continued an earlier one.
+        computed: ``k`` values computed in this run.
+    """
+    meta = run_meta(params, k_spec, k, merged, rungs.discretisation(max(used)), share,
+                    rungs.rtol, solver, check_exact, {"ranks": len(per_rank),
+                                                      "per_rank": per_rank},
+                    resumed, computed)
+    meta["discretisation"] |= rung_table(rungs, used, per_rank)
+    return meta
 
 
 def largest_region(region: Region, c_max_at_k: Sequence[float]) -> Region:
@@ -323,8 +483,12 @@ def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.nda
         progress: Called after every finished ``k`` (e.g. a progress bar's update).
         c_max_at_k: The bound to use at each ``k`` (indexed like ``k``; the exact-seeded
             sweep's :func:`region_at_k`); ``None``: the FE climbs its own (:func:`climb`).
+
+    With a ``material`` and no exact check (``rungs``), every row is also continued to the next
+    swept ``k`` (:func:`continue_rows`), for the labels of :func:`label_by_continuation`.
     """
     t0 = time.perf_counter()
+    track = rungs.material is not None and not rungs.check_exact
     try:
         for i in mine:
             if c_max_at_k is not None:
@@ -332,6 +496,8 @@ def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.nda
                 res = rungs(c).solve(float(k[i]), fams, region.fixed(c))
             else:
                 res, c = climb(params, region, float(k[i]), fams, rungs)
+            if track and i + 1 < len(k):
+                continue_rows(rungs(c), res, float(k[i + 1]))
             save(i, res.as_dict() | {"c_max": c})
             if progress is not None:
                 progress()
@@ -377,6 +543,55 @@ def region_referee(k: np.ndarray, used: Sequence[float], exact: Sequence[float],
     return out
 
 
+def continue_rows(cs: CertifiedSolver, res: KResult, k_next: float) -> None:
+    """Each row's FE eigenpair continued to ``k_next``: keys ``re_next``, ``im_next`` (NaN: lost).
+
+    :func:`forms.solvers.certified.continue_fe` on the degree-``p`` model over
+    :data:`TRACK_SUBSTEPS` equal steps; its factorisations are added to ``res``.
+    """
+    ks = np.linspace(res.k, k_next, TRACK_SUBSTEPS + 1)
+    for row in res.rows:
+        vals, n = continue_fe(cs.banded[0], ks, complex(row["re_lambda"], row["im_lambda"]))
+        z = vals[-1] if not np.isnan(vals[0]) else complex(math.nan, math.nan)
+        row["re_next"], row["im_next"] = float(z.real), float(z.imag)
+        res.factorizations += n
+
+
+def label_by_continuation(results: list[KResult]) -> int:
+    """Label the rows ``c0, c1, ...`` by the links of :func:`continue_rows` (in place).
+
+    A row at ``k_(i+1)`` inherits the label of the row at ``k_i`` whose continued value is
+    nearest to it, when each is the other's nearest and they agree to :data:`TRACK_LINK_RTOL`;
+    every other row gets a new label (numbered in ``k``, then by ``|Im Lambda|``).
+
+    Returns:
+        The number of labels.
+    """
+    count = 0
+    prev: list[dict] = []
+    for res in results:
+        rows = sorted(res.rows, key=lambda r: (abs(r["im_lambda"]), r["im_lambda"]))
+        here = np.array([complex(r["re_lambda"], r["im_lambda"]) for r in rows])
+        nxt = np.array([complex(r.get("re_next", math.nan), r.get("im_next", math.nan))
+                        for r in prev])
+        linked: dict[int, str] = {}
+        for a, z in enumerate(nxt):
+            if np.isnan(z) or not len(here):
+                continue
+            b = int(np.argmin(np.abs(here - z)))
+            near = np.abs(nxt - here[b])
+            if (int(np.nanargmin(near)) == a
+                    and abs(here[b] - z) <= TRACK_LINK_RTOL * abs(here[b])):
+                linked[b] = prev[a]["label"]
+        for b, row in enumerate(rows):
+            if b in linked:
+                row["label"] = linked[b]
+            else:
+                row["label"], count = f"c{count}", count + 1
+        prev = rows
+    return count
+
+
 def describe_discretisation(params: Params, discretisation: tuple[int, int, float],
                             share: ShareRun, rtol: float, solver: str = "newton",
                             check_exact: bool = True) -> dict:
@@ -393,13 +608,16 @@ def describe_discretisation(params: Params, discretisation: tuple[int, int, floa
             "method": METHODS[solver], "solver": solver, "check_exact": check_exact}
 
 
-def tail_at_k(params: Params, region: Region, res: KResult, c_max: float) -> dict:
+def tail_at_k(params: Params, region: Region, res: KResult, c_max: float,
+              derived: bool = True) -> dict:
     """``per_k`` keys of the region proof at one ``k``.
 
-    The bound used, the tail bound at its ``W`` (:func:`analytic.physics.tail.tail_bound`) and
-    whether it is below the fastest row.
+    The bound used, the tail bound at its ``W`` (:func:`analytic.physics.tail.tail_bound`;
+    ``None`` when not ``derived``, e.g. a layered slider) and whether it is below the fastest
+    row.
     """
-    tb = tail_bound(params, res.k, region.fixed(c_max).im_max(params, res.k))
+    tb = (tail_bound(params, res.k, region.fixed(c_max).im_max(params, res.k)) if derived
+          else None)
     fastest = max((r["re_lambda"] for r in res.rows), default=None)
     target = fastest if fastest is not None else region.re_min
     return {"c_max": c_max, "tail_bound": tb,
@@ -446,14 +664,16 @@ def most_unstable(rows: list[dict], results: list[KResult], k: np.ndarray,
 
 def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResult],
               fams: list[BranchResult], c_max_at_k: Sequence[float] | None = None,
-              check_exact: bool = True) -> dict:
+              check_exact: bool = True, layered: dict | None = None) -> dict:
     """The sweep's summary: region, certificate, accuracy, families, most unstable, per ``k``.
 
     Pure data (no files). The keys, in order: ``region``, ``certificate`` (``k`` values closed
     or not, rows ok or flagged), ``accuracy`` (largest error against the exact roots and
     largest error estimate), ``families`` (count, notes), ``most_unstable``
     (:func:`most_unstable`), ``per_k`` (counts, box, seconds, factorisations, and the
-    certificate each row carries: ``fe`` and/or ``exact``).
+    certificate each row carries: ``fe`` and/or ``exact``). ``layered``
+    (:func:`layered_summary`): a layered/graded slider, no tail bound, its keys join
+    ``region``.
     """
     rows = [r for res in results for r in res.rows]
     flagged = [r for r in rows if r["status"] != "ok"]
@@ -462,9 +682,12 @@ def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResu
     errs = [r["rel_error"] for r in rows if math.isfinite(r["rel_error"])]
     ests = [r["error_estimate"] for r in rows if math.isfinite(r["error_estimate"])]
     cs = list(c_max_at_k) if c_max_at_k is not None else [region.c_max] * len(results)
-    tails = [tail_at_k(params, region, res, c) for res, c in zip(results, cs, strict=True)]
+    tails = [tail_at_k(params, region, res, c, layered is None)
+             | ({"c_max": layered["c_max"]} if layered is not None else {})
+             for res, c in zip(results, cs, strict=True)]
+    why_not = layered["why_not"] if layered is not None else why_no_tail_bound(params)
     return {
-        "region": region.as_dict(params),
+        "region": region.as_dict(params) | (layered or {}),
         "certificate": {"k_values": len(results), "k_closed": len(results) - len(open_k),
                         "k_not_closed": open_k, "rows": len(rows),
                         "rows_ok": len(rows) - len(flagged),
@@ -472,11 +695,52 @@ def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResu
         "accuracy": {"max_rel_error_vs_exact": max(errs) if errs else None,
                      "max_error_estimate": max(ests) if ests else None},
         "families": {"count": len(fams), "notes": {f.label: f.note for f in fams if f.note}},
-        "most_unstable": most_unstable(rows, results, k, open_k, tails,
-                                       why_no_tail_bound(params), check_exact),
+        "most_unstable": most_unstable(rows, results, k, open_k, tails, why_not,
+                                       check_exact),
+        **({"labels": TRACK_STATEMENT} if any("re_next" in r for r in rows) else {}),
         "per_k": [{"k": res.k, "n_fe": res.n_fe, "n_exact": res.n_exact, "closed": res.closed,
                    "box": list(res.box), **tail, "seconds": res.seconds,
                    "factorizations": res.factorizations,
                    "certificate": [r.get("certificate", "") for r in res.rows]}
                   for res, tail in zip(results, tails, strict=True)],
     }
+
+
+def envelope(rows: Sequence[dict]) -> list[dict]:
+    """The fastest and the second fastest row at every ``k`` of a sweep's rows (CSV or dicts).
+
+    Returns:
+        One dict per ``k`` (increasing): ``k``, ``label``, ``re_lambda``, ``im_lambda`` of the
+        fastest row, ``second_label`` and ``second_re_lambda`` (``""`` and NaN if alone).
+    """
+    by_k: dict[float, list[tuple[float, float, str]]] = {}
+    for r in rows:
+        by_k.setdefault(float(r["k"]), []).append(
+            (float(r["re_lambda"]), float(r["im_lambda"]), str(r["label"])))
+    out = []
+    for k in sorted(by_k):
+        ranked = sorted(by_k[k], key=lambda t: -t[0])
+        second = ranked[1] if len(ranked) > 1 else (math.nan, math.nan, "")
+        out.append({"k": k, "label": ranked[0][2], "re_lambda": ranked[0][0],
+                    "im_lambda": ranked[0][1], "second_label": second[2],
+                    "second_re_lambda": second[0]})
+    return out
+
+
+def envelope_changes(env: Sequence[dict]) -> dict:
+    """The peak of :func:`envelope` and where another label takes the lead.
+
+    Returns:
+        ``peak`` (the envelope's row of largest ``Re Lambda``), ``leaders`` (each run of equal
+        labels along ``k``: ``label``, ``k_from``, ``k_to``) and ``peak_label_leads_everywhere``
+        (no other label is fastest at any swept ``k``).
+    """
+    leaders: list[dict] = []
+    for e in env:
+        if leaders and leaders[-1]["label"] == e["label"]:
+            leaders[-1]["k_to"] = e["k"]
+        else:
+            leaders.append({"label": e["label"], "k_from": e["k"], "k_to": e["k"]})
+    peak = max(env, key=lambda e: e["re_lambda"])
+    return {"peak": dict(peak), "leaders": leaders,
+            "peak_label_leads_everywhere": all(e["label"] == peak["label"] for e in env)}

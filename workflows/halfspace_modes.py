@@ -43,11 +43,17 @@ from analytic.params import Params
 from analytic.physics.halfspace import follow
 from forms.studies import halfspace_modes
 from forms.studies.halfspace_modes import COLUMNS
+from meshes.interval import default_cells
 
 #: Options prefixes of the SLEPc objects: the PML solves and the truncated strips.
 PETSC_PREFIXES = ("pml_", "trunc_")
 
 OUTPUT_FILES = ("halfspace_modes.csv", "summary.json", "halfspace_modes.png")
+#: Cells of the largest plain truncated strip (``meshes.interval.default_cells`` at the largest
+#: ``k``). Measured on the 2-core machine, P4, one rank, 6 GB address-space limit: 14 324 cells
+#: (the default run's ``k = 3, H = 1000``) 12 s, 47 747 (``k = 10``) 25 s; 143 240 (``k = 30``)
+#: failed (PETSc error 371) and ``--k 1e7`` grew to 21.6 GB before it was killed.
+MAX_TRUNC_CELLS = 50_000
 FAMILIES = ("dilatational", "shear")
 BRANCHES = ("unstable", "stable")
 
@@ -94,6 +100,13 @@ def _check(args: argparse.Namespace) -> tuple:
     if not (math.isfinite(args.attenuation) and args.attenuation > 0):
         raise _cli.ParameterError(f"--attenuation = {args.attenuation} must be > 0")
     hs = _cli.parse_k(args.H_trunc, name="--H-trunc") if args.H_trunc.strip() else np.array([])
+    cells = default_cells(float(ks[-1]), float(hs.max()), args.degree, 0, p.beta) if len(
+        hs) else 0
+    if cells > MAX_TRUNC_CELLS:
+        raise _cli.ParameterError(
+            f"--k = {ks[-1]:g} with --H-trunc = {hs.max():g}: the plain truncated strip would "
+            f"need {cells} cells, above the limit {MAX_TRUNC_CELLS} (its memory and time grow "
+            "with k*H); lower --k or --H-trunc, or give --H-trunc '' for the PML rows only")
     bcs = [b.strip() for b in args.bc_trunc.split(",") if b.strip()]
     for b in bcs:
         if b not in ("velocity", "stress"):

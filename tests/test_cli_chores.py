@@ -335,6 +335,9 @@ def test_analytic_negative_value_after_option(capsys):
     ("contrast.py", ["--k", "0.1:300:3log"], "region's height"),  # W = 2425 > 1700
     ("mode_shape.py", ["--k", "1e7"], "k*H = 5e+06"),  # was: silent for more than 200 s
     ("halfspace_modes.py", ["--k", "1e7"], "truncated strip"),  # was: 21.6 GB, then killed
+    ("finite_block.py", ["--lengths", "1e6"], "unknowns"),  # was: a 10^9-unknown mesh
+    ("friction_patch.py", ["--length", "1e6", "--lp", "1"], "unknowns"),
+    ("methods_chart.py", ["--k", "1e7"], "region's height"),
 ])
 def test_scene_limits_refused_before_any_file(tmp_path, script, args, needle):
     """Validation by what the solver can do: one line, exit 2, no run.json, no lock."""
@@ -350,6 +353,16 @@ def test_resume_of_a_missing_folder_is_an_error(tmp_path):
     _one_error_line(run_workflow("sweep_k.py", ["--k", "1", "--resume", "--out", str(out)], 1,
                                  QUICK), "--resume", "does not exist")
     assert not out.exists()
+
+
+@pytest.mark.serial
+def test_block_size_limit_admits_the_readme_table_and_refuses_beyond():
+    """The README's largest block (L = 128, 8 cells per unit and 8 in y, P2) is admitted."""
+    _cli.check_block_size(128, 8, 8, 2)  # 69 666 unknowns
+    with pytest.raises(_cli.ParameterError, match="69 666|unknowns"):
+        _cli.check_block_size(128, 8, 8, 2, two_body=True)  # twice that
+    with pytest.raises(_cli.ParameterError, match="unknowns"):
+        _cli.check_block_size(256, 8, 8, 2)
 
 
 @pytest.mark.serial

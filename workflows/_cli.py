@@ -57,6 +57,7 @@ from _grids import (
     SWEEP_DELTA_MAX,
     SWEEP_W_MAX,
     SWEEP_WH_MAX,
+    check_block_size,
     check_branch_kh,
     check_roots_region,
     check_sweep_limits,

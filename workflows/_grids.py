@@ -52,6 +52,25 @@ SWEEP_W_MAX = 500.0
 SWEEP_DELTA_MAX = 1000.0
 
 
+#: Unknowns of a finite block (P``p`` on ``L cells_per_unit x ny`` cells, two components, both
+#: bodies): the README's finite-block table ran its largest block, ``L = 128`` at 8 cells per
+#: unit and 8 in ``y``, P2 (69 666 unknowns); larger blocks were never run on this machine, and
+#: ``finite_block.py --lengths 1e6`` asked for 10^9 before this limit.
+BLOCK_UNKNOWNS_MAX = 100_000
+
+
+def check_block_size(length: float, cells_per_unit: int, ny: int, degree: int,
+                     two_body: bool = False, name: str = "--lengths") -> None:
+    """Refuse a finite block larger than :data:`BLOCK_UNKNOWNS_MAX` unknowns, in one line."""
+    nx = math.ceil(length * cells_per_unit)
+    n = 2 * (degree * nx + 1) * (degree * ny + 1) * (2 if two_body else 1)
+    if n > BLOCK_UNKNOWNS_MAX:
+        raise ParameterError(
+            f"{name} = {length:g}: the block would have about {n:.3g} unknowns (P{degree}, "
+            f"{nx} x {ny} cells), above {BLOCK_UNKNOWNS_MAX}, the largest size run here (the "
+            "README's table: L = 128, 69 666 unknowns); use a shorter block or fewer cells")
+
+
 def check_sweep_limits(params: Any, k: np.ndarray, region: Any) -> None:
     """Refuse a sweep the certified solver cannot finish in bounded time; say when it is long.
 

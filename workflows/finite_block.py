@@ -110,6 +110,8 @@ def validate(args: argparse.Namespace):
     _cli.positive_int("--targets", args.targets, 1, 50)
     _cli.positive_int("--nev", args.nev, 1, 200)
     _block_search.parse_box(args.box)
+    _cli.check_block_size(float(np.max(lengths)), args.cells_per_unit, args.ny, args.degree,
+                          params.two_body)
     return params, np.unique(lengths), branches, k_scan
 
 

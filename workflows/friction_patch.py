@@ -86,6 +86,8 @@ def validate(args: argparse.Namespace):
     for name in ("cells_per_unit", "ny", "nev"):
         _cli.positive_int("--" + name.replace("_", "-"), getattr(args, name), 1)
     _cli.positive_int("--degree", args.degree, 1, 4)
+    _cli.check_block_size(args.length, args.cells_per_unit, args.ny, args.degree,
+                          params.two_body, "--length")
     return params, inside, lp, box
 
 

@@ -21,8 +21,10 @@ import csv
 import os
 
 import _cli
+import numpy as np
 from _plot_methods import plot_methods
 
+from analytic.numerics.spectrum import Region
 from analytic.params import Params
 from forms.studies import methods as ms
 
@@ -49,6 +51,7 @@ def main(comm=None, argv: list[str] | None = None) -> int:
     if not 1e-12 <= args.rtol <= 1e-2:
         raise _cli.ParameterError(f"--rtol = {args.rtol} is outside its allowed range "
                                   "1e-12 .. 1e-2")
+    _cli.check_sweep_limits(Params(), np.array(ks), Region(c_max=max(cs)))  # the sweep's
     parameters = {"k": ks, "c_max": cs, "rtol": args.rtol}
     with _cli.RunFolder(comm, args.out, "methods_chart", parameters, outputs=OUTPUT_FILES):
         rows = ms.methods_grid(Params(), ks, cs, args.rtol, comm=comm)

@@ -50,8 +50,7 @@ def _lines(text):
 
 def _one_error_line(res, *needles):
     assert res.returncode == 2, res.stderr[-2000:]
-    # progress bar states are not messages: the sweep's region-bound bar runs before the run
-    # folder's checks (--out, --resume)
+    # progress bar states are not messages
     lines = [ln for ln in _lines(res.stderr) if not re.search(r"\d+%\|", ln)]
     assert len(lines) == 1, res.stderr[-2000:]
     assert lines[0].startswith("error:"), lines
@@ -475,7 +474,11 @@ def test_sweep_progress_rate_is_in_k_values(tmp_path):
     """
     res = run_workflow("sweep_k.py", ["--k", "1,2", "--no-plot", "--out", str(tmp_path / "s")])
     assert res.returncode == 0, res.stderr[-2000:]
-    assert res.stderr.lstrip().startswith("region bound (rank 0 of 1):   0%"), res.stderr[:500]
+    first, rest = res.stderr.lstrip().split("\n", 1)
+    # an estimate up front (forms.studies.sweep.estimate_seconds), then the region bound's bar
+    assert re.fullmatch(r"plan: 2 k value\(s\) on 1 rank\(s\), about \d+ s of solving .*",
+                        first), first
+    assert rest.lstrip().startswith("region bound (rank 0 of 1):   0%"), rest[:500]
     states = [s for s in _bar_states(res.stderr) if s.startswith("k values")]
     assert states and all(re.search(r"( k values/s|s/ k values)\]$", s) for s in states), states
     assert not re.search(r"\d(it|k)/s", res.stderr), res.stderr[-2000:]

@@ -212,6 +212,10 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         for note in [] if args.quiet else args.notes:
             _cli.say(note, err=True)
         todo = (parts := run.parts("raw", "k{:05d}", count=len(k))).todo  # --resume: k left
+        if not args.quiet:  # an estimate up front, then bars from the first second
+            t_est = sweep.estimate_seconds(params, region, k[todo], comm.size)
+            _cli.say(f"plan: {len(todo)} k value(s) on {comm.size} rank(s), about {t_est:.0f} s"
+                     " of solving at the region's first rung (longer where it grows)", err=True)
         # FE first: the FE climbs its own region at each k (exact roots only referee it); the
         # exact-seeded path and the family plan take the exact roots' region
         plan = sweep.plan_regions(params, region, k, check, args.solver,  # a bar from the start

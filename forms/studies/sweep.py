@@ -253,6 +253,24 @@ def run_meta(params: Params, k_spec: str, k: np.ndarray, merged: int,
             "mpi": mpi, "resumed": resumed, "computed_this_run": computed}
 
 
+#: CPU seconds of solving per ``k`` value per ``(W H)^2`` (``W`` the region's height at that
+#: ``k``: eigenvalues and mesh cells both grow with ``W H``). Measured: the default velocity
+#: sweep (120 k, 4 ``c_d``, ``H = 0.5``, one rank) spent 27.7 s of CPU solving, and its
+#: ``sum (W H)^2`` is 78 771 (2026-11-24, this 2-core machine).
+SECONDS_PER_WH2 = 3.5e-4
+
+
+def estimate_seconds(params: Params, region: Region, k: Sequence[float], ranks: int) -> float:
+    """Up-front estimate of the solving time (wall, ``ranks`` sharing the ``k``) at the first rung.
+
+    An adaptive region is estimated at its first rung: where the region grows the run takes
+    longer (the stress top's default sweep climbs to 8-32 ``c_d``).
+    """
+    reg = region if region.c_max is not None else region.fixed(C_LADDER[0])
+    wh = np.array([reg.im_max(params, float(x)) * params.H for x in k])
+    return float(SECONDS_PER_WH2 * np.sum(wh**2) / max(1, ranks))
+
+
 @dataclass
 class RegionPlan:
     """Who sets the region's bound at each ``k``, and the exact roots' bounds when consulted.

@@ -96,7 +96,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         def sample(ks_new: list[float]) -> dict[float, tuple]:
             first = region if region.c_max is not None else region.fixed(4.0)
             costs = [first.im_max(p, kk) ** 1.5 for kk in ks_new]
-            got = _cli.map_shared(comm, costs, lambda i: fastest(float(ks_new[i])))
+            got = _cli.progress_mapper(comm, "k values")(  # a bar from the first k value
+                costs, lambda i: fastest(float(ks_new[i])))
             return {float(ks_new[i]): got[i] for i in range(len(ks_new))}
 
         found = sample([float(v) for v in k])

@@ -109,7 +109,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
             _cli.write_json(path, row, indent=None)  # strict JSON: NaN -> null
             return row
 
-        rows = _cli.map_shared(comm, [1.0] * (nx * ny), point)
+        rows = _cli.progress_mapper(comm, "map points", unit=" points")(  # a bar from the start
+            [1.0] * (nx * ny), point)
         failed = sum(rows[i]["failed_counts"] for i in rows)
         if comm.rank == 0:
             rows = [rows[i] for i in range(nx * ny)]

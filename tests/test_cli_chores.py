@@ -485,6 +485,20 @@ def test_sweep_progress_rate_is_in_k_values(tmp_path):
 
 
 @pytest.mark.serial
+@pytest.mark.parametrize("script,args,desc", [
+    ("envelope.py", ["--k", "1,2", "--refine-rounds", "0"], "k values"),
+    ("stability_map.py", ["--x", "Delta:-0.5:2:2", "--y", "gamma:0.1:1:2", "--H", "1",
+                          "--kH-max", "1", "--nk", "2"], "map points"),
+])
+def test_long_scenes_show_progress(tmp_path, script, args, desc):
+    """envelope.py and stability_map.py: a bar from the first item (before: silent to the end)."""
+    res = run_workflow(script, [*args, "--out", str(tmp_path / "o")], 1, QUICK)
+    assert res.returncode == 0, res.stderr[-2000:]
+    states = [s for s in _bar_states(res.stderr) if s.startswith(desc)]
+    assert states and " 0/" in states[0], res.stderr[-2000:]
+
+
+@pytest.mark.serial
 @pytest.mark.slow  # measured 26 s on the loaded machine
 def test_contrast_shows_progress(tmp_path):
     """contrast.py: a bar over its (mu2, H2) cases from the start (before: minutes of silence,

@@ -205,7 +205,7 @@ def test_sweep_one_layer_file_gives_todays_numbers(tmp_path):
 @pytest.mark.parametrize("bad,word,nproc", [
     (["--mu-profile", "1 + y"], "--mu-profile needs --model layers", 1),
     (["--model", "layers"], "--model layers needs", 1),
-    (["--model", "cube"], "--model", 1),  # strip is a model now (workflows/_sweep_strip.py)
+    (["--model", "cube"], "not one of section, layers, strip", 1),
     (["--model", "layers", "--rho-profile", "exp(y"], "--rho-profile", 1),
     (["--model", "layers", "--beta-profile", "0.45", "--check-exact", "yes"], "--check-exact",
      1),

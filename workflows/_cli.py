@@ -60,6 +60,7 @@ from _grids import (
     check_block_size,
     check_branch_kh,
     check_roots_region,
+    check_section_options,
     check_sweep_limits,
     parse_grid,
     progress_mapper,

@@ -71,6 +71,26 @@ def check_block_size(length: float, cells_per_unit: int, ny: int, degree: int,
             "README's table: L = 128, 69 666 unknowns); use a shorter block or fewer cells")
 
 
+def check_section_options(args: Any) -> None:
+    """``sweep_k.py``'s options of the 1D section model, shared by every ``--model``.
+
+    ``--degree`` (0: from the rule) up to 6, ``--cells`` (0: from the rule) up to 100000,
+    ``--rtol`` in ``[1e-13, 1e-2]``, ``--omega0 >= 0``.
+
+    Raises:
+        ParameterError: One line naming the option and its allowed range.
+    """
+    from analytic.cli import positive_int
+
+    positive_int("--degree", args.degree, 0, 6)
+    positive_int("--cells", args.cells, 0, 100000)
+    if not (math.isfinite(args.rtol) and 1e-13 <= args.rtol <= 1e-2):
+        raise ParameterError(f"--rtol = {args.rtol} is outside its allowed range "
+                             "1e-13 <= rtol <= 1e-2")
+    if not (math.isfinite(args.omega0) and args.omega0 >= 0):
+        raise ParameterError(f"--omega0 = {args.omega0} is outside its allowed range >= 0")
+
+
 def check_sweep_limits(params: Any, k: np.ndarray, region: Any) -> None:
     """Refuse a sweep the certified solver cannot finish in bounded time; say when it is long.
 

@@ -28,6 +28,7 @@ import numpy as np
 from analytic.params import Params
 from forms.solvers.certified import ROW_FIELDS
 from forms.studies import strip_sweep as ss
+from forms.studies import sweep
 
 #: Every options prefix of the strip's PETSc/SLEPc objects (the region PEP and the count's LU).
 PETSC_PREFIXES = ss.PREFIXES
@@ -63,19 +64,13 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray]:
     _cli.positive_int("--strip-cells", args.strip_cells, 2, 1000)
     _cli.positive_int("--strip-ny", args.strip_ny, 1, 1000)
     _cli.positive_int("--strip-degree", args.strip_degree, 1, 4)
-    _cli.positive_int("--degree", args.degree, 0, 6)
-    _cli.positive_int("--cells", args.cells, 0, 100000)
+    _cli.check_section_options(args)  # the 1D sets' --degree, --cells, --rtol; --omega0
     if not (math.isfinite(args.strip_c_max) and args.strip_c_max > 0):
         raise _cli.ParameterError(f"--strip-c-max = {args.strip_c_max} is outside its allowed "
                                   "range > 0")
     if not (-1.0 < args.re_min < args.re_max and math.isfinite(args.re_max)):
         raise _cli.ParameterError(f"--re-min = {args.re_min}, --re-max = {args.re_max} are "
                                   "outside their allowed range -1 < re_min < re_max")
-    if not (math.isfinite(args.omega0) and args.omega0 >= 0):
-        raise _cli.ParameterError(f"--omega0 = {args.omega0} is outside its allowed range >= 0")
-    if not (math.isfinite(args.rtol) and 1e-13 <= args.rtol <= 1e-2):
-        raise _cli.ParameterError(f"--rtol = {args.rtol} is outside its allowed range "
-                                  "1e-13 <= rtol <= 1e-2")
     return params, np.unique(_cli.parse_k(args.k))
 
 
@@ -150,8 +145,7 @@ def _write(out: str, rows: list[dict], summary: dict) -> None:
     with _cli.atomic_open(os.path.join(out, "spectrum.csv"), "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(FIELDS))
         w.writeheader()
-        w.writerows({f: repr(r[f]) if isinstance(r.get(f), float) else r.get(f, "")
-                     for f in FIELDS} for r in rows)
+        w.writerows(sweep.csv_row(r, FIELDS) for r in rows)
     _cli.write_json(os.path.join(out, "summary.json"), summary)
 
 

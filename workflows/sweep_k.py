@@ -146,11 +146,7 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
                                   " model needs a finite H > 0")
     k_all = _cli.parse_k(args.k)
     k = np.unique(k_all)
-    _cli.positive_int("--degree", args.degree, 0, 6)
-    _cli.positive_int("--cells", args.cells, 0, 100000)
-    if not (math.isfinite(args.rtol) and 1e-13 <= args.rtol <= 1e-2):
-        raise _cli.ParameterError(f"--rtol = {args.rtol} is outside its allowed range "
-                                  "1e-13 <= rtol <= 1e-2")
+    _cli.check_section_options(args)  # --degree, --cells, --rtol, --omega0
     if args.solver not in SOLVERS:
         raise _cli.ParameterError(f"--solver = {args.solver} is outside its allowed values "
                                   + " | ".join(SOLVERS))
@@ -162,8 +158,6 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
     if args.solver == "newton" and args.check_exact == "no":
         raise _cli.ParameterError("--check-exact = no is outside its allowed values with "
                                   "--solver newton (it starts from the exact roots): yes")
-    if not (math.isfinite(args.omega0) and args.omega0 >= 0):
-        raise _cli.ParameterError(f"--omega0 = {args.omega0} is outside its allowed range >= 0")
     region = _cli.region_from_args(args.c_max, args.re_min, args.re_max, args.omega0 or None)
     args.layered = sweep.layered_summary(params, args.material, region) if layered else None
     if layered:  # phase velocities in units of the stack's largest c_d; no tail bound

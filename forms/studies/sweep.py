@@ -233,10 +233,14 @@ def follow_all(comm: object, params: Params, region: Region, k: np.ndarray,
     return follow_families(comm, params, region, plan, items, k, share_of(len(items)))
 
 
+def csv_row(row: dict, fields: Sequence[str]) -> dict:
+    """One row for ``spectrum.csv``: ``fields`` only, floats as ``repr`` (full precision)."""
+    return {f: (repr(v) if isinstance(v, float) else v) for f in fields for v in [row.get(f, "")]}
+
+
 def csv_rows(results: list[KResult], fields: Sequence[str]) -> list[dict]:
-    """The rows of every ``k`` for ``spectrum.csv`` (floats as ``repr``: full precision)."""
-    return [{f: (repr(v) if isinstance(v, float) else v) for f in fields for v in [r.get(f, "")]}
-            for res in results for r in res.rows]
+    """The rows of every ``k`` for ``spectrum.csv`` (:func:`csv_row`)."""
+    return [csv_row(r, fields) for res in results for r in res.rows]
 
 
 def run_meta(params: Params, k_spec: str, k: np.ndarray, merged: int,
@@ -488,7 +492,7 @@ def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.nda
 
     Each :class:`forms.solvers.certified.KResult` goes to ``save(i, result.as_dict() |
     {"c_max": c})`` (with the bound ``c_max`` it used) as soon as it is finished: the scene
-    keeps it (a resumed sweep skips it). Not collective.
+    keeps it (a resumed sweep skips it). ``rungs`` is destroyed at the end. Not collective.
 
     Args:
         params: Parameters.
@@ -538,9 +542,9 @@ def rung_table(rungs: RungSolvers, used: Sequence[float], per_rank: list[dict]) 
     sizes: dict[float, int] = {}
     for d in per_rank:
         sizes |= d["unknowns"]
-    table = [{"c_max": c, "degree": rungs.discretisation(c)[0],
-              "cells": rungs.discretisation(c)[1], "unknowns": sizes.get(c),
-              "k_values": sum(1 for u in used if u == c)} for c in sorted(set(used))]
+    table = [{"c_max": c, "degree": d[0], "cells": d[1], "unknowns": sizes.get(c),
+              "k_values": sum(1 for u in used if u == c)}
+             for c in sorted(set(used)) for d in [rungs.discretisation(c)]]
     return {"unknowns": max((r["unknowns"] or 0 for r in table), default=0), "per_rung": table}
 
 

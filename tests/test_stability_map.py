@@ -60,7 +60,7 @@ def test_resume_keeps_done_points_and_recomputes_missing(tmp_path):
     """raw/p#####.json are the run's parts: --resume (2 ranks) takes a marked one as it is and
     computes a missing one; a run without --resume clears them and computes every point."""
     out = tmp_path / "m"
-    args = ["--x", "Delta:1:2:2", "--y", "f:0.01:0.02:2", "--kH-max", "0.5", "--nk", "2",
+    args = ["--x", "Delta:1:2:2", "--y", "f:0:0.02:2", "--kH-max", "0.5", "--nk", "2",
             "--gamma", "1", "--H", "1", "--out", str(out)]
     assert run_workflow("stability_map.py", args).returncode == 0
     raw = sorted(os.listdir(out / "raw"))
@@ -73,7 +73,8 @@ def test_resume_keeps_done_points_and_recomputes_missing(tmp_path):
     proc = run_workflow("stability_map.py", [*args, "--resume"], nproc=2)
     assert proc.returncode == 0, proc.stderr[-2000:]
     rows = _rows(out)
-    assert rows[0]["unstable_k_count"] == "99" and rows[1:] == first[1:]
+    assert rows == [{**first[0], "unstable_k_count": "99"}, *first[1:]]  # f = 0: no closed
+    assert first[0]["delta_closed_form"] == "nan"  # form, the same "nan" from a loaded part
     assert run_workflow("stability_map.py", args).returncode == 0  # no --resume: starts over
     assert _rows(out) == first and sorted(os.listdir(out / "raw")) == raw
     proc = run_workflow("stability_map.py", [*args[:-2], "--nk", "3", "--out", str(out),

@@ -94,7 +94,9 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
 
         def point(i: int) -> dict:
             if i not in todo:  # --resume: done by the interrupted run
-                return parts.load(i)
+                row = parts.load(i)  # strict JSON: no closed form (NaN) came back as null
+                return {**row, "delta_closed_form": math.nan if row["delta_closed_form"] is None
+                        else row["delta_closed_form"]}
             ix, iy = i % nx, i // nx
             p = sm.point_params(base, (x[0], x[1][ix]), (y[0], y[1][iy]))
             return parts.save(i, {"ix": ix, "iy": iy, "x": float(x[1][ix]), "y": float(y[1][iy]),

@@ -375,7 +375,7 @@ def _units(args: argparse.Namespace) -> int:
 
 
 def _dispersion(args: argparse.Namespace) -> int:
-    from analytic.dispersion import write_dispersion
+    from analytic.writers import write_dispersion
 
     p = _finite_params(args)
     k = parse_k(args.k)
@@ -401,7 +401,7 @@ def _gr(args: argparse.Namespace) -> int:
 
 
 def _grmap(args: argparse.Namespace) -> int:
-    from analytic.physics.twobody import write_gr_map
+    from analytic.writers import write_gr_map
 
     Params(beta=args.beta, beta2=args.beta2)  # validates
     positive_int("--n", args.n, 3, 1000)

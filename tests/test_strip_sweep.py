@@ -1,12 +1,15 @@
 """Every eigenvalue of the 2D Bloch strip cell in a box (forms.studies.strip_sweep).
 
 No exact root is used: the region solve counts (argument principle on MUMPS's log det) and finds
-(shift-and-invert over tiles) the eigenvalues of the cell; each carries its harmonic. The
-harmonic-1 ones must be eigenvalues of the 1D cross-section model at ``k`` (solved next to
-them, degree 3), the harmonic-0 one the uniform (``k = 0``) mode. Runs serially and under
+(shift-and-invert over tiles) the eigenvalues of the cell; each carries its harmonic and its
+convergence estimate against the degree p + 1 cell on the same mesh. The harmonic-1 ones must be
+eigenvalues of the 1D cross-section model at ``k`` (solved next to them, degree 3), and the
+estimate must be their distance to it (the 2D discretisation error). Runs serially and under
 ``mpirun -n 2`` (the cell on the whole communicator). ``sweep_k.py --model strip`` (a
 subprocess, serially and under ``mpirun -n 2``): at two k the harmonic -1, 0, 1 sets of the cell
-are the 1D sets at -k, 0, k (as many, each within a measured distance).
+are the 1D sets at -k, 0, k (as many, each within a measured distance), every row certified
+``fe``; a coarser cell's rows are flagged by their estimate; ``--resume`` computes only the k
+values without a part; options the strip does not take exit 2 in one line.
 """
 
 import csv
@@ -24,6 +27,7 @@ from forms.studies.strip_sweep import (
     SectionSet,
     StripSpectrum,
     compare_with_section,
+    estimates,
     strip_rows,
     strip_spectrum,
 )
@@ -33,6 +37,10 @@ from forms.studies.strip_sweep import (
 # error: on a mesh refined twice in x and y, the harmonic-2 mode at k = 2 moved from 2.2e-3 to
 # 1.5e-4 of the 1D value). The bound is that measured error rounded up.
 RTOL_1D = 3e-4
+# The P(p+1) estimate against that error (the 1D value is exact to ~1e-8 here): measured
+# estimate / error = 0.995 at k = 4 (1.91e-4 against 1.92e-4) and at k = 6 on 8 x 4 cells
+# (7.15e-4 / 7.19e-4); the P3 cell's own error is about 0.5 % of the P2 cell's. Bound: 5 %.
+EST_RATIO = 0.05
 
 
 @pytest.mark.slow
@@ -44,10 +52,16 @@ def test_harmonic_one_is_the_cross_section_set(k: float, im_max: float) -> None:
     assert s.closed and s.counted == len(s.values) > 0
     ones = [z for z, h in zip(s.values, s.harmonics, strict=True) if h == 1.0]
     assert ones, "no harmonic-1 eigenvalue in the box"
-    for z in ones:
+    est, mutual = estimates(s.values, s.fine)
+    assert s.fine_unknowns > s.unknowns and mutual.all()
+    for z, e in zip(s.values, est, strict=True):
+        if z not in ones:
+            continue
         xs = cross_section_mode(params, k, complex(z))
         assert xs is not None
-        assert abs(xs.eigenvalue - z) / abs(z) < RTOL_1D
+        err = abs(xs.eigenvalue - z) / abs(z)
+        assert err < RTOL_1D
+        assert abs(e / err - 1.0) < EST_RATIO, (z, e, err)
 
 
 # --model strip of sweep_k.py on a coarse cell (P2, 8 cells per wavelength, ny = 4, the default
@@ -95,21 +109,80 @@ def test_sweep_k_model_strip_equals_the_1d_sets(tmp_path, monkeypatch, nproc: in
     assert {float(r["k"]) for r in ones} == {4.0, 6.0}
     assert max(float(r["rel_distance_1d"]) for r in ones) < RTOL_COARSE
     assert summary["harmonic_1"]["strip"] == summary["harmonic_1"]["section"] == len(ones)
+    # the convergence certificate: estimates measured 9.1e-4 (harmonics +-1) and 1.2e-5
+    # (harmonic 0) on this cell, within the strip's default --rtol 1e-3; each estimate is the
+    # row's distance to the 1D set (its error) to 5 % (measured 0.5 %)
+    assert summary["accuracy"]["rtol"] == 1e-3 and summary["accuracy"]["estimates_missing"] == 0
+    assert summary["certificate"]["rows_ok"] == len(rows) == summary["certificate"]["rows"]
+    for r in rows:
+        est, dist = float(r["error_estimate"]), float(r["rel_distance_1d"])
+        assert r["status"] == "ok" and r["certificate"] == "fe", r
+        assert est <= 1e-3 and abs(est / dist - 1.0) < EST_RATIO, r
+    assert all(c == "fe" for e in summary["per_k"] for c in e["certificate"])
+    assert summary["most_unstable"]["certified"]
+    assert (tmp_path / f"np{nproc}" / "dispersion.png").stat().st_size > 10000
 
 
 @pytest.mark.serial
-def test_sweep_k_model_strip_bad_input_is_one_line(tmp_path) -> None:
-    res = run_workflow("sweep_k.py", ["--model", "strip", "--k", "4", "--strip-degree", "9",
+@pytest.mark.slow
+def test_coarse_cell_is_flagged_by_its_estimate_and_resume_solves_only_missing_k(
+        tmp_path, monkeypatch) -> None:
+    # 6 x 3 cells: estimates measured 2.7e-3 (k = 4) and 2.1e-3 (k = 6) on harmonics +-1, above
+    # the default --rtol 1e-3 (their distances to the 1D sets: 2.70e-3, 2.14e-3); harmonic 0
+    # 3.6e-5 and 3.7e-5, below it. About 10 s a run on the idle machine.
+    monkeypatch.setenv("OMPI_MCA_mpi_yield_when_idle", "1")
+    out = tmp_path / "coarse"
+    args = ["--model", "strip", "--k", "4,6", "--strip-cells", "6", "--strip-ny", "3",
+            "--quiet", "--no-plot", "--out", str(out)]
+    res = run_workflow("sweep_k.py", args, timeout=600)
+    assert res.returncode == 1, res.stderr[-2000:]  # flagged rows, counts closed
+    assert "flagged" in res.stdout
+    with open(out / "spectrum.csv") as fh:
+        first = list(csv.DictReader(fh))
+    for r in first:
+        est, h = float(r["error_estimate"]), abs(float(r["harmonic"]))
+        assert (est > 1e-3) == (h == 1.0), r
+        assert (r["status"], r["certificate"]) == (("ok", "fe") if est <= 1e-3 else
+                                                   (f"estimate {est:.1e} > rtol", "")), r
+        assert abs(est / float(r["rel_distance_1d"]) - 1.0) < EST_RATIO
+    # pre-seed: k = 6 (part 1) kept with a marked label, k = 4 (part 0) removed
+    part1 = out / "raw" / "k00001.json"
+    seeded = json.loads(part1.read_text())
+    for r in seeded["rows"]:
+        r["label"] = "seeded_" + r["label"]
+    part1.write_text(json.dumps(seeded))
+    (out / "raw" / "k00000.json").unlink()
+    res = run_workflow("sweep_k.py", [*args, "--resume"], timeout=600)
+    assert res.returncode == 1, res.stderr[-2000:]
+    with open(out / "spectrum.csv") as fh:
+        again = list(csv.DictReader(fh))
+    with open(out / "summary.json") as fh:
+        summary = json.load(fh)
+    assert summary["resume"] == {"resumed": True, "computed_k": 1}
+    assert [r for r in again if r["k"] == "4.0"] == [r for r in first if r["k"] == "4.0"]
+    six = [r for r in again if r["k"] == "6.0"]
+    assert len(six) == 4 and all(r["label"].startswith("seeded_") for r in six)
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("bad, word", [(["--strip-degree", "9"], "--strip-degree"),
+                                       (["--c-max", "4"], "--c-max"),
+                                       (["--solver", "newton"], "--solver"),
+                                       (["--check-exact", "yes"], "--check-exact"),
+                                       (["--layers", "x.csv"], "--layers")])
+def test_sweep_k_model_strip_bad_input_is_one_line(tmp_path, bad: list[str], word: str) -> None:
+    res = run_workflow("sweep_k.py", ["--model", "strip", "--k", "4", *bad,
                                       "--out", str(tmp_path / "bad")])
     assert res.returncode == 2
-    assert res.stderr.strip().count("\n") == 0 and "--strip-degree" in res.stderr
+    assert res.stderr.strip().count("\n") == 0 and word in res.stderr
     assert not (tmp_path / "bad").exists()
 
 
 @pytest.mark.serial
 def test_compare_with_section_distances_and_counts() -> None:
     spec = StripSpectrum(2.0, (-0.01, 1.0, -5.0, 5.0), np.array([0.1 + 3j, 0.1 - 3j, 4j]),
-                         np.zeros(3), np.array([1.0, -1.0, 2.0]), 3, True, 10)
+                         np.zeros(3), np.array([1.0, -1.0, 2.0]), 3, True, 10,
+                         fine=np.array([0.1 + 3j, 0.1 - 3j, 4j]) * (1 + 1e-4))
     sets = {1.0: SectionSet(1.0, 2.0, np.array([0.1 + 3.003j, 0.2 + 4.9j]), 2, True),
             -1.0: SectionSet(-1.0, -2.0, np.array([0.1 - 3j]), 1, True),
             2.0: SectionSet(2.0, 4.0, np.array([]), 0, True)}
@@ -118,6 +191,25 @@ def test_compare_with_section_distances_and_counts() -> None:
     assert dist[1] == 0.0 and dist[2] == np.inf
     assert per["1"]["strip"] == 1 and per["1"]["section"] == 2  # one 1D value not found
     assert per["2"]["max_rel_distance"] == np.inf
-    rows = strip_rows(spec, dist)
+    rows = strip_rows(spec, dist, 1e-3)
     assert [r["label"] for r in rows] == ["h-1_0", "h1_0", "h2_0"]
-    assert all(r["status"] == "ok" and r["certificate"] == "count" for r in rows)
+    assert all(r["status"] == "ok" and r["certificate"] == "fe" for r in rows)
+    assert all(r["error_estimate"] == pytest.approx(1e-4 / (1 + 1e-4), rel=1e-12) for r in rows)
+
+
+@pytest.mark.serial
+def test_strip_rows_flag_estimate_partner_and_count() -> None:
+    values = np.array([0.1 + 3j, 0.1 + 3.001j, 4j, 0.2 + 1j])
+    fine = np.array([0.1 + 3.0003j, 0.1 + 3.0003j, 4.1j, np.nan])  # 2nd: partner of the 1st
+    spec = StripSpectrum(2.0, (-0.01, 1.0, -5.0, 5.0), values, np.zeros(4),
+                         np.array([1.0, 1.0, 1.0, 1.0]), 4, True, 10, fine=fine)
+    est, mutual = estimates(values, fine)
+    assert mutual.tolist() == [True, False, True, False]
+    by_im = {r["im_lambda"]: r for r in strip_rows(spec, np.zeros(4), 1e-3)}
+    assert by_im[3.0]["status"] == "ok" and by_im[3.0]["certificate"] == "fe"
+    assert by_im[3.001]["status"] == "p+1 partner nearer another value"
+    assert by_im[4.0]["status"] == f"estimate {est[2]:.1e} > rtol"
+    assert by_im[1.0]["status"] == "no p+1 estimate" and by_im[1.0]["certificate"] == ""
+    spec.closed, spec.counted = False, 5
+    assert all(r["status"].startswith("count not closed: counted 5, found 4")
+               and r["certificate"] == "" for r in strip_rows(spec, np.zeros(4), 1e-3))

@@ -120,6 +120,7 @@ def test_sweep_k_model_strip_equals_the_1d_sets(tmp_path, monkeypatch, nproc: in
         assert est <= 1e-3 and abs(est / dist - 1.0) < EST_RATIO, r
     assert all(c == "fe" for e in summary["per_k"] for c in e["certificate"])
     assert summary["most_unstable"]["certified"]
+    assert summary["most_unstable"]["im_lambda"] < 0  # of the conjugate pair, as the solver
     assert (tmp_path / f"np{nproc}" / "dispersion.png").stat().st_size > 10000
 
 
@@ -213,3 +214,25 @@ def test_strip_rows_flag_estimate_partner_and_count() -> None:
     spec.closed, spec.counted = False, 5
     assert all(r["status"].startswith("count not closed: counted 5, found 4")
                and r["certificate"] == "" for r in strip_rows(spec, np.zeros(4), 1e-3))
+
+
+@pytest.mark.serial
+def test_most_unstable_of_a_conjugate_pair_is_the_same_row_in_every_run() -> None:
+    import _sweep_strip
+
+    def row(re: float, im: float, h: float) -> dict:
+        return {"k": 4.0, "label": f"h{h:g}_0", "re_lambda": re, "im_lambda": im,
+                "error_estimate": 1e-4, "status": "ok"}
+
+    per_k = [{"k": 4.0, "closed": True, "harmonics": {"1": {"strip": 1, "section": 1,
+                                                          "max_rel_distance": 1e-4}}}]
+    config = {"rtol": 1e-3}
+    for rows in ([row(0.1 + 1e-16, 5.0, 1.0), row(0.1, -5.0, -1.0)],
+                 [row(0.1, 5.0, 1.0), row(0.1 + 1e-16, -5.0, -1.0)]):
+        best = _sweep_strip.summarise(config, rows, per_k, 1, "")["most_unstable"]
+        assert best["label"] == "h-1_0" and best["certified"]
+    rows = [row(0.1 + 1e-6, 5.0, 1.0), row(0.1, -5.0, -1.0)]  # not a tie: the faster one
+    assert _sweep_strip.summarise(config, rows, per_k, 1, "")["most_unstable"]["label"] == "h1_0"
+    per_k.append({"k": 5.0, "closed": False, "harmonics": per_k[0]["harmonics"]})
+    best = _sweep_strip.summarise(config, rows, per_k, 1, "")["most_unstable"]
+    assert not best["certified"]  # another k's count did not close: a faster one may be missing

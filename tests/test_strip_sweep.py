@@ -27,6 +27,7 @@ from forms.studies.strip_sweep import (
     SectionSet,
     StripSpectrum,
     compare_with_section,
+    continue_values,
     estimates,
     strip_rows,
     strip_spectrum,
@@ -63,6 +64,22 @@ def test_harmonic_one_is_the_cross_section_set(k: float, im_max: float) -> None:
         err = abs(xs.eigenvalue - z) / abs(z)
         assert err < RTOL_1D
         assert abs(e / err - 1.0) < EST_RATIO, (z, e, err)
+
+
+def test_continued_eigenvalue_is_the_cells_at_the_next_k() -> None:
+    # the harmonic-1 eigenvalue of the 8 x 4 cell at k = 4 followed to k = 4.5 (2 sub-steps) is
+    # an eigenvalue of the cell there: its 1D partner at 4.5 within the coarse cell's error
+    # (RTOL_COARSE below: measured 9.2e-4 at k = 4, 7.2e-4 at k = 6); about 5 s serially
+    params = Params()
+    s = strip_spectrum(MPI.COMM_WORLD, params, 4.0, (-0.01, 0.5, 0.0, 7.0),
+                       cells_per_wavelength=8, ny=4, estimate=False)
+    ones = np.array([z for z, h in zip(s.values, s.harmonics, strict=True) if h == 1.0])
+    assert len(ones) == 1
+    now, n = continue_values(MPI.COMM_WORLD, params, [4.0, 4.25, 4.5], ones,
+                             cells_per_wavelength=8, ny=4)
+    assert n == 2 and abs(now[0] - ones[0]) > 1e-2  # it moved
+    xs = cross_section_mode(params, 4.5, complex(now[0]))
+    assert xs is not None and abs(xs.eigenvalue - now[0]) / abs(now[0]) < RTOL_COARSE
 
 
 # --model strip of sweep_k.py on a coarse cell (P2, 8 cells per wavelength, ny = 4, the default
@@ -123,6 +140,14 @@ def test_sweep_k_model_strip_equals_the_1d_sets(tmp_path, monkeypatch, nproc: in
     assert all(c == "fe" for e in summary["per_k"] for c in e["certificate"])
     assert summary["most_unstable"]["certified"]
     assert summary["most_unstable"]["im_lambda"] < 0  # of the conjugate pair, as the solver
+    # labels by continuation in k: each of the 4 modes at k = 4 is linked to one at k = 6, of
+    # the same harmonic (a lost link would start new labels c4, c5, ...)
+    assert summary["labels"].startswith("c0, c1, ...: continuation")
+    labels = {r["label"]: set() for r in rows}
+    for r in rows:
+        labels[r["label"]].add((float(r["k"]), r["harmonic"]))
+    assert sorted(labels) == ["c0", "c1", "c2", "c3"]
+    assert all(len(v) == 2 and len({h for _, h in v}) == 1 for v in labels.values()), labels
     assert (tmp_path / f"np{nproc}" / "dispersion.png").stat().st_size > 10000
 
 
@@ -148,11 +173,11 @@ def test_coarse_cell_is_flagged_by_its_estimate_and_resume_solves_only_missing_k
         assert (r["status"], r["certificate"]) == (("ok", "fe") if est <= 1e-3 else
                                                    (f"estimate {est:.1e} > rtol", "")), r
         assert abs(est / float(r["rel_distance_1d"]) - 1.0) < EST_RATIO
-    # pre-seed: k = 6 (part 1) kept with a marked label, k = 4 (part 0) removed
+    # pre-seed: k = 6 (part 1) kept with a marked residual, k = 4 (part 0) removed
     part1 = out / "raw" / "k00001.json"
     seeded = json.loads(part1.read_text())
     for r in seeded["rows"]:
-        r["label"] = "seeded_" + r["label"]
+        r["residual"] = 0.125
     part1.write_text(json.dumps(seeded))
     (out / "raw" / "k00000.json").unlink()
     res = run_workflow("sweep_k.py", [*args, "--resume"], timeout=600)
@@ -164,7 +189,8 @@ def test_coarse_cell_is_flagged_by_its_estimate_and_resume_solves_only_missing_k
     assert summary["resume"] == {"resumed": True, "computed_k": 1}
     assert [r for r in again if r["k"] == "4.0"] == [r for r in first if r["k"] == "4.0"]
     six = [r for r in again if r["k"] == "6.0"]
-    assert len(six) == 4 and all(r["label"].startswith("seeded_") for r in six)
+    assert len(six) == 4 and all(r["residual"] == "0.125" for r in six)
+    assert {r["label"] for r in again} == {r["label"] for r in first}  # the links kept
 
 
 @pytest.mark.serial

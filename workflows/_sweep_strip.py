@@ -51,6 +51,15 @@ WHY_BOX = ("the cell holds every harmonic h k with its own spectrum: the cross-s
            "resolve) at 13 "
            "times the cost of the default box (528 s against 40 s, the count 93 % of it: "
            "workflows/results/strip_cost*)")
+#: What the labels of a sweep over several k mean (forms.studies.sweep.label_by_continuation).
+TRACK_STATEMENT = (
+    "c0, c1, ...: continuation of the FE eigenpairs in k; each row at k_i is followed over 4 "
+    "equal sub-steps to k_(i+1), on the cell of each sub-step, by one shift-and-invert solve at "
+    "its secant predictor (forms.studies.strip_sweep.continue_values), and linked to the row "
+    "there that is the mutually nearest one and within 1e-6 relative; a row without such a "
+    "link starts a new label (numbered by first appearance, then |Im Lambda|)")
+#: ... and of a single k.
+LABEL_STATEMENT = "h<harmonic>_<j>: j by increasing |Im Lambda| within the harmonic"
 #: Options of the section model that the strip takes only at their default: (attribute,
 #: option, default, what the strip has instead).
 NOT_FOR_STRIP = (("c_max", "--c-max", "auto", "its box's bound is --strip-c-max"),
@@ -100,13 +109,22 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray]:
     return params, np.unique(_cli.parse_k(args.k))
 
 
-def solve_k(comm: object, params: Params, k: float, args: argparse.Namespace
-            ) -> tuple[list[dict], dict]:
-    """The strip at ``k`` and, on rank 0, its comparison with the 1D sets (collective)."""
+def solve_k(comm: object, params: Params, k: float, args: argparse.Namespace,
+            k_next: float | None = None) -> tuple[list[dict], dict]:
+    """The strip at ``k`` and, on rank 0, its comparison with the 1D sets (collective).
+
+    With ``k_next`` each eigenvalue is also continued there (the links of the labels).
+    """
     t0 = time.perf_counter()
     box = ss.strip_box(params, k, args.re_min, args.re_max, args.strip_c_max, args.omega0)
-    spec = ss.strip_spectrum(comm, params, k, box, cells_per_wavelength=args.strip_cells,
-                             ny=args.strip_ny, degree=args.strip_degree)
+    mesh = {"cells_per_wavelength": args.strip_cells, "ny": args.strip_ny,
+            "degree": args.strip_degree}
+    spec = ss.strip_spectrum(comm, params, k, box, **mesh)
+    if k_next is not None:
+        t_c = time.perf_counter()
+        ks = np.linspace(k, k_next, sweep.TRACK_SUBSTEPS + 1)
+        spec.next_values, _ = ss.continue_values(comm, params, ks, spec.values, **mesh)
+        spec.seconds["continuation"] = time.perf_counter() - t_c
     t1 = time.perf_counter()
     rows, entry = [], {}
     if comm.rank == 0:
@@ -138,7 +156,8 @@ def run(comm: object, args: argparse.Namespace, outputs: tuple[str, ...]) -> int
         parts = run_.parts("raw", "k{:05d}", count=len(ks))  # --resume: the k values left
         for i in parts.todo:
             k = float(ks[i])
-            rows, entry = solve_k(comm, params, k, args)
+            rows, entry = solve_k(comm, params, k, args,
+                                  float(ks[i + 1]) if i + 1 < len(ks) else None)
             if comm.rank == 0:  # a KResult's fields (sweep.k_result_from_json) + the entry
                 parts.save(i, KResult(k, rows, None, entry["counted"], tuple(entry["box"]),
                                       entry["closed"], "", entry["seconds"]["strip_total"]
@@ -151,6 +170,8 @@ def run(comm: object, args: argparse.Namespace, outputs: tuple[str, ...]) -> int
         if comm.rank == 0:
             saved = [parts.load(i) for i in range(len(ks))]
             results = [sweep.k_result_from_json(d) for d in saved]
+            if len(results) > 1:
+                sweep.label_by_continuation(results)  # c0, c1, ... over k
             per_k = [_entry_back(d["entry"]) for d in saved]
             rows = [r for res in results for r in res.rows]
             summary = summarise(config, rows, per_k, comm.size, WHY_BOX)
@@ -198,7 +219,8 @@ def summarise(config: dict, rows: list[dict], per_k: list[dict], ranks: int, why
             "harmonic_1": {"strip": sum(v["strip"] for v in ones),
                            "section": sum(v["section"] for v in ones),
                            "max_rel_distance": by_h.get("1")},
-            "max_rel_distance_by_harmonic": by_h, "most_unstable": best, "per_k": per_k}
+            "max_rel_distance_by_harmonic": by_h, "most_unstable": best,
+            "labels": TRACK_STATEMENT if len(per_k) > 1 else LABEL_STATEMENT, "per_k": per_k}
 
 
 def _write(out: str, results: list[KResult], summary: dict, params: Params,

@@ -67,6 +67,8 @@ class StripSpectrum:
         fine: The degree ``p + 1`` partner of each value (:func:`refine_values`; NaN: none
             converged); ``None``: no estimate made.
         fine_unknowns: Size of the degree ``p + 1`` ``T_h`` (0: no estimate).
+        next_values: Each value continued to the sweep's next ``k``
+            (:func:`continue_values`); ``None``: not continued (the last ``k``).
     """
 
     k: float
@@ -80,6 +82,7 @@ class StripSpectrum:
     seconds: dict = field(default_factory=dict)
     fine: np.ndarray | None = None
     fine_unknowns: int = 0
+    next_values: np.ndarray | None = None
 
     def rows(self) -> list[dict]:
         """One dict per eigenvalue (``k``, ``re``, ``im``, ``harmonic``, ``residual``)."""
@@ -173,6 +176,49 @@ def refine_values(strip: object, params: Params, k: float, degree: int,
         pep.destroy()
         op.destroy()
         problem.destroy()
+
+
+def continue_values(comm: MPI.Comm, params: Params, ks: Sequence[float], values: np.ndarray,
+                    *, cells_per_wavelength: int = 12, ny: int = 6, degree: int = 2,
+                    nev: int = 2) -> tuple[np.ndarray, int]:
+    """Each of ``values`` (eigenvalues of the cell at ``ks[0]``) followed to ``ks[-1]``.
+
+    At every further ``k`` of ``ks`` the cell of one wavelength (the mesh rule of
+    :func:`strip_spectrum`: at the last ``k`` it is the sweep's own cell) is built and each
+    value's predictor (secant through its last two points, or its last point) starts one
+    shift-and-invert PEP solve (options prefix :data:`ESTIMATE_PREFIX`); the nearest converged
+    eigenvalue is kept. No count: these are the links of the labels
+    (:func:`forms.studies.sweep.label_by_continuation`), not a certificate. Collective.
+
+    Returns:
+        ``(values at ks[-1], factorisations)``; NaN where no pair converged.
+    """
+    path = [np.asarray(values, dtype=complex)]
+    factorisations = 0
+    for k in ks[1:]:
+        strip = bloch_strip(comm, params, float(k), 1, cells_per_wavelength, ny)
+        problem = build_strip_problem(strip, params, k=float(k), degree=degree)
+        op = friction_operator_for(problem)
+        pep = sinvert_pep(comm, nev, 1e-12, 300, ESTIMATE_PREFIX)
+        try:
+            now = np.full(len(values), complex(np.nan, np.nan))
+            guess = 2.0 * path[-1] - path[-2] if len(path) > 1 else path[-1]
+            for j, z in enumerate(guess):
+                if np.isnan(z):
+                    continue
+                pep.setOperators(op.matrices)
+                pep.setTarget(shift_off(complex(z), 1e-6))
+                pep.solve()
+                factorisations += 1
+                got = [complex(pep.getEigenpair(i)) for i in range(pep.getConverged())]
+                if got:
+                    now[j] = min(got, key=lambda w, z=z: abs(w - z))
+            path.append(now)
+        finally:
+            pep.destroy()
+            op.destroy()
+            problem.destroy()
+    return path[-1], factorisations
 
 
 def estimates(values: np.ndarray, fine: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
@@ -305,7 +351,9 @@ def strip_rows(spectrum: StripSpectrum, distances: np.ndarray, rtol: float) -> l
     is ``ok`` when the count closed, the estimate is within ``rtol`` and the ``p + 1`` partner
     is mutual; otherwise it names what failed. ``certificate`` is ``fe`` for an ``ok`` row
     (the cross-section sweep's meaning: count closed, estimate within ``rtol``), else empty.
-    Labels ``h<harmonic>_<j>``, ``j`` by increasing ``|Im Lambda|`` within the harmonic.
+    Labels ``h<harmonic>_<j>``, ``j`` by increasing ``|Im Lambda|`` within the harmonic (over
+    ``k``: :func:`forms.studies.sweep.label_by_continuation` of the keys ``re_next``,
+    ``im_next`` that the rows carry when ``spectrum.next_values`` is set).
     """
     est, mutual = estimates(spectrum.values, spectrum.fine)
     rows = []
@@ -330,6 +378,9 @@ def strip_rows(spectrum: StripSpectrum, distances: np.ndarray, rtol: float) -> l
                      "status": "; ".join(problems) or "ok",
                      "certificate": "" if problems else "fe", "harmonic": h,
                      "rel_distance_1d": float(distances[j])})
+        if spectrum.next_values is not None:  # the links of sweep.label_by_continuation
+            w = complex(spectrum.next_values[j])
+            rows[-1] |= {"re_next": w.real, "im_next": w.imag}
     return rows
 
 

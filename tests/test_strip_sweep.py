@@ -26,6 +26,7 @@ from forms.solvers.continuation import cross_section_mode
 from forms.studies.strip_sweep import (
     SectionSet,
     StripSpectrum,
+    canonical_labels,
     compare_with_section,
     continue_values,
     estimates,
@@ -264,3 +265,21 @@ def test_most_unstable_of_a_conjugate_pair_is_the_same_row_in_every_run() -> Non
     per_k.append({"k": 5.0, "closed": False, "harmonics": per_k[0]["harmonics"]})
     best = _sweep_strip.summarise(config, rows, per_k, 1, "")["most_unstable"]
     assert not best["certified"]  # another k's count did not close: a faster one may be missing
+
+
+@pytest.mark.serial
+def test_canonical_labels_do_not_depend_on_rounding_of_a_conjugate_pair() -> None:
+    def rows(eps: float, names: tuple[str, ...]) -> list[dict]:
+        ims = [5.0, -5.0 - eps, 6.0, 5.5, -5.0 - eps]
+        ks = [4.0, 4.0, 4.0, 6.0, 6.0]
+        return [{"k": k, "im_lambda": im, "label": n} for k, im, n in zip(ks, ims, names,
+                                                                         strict=True)]
+
+    # two runs: the pair's |Im| differs by rounding, so label_by_continuation numbered them
+    # in the other order; the same rows are linked (a, b: the pair; c alone; a at 6 too)
+    one, two = rows(1e-15, ("c0", "c1", "c2", "c0", "c1")), rows(-1e-15, ("c1", "c0", "c2",
+                                                                          "c1", "c0"))
+    for r in (one, two):
+        canonical_labels(r)
+    assert [x["label"] for x in one] == [x["label"] for x in two] == ["c1", "c0", "c2", "c1",
+                                                                     "c0"]

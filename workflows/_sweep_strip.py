@@ -57,7 +57,8 @@ TRACK_STATEMENT = (
     "equal sub-steps to k_(i+1), on the cell of each sub-step, by one shift-and-invert solve at "
     "its secant predictor (forms.studies.strip_sweep.continue_values), and linked to the row "
     "there that is the mutually nearest one and within 1e-6 relative; a row without such a "
-    "link starts a new label (numbered by first appearance, then |Im Lambda|)")
+    "link starts a new label (numbered by first appearance, then |Im Lambda| to 9 digits, then "
+    "Im Lambda)")
 #: ... and of a single k.
 LABEL_STATEMENT = "h<harmonic>_<j>: j by increasing |Im Lambda| within the harmonic"
 #: Options of the section model that the strip takes only at their default: (attribute,
@@ -170,10 +171,11 @@ def run(comm: object, args: argparse.Namespace, outputs: tuple[str, ...]) -> int
         if comm.rank == 0:
             saved = [parts.load(i) for i in range(len(ks))]
             results = [sweep.k_result_from_json(d) for d in saved]
-            if len(results) > 1:
-                sweep.label_by_continuation(results)  # c0, c1, ... over k
             per_k = [_entry_back(d["entry"]) for d in saved]
             rows = [r for res in results for r in res.rows]
+            if len(results) > 1:  # c0, c1, ... over k, the same names in every run
+                sweep.label_by_continuation(results)
+                ss.canonical_labels(rows)
             summary = summarise(config, rows, per_k, comm.size, WHY_BOX)
             summary["resume"] = {"resumed": run_.resumed, "computed_k": len(parts.todo)}
             summary["timing_s"] = {"wall": time.perf_counter() - t_start}

@@ -384,6 +384,24 @@ def strip_rows(spectrum: StripSpectrum, distances: np.ndarray, rtol: float) -> l
     return rows
 
 
+def canonical_labels(rows: list[dict]) -> None:
+    """Renumber the labels ``c0, c1, ...`` of linked rows by first ``k``, then ``|Im Lambda|``.
+
+    :func:`forms.studies.sweep.label_by_continuation` numbers new labels in the order of
+    ``|Im Lambda|``, where the two rows of a conjugate pair (harmonics ``h`` and ``-h``) tie to
+    rounding, which differs between runs under MPI (measured: ``c2`` and ``c3`` swapped between
+    two ``mpirun -n 2`` runs). Here ``|Im|`` is rounded to 9 digits and ``Im <= 0`` comes first;
+    which rows share a label is unchanged. In place.
+    """
+    first: dict[str, tuple] = {}
+    for r in rows:
+        key = (r["k"], round(abs(r["im_lambda"]), 9), r["im_lambda"])
+        first[r["label"]] = min(first.get(r["label"], key), key)
+    new = {lab: f"c{n}" for n, lab in enumerate(sorted(first, key=first.__getitem__))}
+    for r in rows:
+        r["label"] = new[r["label"]]
+
+
 def spectrum_cost(comm: MPI.Comm, params: Params, k: float, box: Sequence[float], *,
                   cells_per_wavelength: int = 12, ny: int = 6, degree: int = 2,
                   rtol: float = 1e-8) -> dict:

@@ -351,14 +351,15 @@ def strip_rows(spectrum: StripSpectrum, distances: np.ndarray, rtol: float) -> l
     is ``ok`` when the count closed, the estimate is within ``rtol`` and the ``p + 1`` partner
     is mutual; otherwise it names what failed. ``certificate`` is ``fe`` for an ``ok`` row
     (the cross-section sweep's meaning: count closed, estimate within ``rtol``), else empty.
-    Labels ``h<harmonic>_<j>``, ``j`` by increasing ``|Im Lambda|`` within the harmonic (over
+    Rows and labels ``h<harmonic>_<j>`` by harmonic, then ``|Im Lambda|`` to 9 digits (a
+    conjugate pair ties to rounding), then ``Im Lambda`` (over
     ``k``: :func:`forms.studies.sweep.label_by_continuation` of the keys ``re_next``,
     ``im_next`` that the rows carry when ``spectrum.next_values`` is set).
     """
     est, mutual = estimates(spectrum.values, spectrum.fine)
     rows = []
     order = sorted(range(len(spectrum.values)),
-                   key=lambda j: (spectrum.harmonics[j], abs(spectrum.values[j].imag),
+                   key=lambda j: (spectrum.harmonics[j], round(abs(spectrum.values[j].imag), 9),
                                   spectrum.values[j].imag))
     seen: dict[float, int] = {}
     for j in order:

@@ -12,8 +12,10 @@ cell on the same mesh (``error_estimate``; ``status`` ``ok`` and certificate ``f
 count closed and the estimate is within ``--rtol``, default :data:`STRIP_RTOL` here), its
 harmonic ``h`` (wavenumber ``h k``) and its relative distance to the cross-section model's
 complete set at ``h k`` (rank 0, :func:`forms.studies.strip_sweep.section_sets`, the 1D
-discretisation from ``min(--rtol, 1e-8)``, ``--degree``, ``--cells``). Every finished ``k`` is
-saved at once to ``DIR/raw/k#####.json`` (``--resume`` continues). Rank 0 writes
+discretisation from ``min(--rtol, 1e-8)``, ``--degree``, ``--cells``). Over several ``k`` the
+labels are ``c0, c1, ...`` by continuation of the eigenpairs in ``k`` (:data:`TRACK_STATEMENT`).
+Every finished ``k`` is saved at once to ``DIR/raw/k#####.json`` (``--resume`` continues).
+Rank 0 writes
 ``spectrum.csv`` (the section model's columns plus ``harmonic``, ``rel_distance_1d``),
 ``summary.json`` and ``dispersion.png`` (points coloured by harmonic).
 """
@@ -121,7 +123,7 @@ def solve_k(comm: object, params: Params, k: float, args: argparse.Namespace,
     mesh = {"cells_per_wavelength": args.strip_cells, "ny": args.strip_ny,
             "degree": args.strip_degree}
     spec = ss.strip_spectrum(comm, params, k, box, **mesh)
-    if k_next is not None:
+    if k_next is not None and len(spec.values):
         t_c = time.perf_counter()
         ks = np.linspace(k, k_next, sweep.TRACK_SUBSTEPS + 1)
         spec.next_values, _ = ss.continue_values(comm, params, ks, spec.values, **mesh)

@@ -270,3 +270,28 @@ def test_stack_tail_bound_above_every_root_beyond_w(case):
     assert np.all(up.real < own)
     # not absurdly loose: measured max Re / bound at W 0.67-0.86 over these cases
     assert z.real.max() / tb > 0.5
+
+
+@pytest.mark.slow  # 23 s wall on the loaded 2-core machine (one rank, FE only)
+def test_fe_sweep_two_body_proves_the_fastest_mode(tmp_path):
+    """sweep_k.py --mu2 4 --rho2 1 --H2 0.5 --k 5 --check-exact no: the FE climbs its own region
+    with the stack's tail bound, proves the fastest mode, and its value is the exact fastest
+    root (fastest_mode on det_twobody, computed here)."""
+    import json
+
+    from _workflows import run_workflow
+
+    out = tmp_path / "fe"
+    proc = run_workflow("sweep_k.py", ["--mu2", "4", "--rho2", "1", "--H2", "0.5", "--k", "5",
+                                       "--check-exact", "no", "--quiet", "--no-plot",
+                                       "--out", str(out)])
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    s = json.loads((out / "summary.json").read_text())
+    best = s["most_unstable"]
+    assert best["certificate"]["fastest_mode"] and best["status"] == "ok"
+    p, k = Params(bc="velocity", mu2=4.0, rho2=1.0, H2=0.5), 5.0
+    m = fastest_mode(p, k, Region(c_max=None))
+    z = complex(best["re_lambda"], best["im_lambda"])
+    assert s["per_k"][0]["c_max"] == m.c_max and s["per_k"][0]["tail_bound"] == m.tail_bound
+    # the sweep's rtol (1e-8) is the certificate's claim; measured 3.7e-12
+    assert abs(z - m.root) < 1e-8 * abs(m.root)

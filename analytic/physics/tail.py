@@ -63,8 +63,11 @@ def velocity_scale(p: Params) -> float:
 
     ``1/beta`` for the rigid substrate; with a deformable substrate also the substrate's
     ``c_d2 = sqrt(mu2/rho2)/beta2``, capped at :data:`SCALE_CAP` times the slider's ``c_d``
-    (not derived: a nearly rigid substrate, ``mu2 -> inf``, would otherwise ask for its own
-    thickness resonances at ``c_d2 pi / H2``, coupled to the interface only at ``O(1/mu2)``).
+    (a cost rule, not a proof: a nearly rigid substrate would otherwise start the ladder at
+    ``4 c_d2``). The proof does not depend on it: the stack's tail bound
+    (:func:`analytic.physics.tail_stack.stack_tail_bound`) is ``inf`` until ``W > 2 k c_d`` of
+    every layer, so the adaptive region climbs past the cap where it must (e.g. ``mu2 = 100``,
+    ``k = 2``: proven at ``c_max = 12`` of the capped scale, 96 slider ``c_d``).
     """
     c = 1.0 / p.beta
     if p.two_body:

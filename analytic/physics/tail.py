@@ -87,7 +87,8 @@ def why_no_tail_bound(p: Params) -> str:
         return ("no tail bound derived for two bodies whose phase rates H, beta H, H2/c_s2, "
                 "H2/c_d2 are not commensurate (ratios p/q, q <= "
                 f"{tail_stack.MAX_DENOMINATOR}): shear resonances of the two bodies come "
-                "arbitrarily close at high frequency, where the first-order shift is unbounded; "
+                "arbitrarily close at high frequency, where the first-order expansion behind the "
+                "bound breaks down; "
                 "the region is not proven to hold the fastest mode")
     return ""
 

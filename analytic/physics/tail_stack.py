@@ -71,6 +71,8 @@ TUBE_EPS = 0.02
 _STEPS_PER_PI = 40
 #: Largest number of grid points spent on the exact-phase part.
 _MAX_SAMPLES = 4_000_000
+#: Largest number of grid points per offset spent on one period of the ``k = 0`` phases.
+_MAX_PERIOD_SAMPLES = 100_000
 
 
 def stack_constants(p: Params) -> dict[str, np.ndarray | float]:
@@ -205,6 +207,8 @@ def _tube_factor(p: Params, omega: float, eps: np.ndarray) -> float:
     grid = np.linspace(0.0, 1.0, TUBE_POINTS)
     offs = np.stack(np.meshgrid(*([grid] * 4), indexing="ij"), -1).reshape(-1, 4) * eps
     h = math.pi / (_STEPS_PER_PI * (rates[1] + rates[3]))
+    if T / h > _MAX_PERIOD_SAMPLES:
+        return math.inf  # a very long period: not sampled
     t = np.linspace(0.0, T, int(math.ceil(T / h)) + 2)
     per_res = []
     for off in offs:

@@ -37,8 +37,9 @@ the phases the stack really has: at frequency ``omega`` and wavenumber ``k`` the
 of layer ``j`` turn by ``psi_j = H_j sqrt(omega^2/c_j^2 - k^2)``. The bound at ``W`` is the
 largest first-order ``|Re dLambda|`` over
 
-- every resonance of these exact phases with ``W <= omega <= Omega`` (found on a fine grid,
-  bisected), and
+- every resonance of these exact phases with ``omega <= Omega`` whose root may lie beyond
+  ``W`` (``omega >= W``, or below ``W`` by less than twice the first-order ``|dLambda|``;
+  found on a fine grid, bisected), and
 - for ``omega > Omega``: the resonances of the ``k = 0`` phases ``a_j omega`` shifted by
   ``0 <= a_j omega - psi_j <= eps_j = H_j c_j k^2 / Omega`` (each independently, a grid of
   :data:`TUBE_POINTS` per phase and the grid's spread added), over one period of the ``k = 0``
@@ -227,28 +228,50 @@ def _tube_factor(p: Params, omega: float, eps: np.ndarray) -> float:
     return float(K.max() + (K.max(axis=0) - K.min(axis=0)).max())
 
 
+def shift_modulus(p: Params, w: np.ndarray | float, phases: np.ndarray, dR: np.ndarray
+                  ) -> np.ndarray:
+    """``M`` with ``|dLambda| <= k M / omega`` at a resonance (how far its root moves)."""
+    X, Dd, N = _xyn(p, phases)
+    s = stack_constants(p)
+    w = np.asarray(w, dtype=float)
+    eps = abs(p.Delta - 1.0) / w
+    ymin = np.sqrt(Dd * Dd + (N / p.gamma) ** 2) - eps * np.abs(N) / p.gamma
+    with np.errstate(divide="ignore", invalid="ignore"):
+        M = (s["Z1"] * s["Z2"] * np.abs(X) / np.abs(dR)
+             * (abs(p.f - p.alpha_ld) + p.alpha_ld / w) / ymin)
+    return np.where((ymin > 0) & np.isfinite(M), M, math.inf)
+
+
 @lru_cache(maxsize=4096)
 def stack_tail_bound(p: Params, k: float, W: float) -> float:
-    """``k (1 + k/W) max K / omega`` over the resonances beyond ``W`` (module docstring).
+    """``k (1 + k/W) max K / omega`` over the resonances whose roots may lie beyond ``W``.
 
+    Those are the resonances ``omega >= W`` and those below ``W`` whose root may move above it
+    (``omega + 2 k (1 + k/W) M / omega >= W``, :func:`shift_modulus`); module docstring.
     ``inf`` when ``W <= 2 k c_d`` of either layer, when the ``k = 0`` phases are not
-    commensurate (:func:`period`), or when the bound is not finite. Cached (0.3-0.9 s a call
-    for ``k <= 40``; the adaptive region asks for the same ``(p, k, W)`` several times).
+    commensurate (:func:`period`), when such a shift reaches far below ``W`` (the expansion
+    does not hold), or when the bound is not finite. Cached (0.3-0.9 s a call for
+    ``k <= 40``; the adaptive region asks for the same ``(p, k, W)`` several times).
     """
     s = stack_constants(p)
     cmax = float(np.max(s["c"]))
     if not (W > max(2.0 * k * cmax, 1.0, abs(p.Delta - 1.0))) or period(p) is None:
         return math.inf
+    margin = 1.0 + k / W
     omega = max(W, float(np.max(s["H"] * s["c"])) * k * k / TUBE_EPS)
-    n = (omega - W) * _STEPS_PER_PI * (s["rates"][1] + s["rates"][3]) / math.pi
+    lo = max(0.8 * W, 1.5 * k * cmax)
+    n = (omega - lo) * _STEPS_PER_PI * (s["rates"][1] + s["rates"][3]) / math.pi
     if n > _MAX_SAMPLES:
         return math.inf
-    best = 0.0
-    if omega > W:
-        w = exact_resonances(p, k, W, omega)
-        ph, dph = exact_phases(p, k, w)
-        K = growth_factor(p, w, ph, resonance(p, ph, dph)[1])
-        best = float(np.max(K / w, initial=0.0))
+    w = exact_resonances(p, k, lo, omega)
+    ph, dph = exact_phases(p, k, w)
+    dR = resonance(p, ph, dph)[1]
+    reach = w + 2.0 * k * margin * shift_modulus(p, w, ph, dR) / w
+    keep = reach >= W
+    if np.any(keep & (w < lo + 0.25 * (W - lo))):
+        return math.inf  # a root may move by a good part of W: no expansion
+    K = growth_factor(p, w[keep], ph[:, keep], dR[keep])
+    best = float(np.max(K / w[keep], initial=0.0))
     eps = s["H"] * s["c"] * k * k / omega
     best = max(best, _tube_factor(p, omega, eps) / omega)
-    return k * (1.0 + k / W) * best
+    return k * margin * best

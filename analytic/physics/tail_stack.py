@@ -25,8 +25,9 @@ omega``, real phases ``p1 = H omega``, ``p2 = H2 omega / c_s2`` of the shear wav
 per body (``beta_j``, shear phase ``p``, dilatational phase ``t``): velocity end ``d = cos p,
 n = sin p, G = cos p sin t - 2 beta_j sin p cos t``; stress end ``d = sin p, n = -cos p,
 G = sin p sin t - 2 beta_j (1 - cos p cos t)``. Checked against ``-D_k/D_Lambda`` of
-:func:`analytic.physics.twobody.det_twobody` at small ``k`` (tests/test_tail_stack.py). With a
-rigid substrate it is :mod:`analytic.physics.tail`'s (``smallk``'s) slope.
+:func:`analytic.physics.twobody.det_twobody` at small ``k`` (tests/test_tail.py). With the
+substrate's compliances set to zero (a rigid substrate) the compliance form reduces to
+:mod:`analytic.physics.smallk`'s slope (by hand, not tested).
 
 **Why no sup over independent phases.** ``|Re dLambda| omega / k`` is unbounded on the torus
 of independent phases: at ``d1 = d2 = 0`` (both bodies at a shear resonance at the same
@@ -48,7 +49,7 @@ largest first-order ``|Re dLambda|`` over
   come arbitrarily close to a shear coincidence and no bound is given.
 
 The terms left out are relative ``O(k/omega)`` (as for the rigid bound): the factor
-``(1 + k/W)`` is a margin, not derived, checked against exact roots (tests/test_tail_stack.py).
+``(1 + k/W)`` is a margin, not derived, checked against exact roots (tests/test_tail.py).
 Not covered by the derivation, and only measured: the near-neutral stack shear modes (both
 bodies near a shear resonance, little slip), whose shift is not first order in ``f s_yy``.
 """

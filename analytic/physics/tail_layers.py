@@ -1,7 +1,8 @@
 """First-order shift of a layered slider's dilatational resonances on a rigid substrate.
 
 A first step towards a tail bound for layered sliders (docs/design.md section 8.1): no bound
-yet, and nothing uses it in the sweep.
+(the two-body method carried over failed its measurement, up to 1.47 of the bound), and
+nothing uses it in the sweep.
 
 Piecewise-constant layers (:class:`analytic.physics.layered_exact.ExactLayer` with constant
 coefficients) on a rigid substrate. At ``k = 0`` the ``x`` and ``y`` motions decouple; the
@@ -47,62 +48,74 @@ def _materials(layers: Sequence[ExactLayer]) -> list[tuple[float, float, float, 
     return out
 
 
-def _down(state: tuple[complex, complex], q: complex, stiff: float, h: float
-          ) -> tuple[complex, complex]:
-    """``(u, s)`` at a layer's bottom from its top (``u'' = q^2 u``, ``s = stiff u'``)."""
+def _down(state: tuple[np.ndarray, np.ndarray], amp: np.ndarray, phase: np.ndarray
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """``(u, s)`` at a layer's bottom from its top: ``u'' = q^2 u``, ``s = stiff u'``.
+
+    ``amp = stiff q`` and ``phase = q h`` are given separately (the bound uses the exact
+    ``k``-dependent phase with the ``k = 0`` amplitude).
+    """
     u, s = state
-    ch, sh = np.cosh(q * h), np.sinh(q * h)
-    return u * ch - s * sh / (stiff * q), s * ch - stiff * q * u * sh
+    ch, sh = np.cosh(phase), np.sinh(phase)
+    return u * ch - s * sh / amp, s * ch - amp * u * sh
 
 
-def _layer_integral(shear: tuple[complex, complex], rod: tuple[complex, complex], q: complex,
-                    p: complex, mu: float, M: float, h: float) -> complex:
-    """``integral_0^h (s_xy v - lambda v' u_x) dy`` from the states at the layer's bottom."""
+def _layer_integral(shear: tuple, rod: tuple, q: np.ndarray, p: np.ndarray, ph: tuple,
+                    mu: float, M: float) -> np.ndarray:
+    """``integral (s_xy v - lambda v' u_x) dy`` over one layer from the states at its bottom."""
     lam = M - 2.0 * mu
     a, a_ = 0.5 * (shear[0] + shear[1] / (mu * q)), 0.5 * (shear[0] - shear[1] / (mu * q))
     b, b_ = 0.5 * (rod[0] + rod[1] / (M * p)), 0.5 * (rod[0] - rod[1] / (M * p))
+    fs, fd = ph
 
-    def E(s: complex) -> complex:  # noqa: N802
-        return complex(np.expm1(s * h) / s)
+    def E(s: np.ndarray, phase: np.ndarray) -> np.ndarray:  # noqa: N802
+        return np.expm1(phase) / s
 
     plus, minus = mu * q - lam * p, mu * q + lam * p
-    return (a * b * plus * E(q + p) + a * b_ * minus * E(q - p)
-            - a_ * b * minus * E(p - q) - a_ * b_ * plus * E(-q - p))
+    return (a * b * plus * E(q + p, fs + fd) + a * b_ * minus * E(q - p, fs - fd)
+            - a_ * b * minus * E(p - q, fd - fs) - a_ * b_ * plus * E(-q - p, -fs - fd))
+
+
+def _response(L: np.ndarray, p: Params, layers: Sequence[ExactLayer],
+              phases: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+    """``(u_x(0), s_xy(0), v(0), s_v(0), I)`` of the shear and rod solutions (module docstring).
+
+    ``phases``: shape ``(n_layers, 2, ...)`` shear and dilatational phases ``q h`` per layer
+    (bottom layer first); default ``L h / c``.
+    """
+    mats = _materials(layers)
+    L = np.asarray(L, dtype=complex)
+    one, zero = np.ones_like(L), np.zeros_like(L)
+    shear = (zero, one) if p.bc == "velocity" else (one, zero)
+    rod = (one, zero)
+    total = np.zeros_like(L)
+    for j in reversed(range(len(mats))):
+        h, mu, cs, M, cd = mats[j]
+        q, pd = L / cs, L / cd
+        ph = (q * h, pd * h) if phases is None else (phases[j, 0], phases[j, 1])
+        shear = _down(shear, mu * q, ph[0])
+        rod = _down(rod, M * pd, ph[1])
+        total = total + _layer_integral(shear, rod, q, pd, ph, mu, M)
+    return shear[0], shear[1], rod[0], rod[1], total
 
 
 def compliances(L: complex, p: Params, layers: Sequence[ExactLayer]
                 ) -> tuple[complex, complex, complex]:
     """``(C_11, C_22, C_21 / k)`` of the layered slider at ``k = 0`` (module docstring)."""
-    mats = _materials(layers)
-    shear = (0.0 + 0j, 1.0 + 0j) if p.bc == "velocity" else (1.0 + 0j, 0.0 + 0j)
-    rod = (1.0 + 0j, 0.0 + 0j)
-    total = 0j
-    for h, mu, cs, M, cd in reversed(mats):
-        q, pd = L / cs, L / cd
-        shear = _down(shear, q, mu, h)
-        rod = _down(rod, pd, M, h)
-        total += _layer_integral(shear, rod, q, pd, mu, M, h)
-    return shear[0] / shear[1], rod[0] / rod[1], 1j * total / (rod[1] * shear[1])
+    u, tau, v, sv, total = (complex(x) for x in _response(np.asarray(L), p, layers))
+    return u / tau, v / sv, 1j * total / (sv * tau)
 
 
 def rod_resonances(p: Params, layers: Sequence[ExactLayer], w_max: float, n_grid: int = 20001
                    ) -> np.ndarray:
     """Frequencies ``0 < omega < w_max`` where the clamped-free rod resonates (``v(0) = 0``)."""
     def v0(w: float) -> float:
-        return _rod_v0(1j * w, layers)
+        return float(_response(np.asarray(1j * w), p, layers)[2].real)
 
     ws = np.linspace(1e-6 * w_max, w_max, n_grid)
     vals = np.array([v0(w) for w in ws])
     i = np.nonzero(np.sign(vals[:-1]) * np.sign(vals[1:]) < 0)[0]
     return np.array([scipy.optimize.brentq(v0, ws[j], ws[j + 1], xtol=1e-14) for j in i])
-
-
-def _rod_v0(L: complex, layers: Sequence[ExactLayer]) -> float:
-    """``v(0)`` of the rod free at the top (``v = 1`` there), real on the imaginary axis."""
-    rod = (1.0 + 0j, 0.0 + 0j)
-    for h, _mu, _cs, M, cd in reversed(_materials(layers)):
-        rod = _down(rod, L / cd, M, h)
-    return float(rod[0].real)
 
 
 def first_order_slope(L0: complex, p: Params, layers: Sequence[ExactLayer]) -> complex:

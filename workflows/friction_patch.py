@@ -109,6 +109,8 @@ def main(comm=None, argv: list[str] | None = None) -> int:
                         resumable=True, outputs=OUTPUTS) as run:
         csv_path, json_path = run.file("friction_patch.csv"), run.file("friction_patch.json")
         rows = comm.bcast(_read_done(csv_path) if run.resumed and comm.rank == 0 else [], root=0)
+        _cli.say_plan(comm, f"{len(lp)} patch length(s)", fp.estimate_seconds(_cli.block_unknowns(
+            args.length, args.cells_per_unit, args.ny, args.degree, params.two_body), len(lp)))
         shown = set(lp[np.linspace(0, len(lp) - 1, min(args.pictures, len(lp))).astype(int)])
         certs = {}
         for x in lp:

@@ -90,6 +90,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
               "region": region.as_dict(base)}
     with _cli.RunFolder(comm, args.out, "stability_map", config, resume=args.resume,
                         resumable=True, outputs=OUTPUTS) as run:
+        _cli.say_plan(comm, f"{nx * ny} map points x {len(khs)} k H values", sm.estimate_seconds(
+            base, x, y, khs, region, comm.size), "(plus the refinement of each point's peaks)")
         raw = run.file("raw")
         if comm.rank == 0:
             os.makedirs(raw, exist_ok=True)

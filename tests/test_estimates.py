@@ -10,6 +10,11 @@ in the packages:
 - ``finite_block.py``: :func:`forms.studies.block.estimate_seconds`;
 - ``friction_patch.py``: :func:`forms.studies.patch.estimate_seconds`;
 - ``time_domain.py``: :func:`forms.timedomain.run.estimate_seconds`;
+- ``phase_diagram.py``: :func:`analytic.physics.phase_diagram.estimate_seconds`;
+- ``figures.py``: :func:`analytic.studies.gallery.estimate_seconds`;
+- ``work_precision.py``: :func:`forms.studies.work_precision.estimate_seconds`;
+- ``halfspace_modes.py``: :func:`forms.studies.halfspace_modes.estimate_seconds`;
+- ``methods_chart.py``: :func:`forms.studies.methods.estimate_seconds`;
 - ``sweep_k.py``: :func:`forms.studies.sweep.estimate_seconds` (tests/test_cli_chores.py).
 
 Checked: each model grows with the work as it says, and on small cases the measured time is
@@ -82,7 +87,8 @@ def test_stability_map_estimate_sums_the_points():
 
 @pytest.mark.serial
 def test_fe_estimates_grow_with_the_work():
-    """Block lengths: affine in unknowns and targets; patch lengths: n^2; steps: linear."""
+    """Block lengths: affine in unknowns and targets; patch lengths: n^2; steps: linear;
+    phase-diagram points, figures, work-precision jobs: linear, shared over the ranks."""
     from forms.studies import block, patch
     from forms.timedomain import run
 
@@ -99,6 +105,33 @@ def test_fe_estimates_grow_with_the_work():
     assert p[1] / p[0] == pytest.approx(4.0)
     assert run.estimate_seconds(2000, 200) == pytest.approx(2 * run.estimate_seconds(2000, 100))
     assert run.estimate_seconds(4000, 100) > run.estimate_seconds(2000, 100)
+    from analytic.physics import phase_diagram as pd
+
+    assert pd.estimate_seconds(10, 2) == pytest.approx(5 * pd.TASK_SECONDS)
+    assert pd.estimate_seconds(11, 2) == pytest.approx(6 * pd.TASK_SECONDS)  # the slowest rank
+    from analytic.studies import gallery
+    from forms.studies import work_precision as wp
+
+    s, half = gallery.Settings(), gallery.Settings(n_q=120, n_gamma=8)
+    assert gallery.estimate_seconds(["both", "gaps"], half, False, 1) == pytest.approx(
+        gallery.estimate_seconds(["both", "gaps"], s, False, 1) / 2)
+    assert gallery.estimate_seconds(["phase_diagram"], half, True, 1) == pytest.approx(
+        gallery.estimate_seconds(["phase_diagram"], s, True, 1) / 2)
+    assert gallery.estimate_seconds(["phase_diagram", "both"], s, False, 2) == pytest.approx(
+        gallery.estimate_seconds(["phase_diagram"], s, False, 1))  # the largest figure
+    jobs = wp.make_jobs({2: (4, 8)}, {2: (2.0,)})
+    assert wp.estimate_seconds(jobs, 3, 1) == pytest.approx(3 * wp.estimate_seconds(jobs, 1, 1))
+    assert wp.estimate_seconds(jobs, 1, 2) < wp.estimate_seconds(jobs, 1, 1)
+    from forms.studies import halfspace_modes as hm
+
+    assert hm.estimate_seconds([6.0] * 4, 4, 2) == pytest.approx(12 * hm.UNIT_SECONDS)
+    assert hm.estimate_seconds([6.0], 2, 1) == pytest.approx(6 * hm.UNIT_SECONDS / 2**2.5)
+    from forms.studies import methods
+
+    one = methods.estimate_seconds(Params(), [2.0], [4.0], 1)
+    assert one == pytest.approx(methods.SECONDS_PER_WH2 * (Region(c_max=4.0).im_max(
+        Params(), 2.0) * 0.5) ** 2)
+    assert methods.estimate_seconds(Params(), [2.0, 2.0], [4.0], 2) == pytest.approx(one)
     # the block's unknowns as the solver limit counts them (the README's L = 128: 69 666)
     assert _cli.block_unknowns(128, 8, 8, 2) == 69666
 
@@ -128,6 +161,11 @@ RUNS = {
     "envelope.py": (SCENES["envelope.py"], None),
     "contrast.py": (SCENES["contrast.py"], None),
     "stability_map.py": (SCENES["stability_map.py"], None),
+    "phase_diagram.py": (SCENES["phase_diagram.py"], "phase_diagram"),
+    "figures.py": (SCENES["figures.py"], "figures"),
+    "work_precision.py": (SCENES["work_precision.py"], None),
+    "halfspace_modes.py": (SCENES["halfspace_modes.py"], None),
+    "methods_chart.py": (SCENES["methods_chart.py"], "methods_chart"),
     "finite_block.py": (SCENES["finite_block.py"], "finite_block"),
     "friction_patch.py": (SCENES["friction_patch.py"], "friction_patch"),
     "time_domain.py": ([a for a in SCENES["time_domain.py"] if a != "--quiet"] + ["--t-end", "40"],
@@ -140,6 +178,15 @@ def _recorded_seconds(kind: str, out: str) -> float:
     if kind == "finite_block":  # the whole run: reference, lengths, pictures
         with open(os.path.join(out, "finite_block.json")) as fh:
             return json.load(fh)["timings"]["total (this run)"]
+    if kind == "methods_chart":  # every method at every point
+        with open(os.path.join(out, "summary.json")) as fh:
+            return sum(t["seconds"] for t in json.load(fh)["totals"].values())
+    if kind == "figures":  # the whole run after the folder
+        with open(os.path.join(out, "figures.json")) as fh:
+            return json.load(fh)["seconds"]["wall"]
+    if kind == "phase_diagram":  # the points (the slowest rank)
+        with open(os.path.join(out, "phase_diagram.json")) as fh:
+            return json.load(fh)["wall_time_s"]
     if kind == "friction_patch":
         with open(os.path.join(out, "friction_patch.json")) as fh:
             certs = json.load(fh)["certificates"].values()

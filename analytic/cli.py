@@ -24,6 +24,7 @@ import csv
 import json
 import math
 import os
+import re
 import sys
 from collections.abc import Sequence
 
@@ -65,6 +66,26 @@ _VERSIONS: dict[str, str] = {}
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
+def blas_libraries() -> str:
+    """The BLAS/LAPACK libraries this process has loaded (numpy's), e.g. OpenBLAS or the reference.
+
+    Read from ``/proc/self/maps`` after importing numpy's linear algebra: the libraries the
+    dynamic linker actually chose (Debian's alternatives, or ``LD_LIBRARY_PATH``), which set
+    the speed of every dense factorisation (numpy, scipy, MUMPS) but not the results beyond
+    rounding. ``"unknown"`` where ``/proc`` is not readable.
+    """
+    import numpy.linalg  # noqa: F401  (loads the BLAS/LAPACK libraries)
+
+    try:
+        with open("/proc/self/maps") as fh:
+            paths = {line.split()[-1] for line in fh if "/" in line}
+    except OSError:
+        return "unknown"
+    libs = sorted({os.path.realpath(p) for p in paths
+                   if re.search(r"/lib(open)?blas[^/]*\.so|/liblapack[^/]*\.so", p)})
+    return ", ".join(libs) if libs else "unknown"
+
+
 def versions() -> dict[str, str]:
     """Versions of Python, the numerical stack, the project (git) and the machine (cached).
 
@@ -91,6 +112,7 @@ def versions() -> dict[str, str]:
         except (OSError, subprocess.SubprocessError):
             out["git"] = "unknown"
         out["machine"] = f"{platform.platform()}, {os.cpu_count()} cores"
+        out["blas"] = blas_libraries()
         _VERSIONS.update(out)
     if "petsc4py.PETSc" in sys.modules and "petsc" not in _VERSIONS:
         from petsc4py import PETSc
@@ -353,7 +375,7 @@ def _units(args: argparse.Namespace) -> int:
 
 
 def _dispersion(args: argparse.Namespace) -> int:
-    from analytic.dispersion import write_dispersion
+    from analytic.writers import write_dispersion
 
     p = _finite_params(args)
     k = parse_k(args.k)
@@ -379,7 +401,7 @@ def _gr(args: argparse.Namespace) -> int:
 
 
 def _grmap(args: argparse.Namespace) -> int:
-    from analytic.physics.twobody import write_gr_map
+    from analytic.writers import write_gr_map
 
     Params(beta=args.beta, beta2=args.beta2)  # validates
     positive_int("--n", args.n, 3, 1000)

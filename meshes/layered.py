@@ -1,10 +1,10 @@
 """Interval meshes from explicit vertex coordinates (PML layers, layered stacks of two bodies).
 
-:func:`interval_from_vertices` builds a dolfinx interval mesh whose vertices are given (rank 0
-of the communicator passes them, dolfinx distributes the cells); :func:`geometric_sizes` makes
-cell sizes that grow geometrically from ``h0`` to ``h_max`` (then stay) to fill a length;
-:func:`interval_from_pieces` joins disconnected pieces (two bodies with their own nodes at the
-interface, :mod:`forms.models.section`).
+:func:`interval_from_pieces` builds a dolfinx interval mesh whose vertices are given (rank 0
+of the communicator passes them, dolfinx distributes the cells): one piece is a plain interval,
+several are disconnected (two bodies with their own nodes at the interface,
+:mod:`forms.models.section`); :func:`geometric_sizes` makes cell sizes that grow geometrically
+from ``h0`` to ``h_max`` (then stay) to fill a length.
 """
 
 from __future__ import annotations
@@ -43,29 +43,6 @@ def geometric_sizes(length: float, h0: float, h_max: float, growth: float) -> np
     else:
         sizes.append(rest)
     return np.asarray(sizes)
-
-
-def interval_from_vertices(comm: MPI.Comm, vertices: np.ndarray) -> dolfinx.mesh.Mesh:
-    """Interval mesh with the given increasing vertex coordinates (read on rank 0 of ``comm``).
-
-    Args:
-        comm: Communicator the mesh is distributed over.
-        vertices: Strictly increasing coordinates (only rank 0's array is used).
-
-    Returns:
-        The dolfinx mesh (geometric dimension 1).
-    """
-    if comm.rank == 0:
-        x = np.asarray(vertices, dtype=np.float64)
-        if x.ndim != 1 or len(x) < 2 or not np.all(np.diff(x) > 0):
-            raise ValueError("vertices must be a strictly increasing 1D array of length >= 2")
-        cells = np.column_stack([np.arange(len(x) - 1), np.arange(1, len(x))]).astype(np.int64)
-        coords = x.reshape(-1, 1)
-    else:
-        cells = np.empty((0, 2), dtype=np.int64)
-        coords = np.empty((0, 1), dtype=np.float64)
-    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.interval, 1, dim=1))
-    return dolfinx.mesh.create_mesh(comm, cells, coords, domain)
 
 
 def layer_count(length: float, h0: float, h_max: float, growth: float) -> int:

@@ -543,3 +543,23 @@ def test_every_json_of_a_run_is_strict(tmp_path):
     with open(out / "spectrum.csv") as fh:  # the NaN came back as NaN (as before the change)
         rows = list(csv.DictReader(fh))
     assert rows and all(r["re_lambda_exact"] == "nan" for r in rows), rows
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("reference", [False, True])
+def test_versions_name_the_blas_actually_loaded(reference):
+    """Provenance names the BLAS/LAPACK the process loaded: OpenBLAS (./run installs it and
+    Debian's alternatives prefer it), or the reference BLAS when a user points the loader at it."""
+    env = dict(os.environ)
+    if reference:
+        if not os.path.isdir("/usr/lib/x86_64-linux-gnu/blas"):
+            pytest.skip("Debian's reference BLAS (libblas3) is not installed")
+        env["LD_LIBRARY_PATH"] = "/usr/lib/x86_64-linux-gnu/blas:/usr/lib/x86_64-linux-gnu/lapack"
+    code = "from analytic.cli import versions; print(versions()['blas'])"
+    res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         timeout=120, check=True)
+    libs = res.stdout.strip()
+    if reference:
+        assert "/blas/libblas.so" in libs and "openblas" not in libs, libs
+    else:
+        assert "openblas" in libs, libs

@@ -79,6 +79,31 @@ def test_scene_smoke(tmp_path, nproc):
 
 
 @pytest.mark.serial
+@pytest.mark.slow  # three runs of the scene (one under mpirun -n 2)
+def test_resume_keeps_the_finished_lengths_parts(tmp_path):
+    """Each finished Lp is a part raw/Lp<Lp>.json: --resume (2 ranks) takes a marked part as it
+    is and computes only the new length; a run without --resume clears it."""
+    out, base = tmp_path / "p", ["--length", "2", "--pictures", "0", "--out", str(tmp_path / "p")]
+    assert run_workflow("friction_patch.py", [*base, "--lp", "1"]).returncode == 0
+    with open(out / "friction_patch.csv") as f:
+        first = list(csv.DictReader(f))
+    part = json.loads((out / "raw" / "Lp1.0.json").read_text())
+    part["row"]["found"], part["certificate"]["tiles"] = "99", 99  # no computation gives these
+    (out / "raw" / "Lp1.0.json").write_text(json.dumps(part))
+    res = run_workflow("friction_patch.py", [*base, "--lp", "1,2", "--resume"], nproc=2)
+    assert res.returncode == 0, res.stderr[-2000:]
+    with open(out / "friction_patch.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["Lp"] for r in rows] == ["1.0", "2.0"] and rows[0] == {**first[0], "found": "99"}
+    certs = json.loads((out / "friction_patch.json").read_text())["certificates"]
+    assert list(certs) == ["1", "2"] and certs["1"]["tiles"] == 99 != certs["2"]["tiles"]
+    assert run_workflow("friction_patch.py", [*base, "--lp", "1"]).returncode == 0
+    assert sorted(p.name for p in (out / "raw").iterdir()) == ["Lp1.0.json"]
+    with open(out / "friction_patch.csv") as f:
+        assert list(csv.DictReader(f)) == first  # recomputed: the same strings (measured)
+
+
+@pytest.mark.serial
 def test_scene_bad_input(tmp_path):
     """A patch longer than the block: one line naming --lp, exit 2, nothing written."""
     res = run_workflow("friction_patch.py", ["--length", "2", "--lp", "1,3", "--out",

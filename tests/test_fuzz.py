@@ -102,7 +102,7 @@ def _run_analytic(argv: list[str]) -> tuple[int, str, str]:
     stub = mock.Mock(side_effect=_ReachedSolver)
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), \
             mock.patch("analytic.numerics.branches.follow_branches", stub), \
-            mock.patch("analytic.dispersion.write_dispersion", stub), \
+            mock.patch("analytic.writers.write_dispersion", stub), \
             warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)  # a warning would be stderr noise
         try:

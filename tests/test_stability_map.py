@@ -55,10 +55,12 @@ def test_small_map_matches_exact_roots(tmp_path, nproc):
     assert (out / "stability_map.png").stat().st_size > 10000
 
 
-@pytest.mark.slow  # three runs of the scene: 48 s on the loaded machine
+@pytest.mark.slow  # four runs of the scene: 48 s for three on the loaded machine
 def test_resume_keeps_done_points_and_recomputes_missing(tmp_path):
+    """raw/p#####.json are the run's parts: --resume (2 ranks) takes a marked one as it is and
+    computes a missing one; a run without --resume clears them and computes every point."""
     out = tmp_path / "m"
-    args = ["--x", "Delta:1:2:2", "--y", "f:0.01:0.02:2", "--kH-max", "0.5", "--nk", "2",
+    args = ["--x", "Delta:1:2:2", "--y", "f:0:0.02:2", "--kH-max", "0.5", "--nk", "2",
             "--gamma", "1", "--H", "1", "--out", str(out)]
     assert run_workflow("stability_map.py", args).returncode == 0
     raw = sorted(os.listdir(out / "raw"))
@@ -68,10 +70,13 @@ def test_resume_keeps_done_points_and_recomputes_missing(tmp_path):
     (out / "raw" / raw[0]).write_text(json.dumps(marked))
     first = _rows(out)
     os.remove(out / "raw" / raw[1])
-    proc = run_workflow("stability_map.py", [*args, "--resume"])
+    proc = run_workflow("stability_map.py", [*args, "--resume"], nproc=2)
     assert proc.returncode == 0, proc.stderr[-2000:]
     rows = _rows(out)
-    assert rows[0]["unstable_k_count"] == "99" and rows[1:] == first[1:]
+    assert rows == [{**first[0], "unstable_k_count": "99"}, *first[1:]]  # f = 0: no closed
+    assert first[0]["delta_closed_form"] == "nan"  # form, the same "nan" from a loaded part
+    assert run_workflow("stability_map.py", args).returncode == 0  # no --resume: starts over
+    assert _rows(out) == first and sorted(os.listdir(out / "raw")) == raw
     proc = run_workflow("stability_map.py", [*args[:-2], "--nk", "3", "--out", str(out),
                                              "--resume"])
     assert proc.returncode == 2, proc.stderr  # --resume continues only the same parameters

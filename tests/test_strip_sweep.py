@@ -1,12 +1,15 @@
 """Every eigenvalue of the 2D Bloch strip cell in a box (forms.studies.strip_sweep).
 
 No exact root is used: the region solve counts (argument principle on MUMPS's log det) and finds
-(shift-and-invert over tiles) the eigenvalues of the cell; each carries its harmonic. The
-harmonic-1 ones must be eigenvalues of the 1D cross-section model at ``k`` (solved next to
-them, degree 3), the harmonic-0 one the uniform (``k = 0``) mode. Runs serially and under
+(shift-and-invert over tiles) the eigenvalues of the cell; each carries its harmonic and its
+convergence estimate against the degree p + 1 cell on the same mesh. The harmonic-1 ones must be
+eigenvalues of the 1D cross-section model at ``k`` (solved next to them, degree 3), and the
+estimate must be their distance to it (the 2D discretisation error). Runs serially and under
 ``mpirun -n 2`` (the cell on the whole communicator). ``sweep_k.py --model strip`` (a
 subprocess, serially and under ``mpirun -n 2``): at two k the harmonic -1, 0, 1 sets of the cell
-are the 1D sets at -k, 0, k (as many, each within a measured distance).
+are the 1D sets at -k, 0, k (as many, each within a measured distance), every row certified
+``fe``; a coarser cell's rows are flagged by their estimate; ``--resume`` computes only the k
+values without a part; options the strip does not take exit 2 in one line.
 """
 
 import csv
@@ -23,7 +26,10 @@ from forms.solvers.continuation import cross_section_mode
 from forms.studies.strip_sweep import (
     SectionSet,
     StripSpectrum,
+    canonical_labels,
     compare_with_section,
+    continue_values,
+    estimates,
     strip_rows,
     strip_spectrum,
 )
@@ -33,6 +39,11 @@ from forms.studies.strip_sweep import (
 # error: on a mesh refined twice in x and y, the harmonic-2 mode at k = 2 moved from 2.2e-3 to
 # 1.5e-4 of the 1D value). The bound is that measured error rounded up.
 RTOL_1D = 3e-4
+# The P(p+1) estimate against that error (the 1D value is exact to ~1e-8 here): measured
+# estimate / error = 0.998 at k = 4 and 6 on 12 x 6 cells (1.905e-4 against 1.909e-4), 0.995 on
+# 8 x 4 cells (9.11e-4 / 9.15e-4); the P3 cell's own error is 0.2-0.5 % of the P2 cell's.
+# Bound: 5 %.
+EST_RATIO = 0.05
 
 
 @pytest.mark.slow
@@ -44,10 +55,32 @@ def test_harmonic_one_is_the_cross_section_set(k: float, im_max: float) -> None:
     assert s.closed and s.counted == len(s.values) > 0
     ones = [z for z, h in zip(s.values, s.harmonics, strict=True) if h == 1.0]
     assert ones, "no harmonic-1 eigenvalue in the box"
-    for z in ones:
+    est, mutual = estimates(s.values, s.fine)
+    assert s.fine_unknowns > s.unknowns and mutual.all()
+    for z, e in zip(s.values, est, strict=True):
+        if z not in ones:
+            continue
         xs = cross_section_mode(params, k, complex(z))
         assert xs is not None
-        assert abs(xs.eigenvalue - z) / abs(z) < RTOL_1D
+        err = abs(xs.eigenvalue - z) / abs(z)
+        assert err < RTOL_1D
+        assert abs(e / err - 1.0) < EST_RATIO, (z, e, err)
+
+
+def test_continued_eigenvalue_is_the_cells_at_the_next_k() -> None:
+    # the harmonic-1 eigenvalue of the 8 x 4 cell at k = 4 followed to k = 4.5 (2 sub-steps) is
+    # an eigenvalue of the cell there: its 1D partner at 4.5 within the coarse cell's error
+    # (RTOL_COARSE below: measured 9.2e-4 at k = 4, 7.2e-4 at k = 6); about 5 s serially
+    params = Params()
+    s = strip_spectrum(MPI.COMM_WORLD, params, 4.0, (-0.01, 0.5, 0.0, 7.0),
+                       cells_per_wavelength=8, ny=4, estimate=False)
+    ones = np.array([z for z, h in zip(s.values, s.harmonics, strict=True) if h == 1.0])
+    assert len(ones) == 1
+    now, n = continue_values(MPI.COMM_WORLD, params, [4.0, 4.25, 4.5], ones,
+                             cells_per_wavelength=8, ny=4)
+    assert n == 2 and abs(now[0] - ones[0]) > 1e-2  # it moved
+    xs = cross_section_mode(params, 4.5, complex(now[0]))
+    assert xs is not None and abs(xs.eigenvalue - now[0]) / abs(now[0]) < RTOL_COARSE
 
 
 # --model strip of sweep_k.py on a coarse cell (P2, 8 cells per wavelength, ny = 4, the default
@@ -95,21 +128,91 @@ def test_sweep_k_model_strip_equals_the_1d_sets(tmp_path, monkeypatch, nproc: in
     assert {float(r["k"]) for r in ones} == {4.0, 6.0}
     assert max(float(r["rel_distance_1d"]) for r in ones) < RTOL_COARSE
     assert summary["harmonic_1"]["strip"] == summary["harmonic_1"]["section"] == len(ones)
+    # the convergence certificate: estimates measured 9.1e-4 (harmonics +-1) and 1.2e-5
+    # (harmonic 0) on this cell, within the strip's default --rtol 1e-3; each estimate is the
+    # row's distance to the 1D set (its error) to 5 % (measured 0.5 %, the
+    # harmonic-0 rows 0.1 %)
+    assert summary["accuracy"]["rtol"] == 1e-3 and summary["accuracy"]["estimates_missing"] == 0
+    assert summary["certificate"]["rows_ok"] == len(rows) == summary["certificate"]["rows"]
+    for r in rows:
+        est, dist = float(r["error_estimate"]), float(r["rel_distance_1d"])
+        assert r["status"] == "ok" and r["certificate"] == "fe", r
+        assert est <= 1e-3 and abs(est / dist - 1.0) < EST_RATIO, r
+    assert all(c == "fe" for e in summary["per_k"] for c in e["certificate"])
+    assert summary["most_unstable"]["certified"]
+    assert summary["most_unstable"]["im_lambda"] < 0  # of the conjugate pair, as the solver
+    # labels by continuation in k: each of the 4 modes at k = 4 is linked to one at k = 6, of
+    # the same harmonic (a lost link would start new labels c4, c5, ...)
+    assert summary["labels"].startswith("c0, c1, ...: continuation")
+    labels = {r["label"]: set() for r in rows}
+    for r in rows:
+        labels[r["label"]].add((float(r["k"]), r["harmonic"]))
+    assert sorted(labels) == ["c0", "c1", "c2", "c3"]
+    assert all(len(v) == 2 and len({h for _, h in v}) == 1 for v in labels.values()), labels
+    assert (tmp_path / f"np{nproc}" / "dispersion.png").stat().st_size > 10000
 
 
 @pytest.mark.serial
-def test_sweep_k_model_strip_bad_input_is_one_line(tmp_path) -> None:
-    res = run_workflow("sweep_k.py", ["--model", "strip", "--k", "4", "--strip-degree", "9",
+@pytest.mark.slow
+def test_coarse_cell_is_flagged_by_its_estimate_and_resume_solves_only_missing_k(
+        tmp_path, monkeypatch) -> None:
+    # 6 x 3 cells: estimates measured 2.7e-3 (k = 4) and 2.1e-3 (k = 6) on harmonics +-1, above
+    # the default --rtol 1e-3 (their distances to the 1D sets: 2.70e-3, 2.14e-3); harmonic 0
+    # 3.6e-5 and 3.7e-5, below it. About 10 s a run on the idle machine.
+    monkeypatch.setenv("OMPI_MCA_mpi_yield_when_idle", "1")
+    out = tmp_path / "coarse"
+    args = ["--model", "strip", "--k", "4,6", "--strip-cells", "6", "--strip-ny", "3",
+            "--quiet", "--no-plot", "--out", str(out)]
+    res = run_workflow("sweep_k.py", args, timeout=600)
+    assert res.returncode == 1, res.stderr[-2000:]  # flagged rows, counts closed
+    assert "flagged" in res.stdout
+    with open(out / "spectrum.csv") as fh:
+        first = list(csv.DictReader(fh))
+    for r in first:
+        est, h = float(r["error_estimate"]), abs(float(r["harmonic"]))
+        assert (est > 1e-3) == (h == 1.0), r
+        assert (r["status"], r["certificate"]) == (("ok", "fe") if est <= 1e-3 else
+                                                   (f"estimate {est:.1e} > rtol", "")), r
+        assert abs(est / float(r["rel_distance_1d"]) - 1.0) < EST_RATIO
+    # pre-seed: k = 6 (part 1) kept with a marked residual, k = 4 (part 0) removed
+    part1 = out / "raw" / "k00001.json"
+    seeded = json.loads(part1.read_text())
+    for r in seeded["rows"]:
+        r["residual"] = 0.125
+    part1.write_text(json.dumps(seeded))
+    (out / "raw" / "k00000.json").unlink()
+    res = run_workflow("sweep_k.py", [*args, "--resume"], timeout=600)
+    assert res.returncode == 1, res.stderr[-2000:]
+    with open(out / "spectrum.csv") as fh:
+        again = list(csv.DictReader(fh))
+    with open(out / "summary.json") as fh:
+        summary = json.load(fh)
+    assert summary["resume"] == {"resumed": True, "computed_k": 1}
+    assert [r for r in again if r["k"] == "4.0"] == [r for r in first if r["k"] == "4.0"]
+    six = [r for r in again if r["k"] == "6.0"]
+    assert len(six) == 4 and all(r["residual"] == "0.125" for r in six)
+    assert {r["label"] for r in again} == {r["label"] for r in first}  # the links kept
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("bad, word", [(["--strip-degree", "9"], "--strip-degree"),
+                                       (["--c-max", "4"], "--c-max"),
+                                       (["--solver", "newton"], "--solver"),
+                                       (["--check-exact", "yes"], "--check-exact"),
+                                       (["--layers", "x.csv"], "--layers")])
+def test_sweep_k_model_strip_bad_input_is_one_line(tmp_path, bad: list[str], word: str) -> None:
+    res = run_workflow("sweep_k.py", ["--model", "strip", "--k", "4", *bad,
                                       "--out", str(tmp_path / "bad")])
     assert res.returncode == 2
-    assert res.stderr.strip().count("\n") == 0 and "--strip-degree" in res.stderr
+    assert res.stderr.strip().count("\n") == 0 and word in res.stderr
     assert not (tmp_path / "bad").exists()
 
 
 @pytest.mark.serial
 def test_compare_with_section_distances_and_counts() -> None:
     spec = StripSpectrum(2.0, (-0.01, 1.0, -5.0, 5.0), np.array([0.1 + 3j, 0.1 - 3j, 4j]),
-                         np.zeros(3), np.array([1.0, -1.0, 2.0]), 3, True, 10)
+                         np.zeros(3), np.array([1.0, -1.0, 2.0]), 3, True, 10,
+                         fine=np.array([0.1 + 3j, 0.1 - 3j, 4j]) * (1 + 1e-4))
     sets = {1.0: SectionSet(1.0, 2.0, np.array([0.1 + 3.003j, 0.2 + 4.9j]), 2, True),
             -1.0: SectionSet(-1.0, -2.0, np.array([0.1 - 3j]), 1, True),
             2.0: SectionSet(2.0, 4.0, np.array([]), 0, True)}
@@ -118,6 +221,65 @@ def test_compare_with_section_distances_and_counts() -> None:
     assert dist[1] == 0.0 and dist[2] == np.inf
     assert per["1"]["strip"] == 1 and per["1"]["section"] == 2  # one 1D value not found
     assert per["2"]["max_rel_distance"] == np.inf
-    rows = strip_rows(spec, dist)
+    rows = strip_rows(spec, dist, 1e-3)
     assert [r["label"] for r in rows] == ["h-1_0", "h1_0", "h2_0"]
-    assert all(r["status"] == "ok" and r["certificate"] == "count" for r in rows)
+    assert all(r["status"] == "ok" and r["certificate"] == "fe" for r in rows)
+    assert all(r["error_estimate"] == pytest.approx(1e-4 / (1 + 1e-4), rel=1e-12) for r in rows)
+
+
+@pytest.mark.serial
+def test_strip_rows_flag_estimate_partner_and_count() -> None:
+    values = np.array([0.1 + 3j, 0.1 + 3.001j, 4j, 0.2 + 1j])
+    fine = np.array([0.1 + 3.0003j, 0.1 + 3.0003j, 4.1j, np.nan])  # 2nd: partner of the 1st
+    spec = StripSpectrum(2.0, (-0.01, 1.0, -5.0, 5.0), values, np.zeros(4),
+                         np.array([1.0, 1.0, 1.0, 1.0]), 4, True, 10, fine=fine)
+    est, mutual = estimates(values, fine)
+    assert mutual.tolist() == [True, False, True, False]
+    by_im = {r["im_lambda"]: r for r in strip_rows(spec, np.zeros(4), 1e-3)}
+    assert by_im[3.0]["status"] == "ok" and by_im[3.0]["certificate"] == "fe"
+    assert by_im[3.001]["status"] == "p+1 partner nearer another value"
+    assert by_im[4.0]["status"] == f"estimate {est[2]:.1e} > rtol"
+    assert by_im[1.0]["status"] == "no p+1 estimate" and by_im[1.0]["certificate"] == ""
+    spec.closed, spec.counted = False, 5
+    assert all(r["status"].startswith("count not closed: counted 5, found 4")
+               and r["certificate"] == "" for r in strip_rows(spec, np.zeros(4), 1e-3))
+
+
+@pytest.mark.serial
+def test_most_unstable_of_a_conjugate_pair_is_the_same_row_in_every_run() -> None:
+    import _sweep_strip
+
+    def row(re: float, im: float, h: float) -> dict:
+        return {"k": 4.0, "label": f"h{h:g}_0", "re_lambda": re, "im_lambda": im,
+                "error_estimate": 1e-4, "status": "ok"}
+
+    per_k = [{"k": 4.0, "closed": True, "harmonics": {"1": {"strip": 1, "section": 1,
+                                                          "max_rel_distance": 1e-4}}}]
+    config = {"rtol": 1e-3}
+    for rows in ([row(0.1 + 1e-16, 5.0, 1.0), row(0.1, -5.0, -1.0)],
+                 [row(0.1, 5.0, 1.0), row(0.1 + 1e-16, -5.0, -1.0)]):
+        best = _sweep_strip.summarise(config, rows, per_k, 1, "")["most_unstable"]
+        assert best["label"] == "h-1_0" and best["certified"]
+    rows = [row(0.1 + 1e-6, 5.0, 1.0), row(0.1, -5.0, -1.0)]  # not a tie: the faster one
+    assert _sweep_strip.summarise(config, rows, per_k, 1, "")["most_unstable"]["label"] == "h1_0"
+    per_k.append({"k": 5.0, "closed": False, "harmonics": per_k[0]["harmonics"]})
+    best = _sweep_strip.summarise(config, rows, per_k, 1, "")["most_unstable"]
+    assert not best["certified"]  # another k's count did not close: a faster one may be missing
+
+
+@pytest.mark.serial
+def test_canonical_labels_do_not_depend_on_rounding_of_a_conjugate_pair() -> None:
+    def rows(eps: float, names: tuple[str, ...]) -> list[dict]:
+        ims = [5.0, -5.0 - eps, 6.0, 5.5, -5.0 - eps]
+        ks = [4.0, 4.0, 4.0, 6.0, 6.0]
+        return [{"k": k, "im_lambda": im, "label": n} for k, im, n in zip(ks, ims, names,
+                                                                         strict=True)]
+
+    # two runs: the pair's |Im| differs by rounding, so label_by_continuation numbered them
+    # in the other order; the same rows are linked (a, b: the pair; c alone; a at 6 too)
+    one, two = rows(1e-15, ("c0", "c1", "c2", "c0", "c1")), rows(-1e-15, ("c1", "c0", "c2",
+                                                                          "c1", "c0"))
+    for r in (one, two):
+        canonical_labels(r)
+    assert [x["label"] for x in one] == [x["label"] for x in two] == ["c1", "c0", "c2", "c1",
+                                                                     "c0"]

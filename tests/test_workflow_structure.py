@@ -180,5 +180,24 @@ def test_the_import_check_can_fail(tmp_path):
     assert "phase_diagram" not in imported_modules(str(src))  # analytic.physics.phase_diagram
 
 
+
+@pytest.mark.serial
+def test_every_resumable_scene_resumes_through_parts():
+    """One resume mechanism (``workflows/_parts.py``): a scene opened with ``resumable=True``
+    calls ``run.parts`` (the time domain through ``_time_files``) and itself neither lists,
+    tests, reads nor deletes files."""
+    own = {"glob.glob", "os.listdir", "os.remove", "os.path.exists", "open", "json.load",
+           "csv.DictReader"}
+    seen = {}
+    for name in scenes():
+        path = os.path.join(WORKFLOWS, f"{name}.py")
+        with open(path) as fh:
+            if "resumable=True" not in fh.read():
+                continue
+        calls = {ast.unparse(n.func) for n in ast.walk(_tree(path)) if isinstance(n, ast.Call)}
+        seen[name] = ("run.parts" in calls or "_time_files" in imported_modules(path),
+                      sorted(calls & own))
+    assert len(seen) >= 5 and seen == {s: (True, []) for s in seen}, seen
+
 if __name__ == "__main__":
     print_size_table()

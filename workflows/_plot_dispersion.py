@@ -13,8 +13,14 @@ from forms.solvers.certified import (
 
 
 def plot_dispersion(path: str, params: Params, region: Region, results: list[KResult],
-                    fams: list, most: dict | None, parameters: dict) -> None:
-    """dispersion.png: growth rate and frequency against k; exact lines, FE points, envelope."""
+                    fams: list, most: dict | None, parameters: dict,
+                    colour_by: str | None = None, title: str | None = None) -> None:
+    """dispersion.png: growth rate and frequency against k; exact lines, FE points, envelope.
+
+    ``colour_by``: a column of the rows (``harmonic`` for the 2D strip) whose values colour the
+    ``ok`` points, one legend entry each (no exact-line legend then); ``title`` replaces the
+    region's title.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -35,7 +41,16 @@ def plot_dispersion(path: str, params: Params, region: Region, results: list[KRe
         ax1.plot(kp, lp.real, "-", color=c, lw=0.9, alpha=0.8, zorder=1)
         ax2.plot(kp, lp.imag, "-", color=c, lw=0.9, alpha=0.8, zorder=1)
     ok = [(r["k"], r["re_lambda"], r["im_lambda"]) for res in results for r in res.rows
-          if r["status"] == "ok"]
+          if r["status"] == "ok" and colour_by is None]
+    groups = sorted({r[colour_by] for res in results for r in res.rows
+                     if colour_by is not None and r["status"] == "ok"})
+    for i, g in enumerate(groups):  # coloured ok points, one legend entry per value
+        a = np.array([(r["k"], r["re_lambda"], r["im_lambda"]) for res in results
+                      for r in res.rows if r["status"] == "ok" and r[colour_by] == g])
+        style = {"marker": "o", "ms": 3.6, "mfc": "none", "mew": 0.9, "ls": "none",
+                 "color": colors[i % len(colors)], "zorder": 3}
+        ax1.plot(a[:, 0], a[:, 1], label=f"FE, ok, {colour_by} {g:g}", **style)
+        ax2.plot(a[:, 0], a[:, 2], **style)
     bad = [(r["k"], r["re_lambda"], r["im_lambda"]) for res in results for r in res.rows
            if r["status"] != "ok"]
     # hollow markers above the lines: both stay visible on dense grids
@@ -57,8 +72,10 @@ def plot_dispersion(path: str, params: Params, region: Region, results: list[KRe
                  label=f"most unstable: {most['branch']}, k = {most['k']:.4g},\n"
                  f"Lambda = {most['re_lambda']:.6g} {most['im_lambda']:+.6g}i")
         ax2.plot([most["k"]], [most["im_lambda"]], "*", ms=17, color="gold", mec="k", zorder=4)
-    ax1.plot([], [], "-", color=colors[0], lw=0.9, label="exact, waveguide n+/n- (colour: n)")
-    ax1.plot([], [], "-", color="0.55", lw=0.9, label="exact, other families (s, r)")
+    if colour_by is None:
+        ax1.plot([], [], "-", color=colors[0], lw=0.9,
+                 label="exact, waveguide n+/n- (colour: n)")
+        ax1.plot([], [], "-", color="0.55", lw=0.9, label="exact, other families (s, r)")
     ax1.axhline(0.0, color="k", lw=0.6)
     ax1.set_ylim(region.re_min, None)
     ax1.set_ylabel(r"growth rate Re $\Lambda$")
@@ -66,7 +83,7 @@ def plot_dispersion(path: str, params: Params, region: Region, results: list[KRe
     ax2.set_xlabel("k")
     ax1.legend(fontsize=7.5, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     p = params
-    title = (f"every eigenvalue in R: Re >= {region.re_min:g}, |Im| <= c_max k c_d "
+    title = title or (f"every eigenvalue in R: Re >= {region.re_min:g}, |Im| <= c_max k c_d "
              f"+ {region.omega_0(p):.3g}\nf={p.f:g}, gamma={p.gamma:g}, beta={p.beta:g}, "
              f"Delta={p.Delta:g}, H={p.H:g}, bc={p.bc}")
     if p.generalized:

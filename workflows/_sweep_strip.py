@@ -1,4 +1,4 @@
-"""``sweep_k.py --model strip``: every eigenvalue of the 2D Bloch cell at each k, with its harmonic.
+"""``sweep_k.py --model strip``: every eigenvalue of the 2D Bloch cell at each k, certified.
 
 At each ``k`` the cell of one wavelength ``2 pi / k`` (P``--strip-degree`` on
 ``--strip-cells`` x ``--strip-ny`` cells) is solved by
@@ -7,11 +7,17 @@ At each ``k`` the cell of one wavelength ``2 pi / k`` (P``--strip-degree`` on
 communicator) in the box ``re_min <= Re Lambda <= re_max``,
 ``|Im Lambda| <= strip_c_max k c_d + omega0`` (:func:`forms.studies.strip_sweep.strip_box`;
 default ``strip_c_max = 1``, ``omega0 = 0``, not the cross-section sweep's region: see
-:data:`WHY_BOX`). Each eigenvalue carries its harmonic ``h`` (wavenumber ``h k``) and its
-relative distance to the cross-section model's complete set at ``h k`` (rank 0,
-:func:`forms.studies.strip_sweep.section_sets`, the 1D discretisation from ``--rtol``,
-``--degree``, ``--cells``). Rank 0 writes ``spectrum.csv`` (the section model's columns plus
-``harmonic``, ``rel_distance_1d``) and ``summary.json``; no picture, no ``--resume``.
+:data:`WHY_BOX`). Each eigenvalue carries its convergence estimate against the degree ``p + 1``
+cell on the same mesh (``error_estimate``; ``status`` ``ok`` and certificate ``fe`` when the
+count closed and the estimate is within ``--rtol``, default :data:`STRIP_RTOL` here), its
+harmonic ``h`` (wavenumber ``h k``) and its relative distance to the cross-section model's
+complete set at ``h k`` (rank 0, :func:`forms.studies.strip_sweep.section_sets`, the 1D
+discretisation from ``min(--rtol, 1e-8)``, ``--degree``, ``--cells``). Over several ``k`` the
+labels are ``c0, c1, ...`` by continuation of the eigenpairs in ``k`` (:data:`TRACK_STATEMENT`).
+Every finished ``k`` is saved at once to ``DIR/raw/k#####.json`` (``--resume`` continues).
+Rank 0 writes
+``spectrum.csv`` (the section model's columns plus ``harmonic``, ``rel_distance_1d``),
+``summary.json`` and ``dispersion.png`` (points coloured by harmonic).
 """
 
 from __future__ import annotations
@@ -24,21 +30,44 @@ import time
 
 import _cli
 import numpy as np
+from _plot_dispersion import plot_dispersion
 
+from analytic.numerics.spectrum import Region
 from analytic.params import Params
-from forms.solvers.certified import ROW_FIELDS
+from forms.solvers.certified import ROW_FIELDS, KResult
 from forms.studies import strip_sweep as ss
 from forms.studies import sweep
 
-#: Every options prefix of the strip's PETSc/SLEPc objects (the region PEP and the count's LU).
+#: Every options prefix of the strip's PETSc/SLEPc objects (the region PEP, the count's LU and
+#: the ``p + 1`` estimate's PEP).
 PETSC_PREFIXES = ss.PREFIXES
 FIELDS = (*ROW_FIELDS, *ss.EXTRA_FIELDS)
+#: ``--rtol`` of the strip when not given: the P2 cell of 12 x 6 cells estimated 1.9e-4 at k = 4
+#: (harmonic 1), the 1D cross-section model's 1e-8 is out of reach of a 2D cell.
+STRIP_RTOL = 1e-3
+#: The 1D reference sets are discretised for at least this accuracy (the section's default).
+SECTION_RTOL = 1e-8
 WHY_BOX = ("the cell holds every harmonic h k with its own spectrum: the cross-section sweep's "
            "region (c_max = 4, omega0 = 2 pi/(beta H)) at k = 4 held 102 eigenvalues of the "
            "cell (harmonics -9..9 in an exploratory run, most beyond what 12 cells per wavelength "
            "resolve) at 13 "
            "times the cost of the default box (528 s against 40 s, the count 93 % of it: "
            "workflows/results/strip_cost*)")
+#: What the labels of a sweep over several k mean (forms.studies.sweep.label_by_continuation).
+TRACK_STATEMENT = (
+    "c0, c1, ...: continuation of the FE eigenpairs in k; each row at k_i is followed over 4 "
+    "equal sub-steps to k_(i+1), on the cell of each sub-step, by one shift-and-invert solve at "
+    "its secant predictor (forms.studies.strip_sweep.continue_values), and linked to the row "
+    "there that is the mutually nearest one and within 1e-6 relative; a row without such a "
+    "link starts a new label (numbered by first appearance, then |Im Lambda| to 9 digits, then "
+    "Im Lambda)")
+#: ... and of a single k.
+LABEL_STATEMENT = "h<harmonic>_<j>: j by increasing |Im Lambda| within the harmonic"
+#: Options of the section model that the strip takes only at their default: (attribute,
+#: option, default, what the strip has instead).
+NOT_FOR_STRIP = (("c_max", "--c-max", "auto", "its box's bound is --strip-c-max"),
+                 ("solver", "--solver", "moments", "its solver is the region solve, options "
+                  "-strip_region_*"))
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
@@ -46,7 +75,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     g = ap.add_argument_group("2D Bloch strip (--model strip; forms.studies.strip_sweep)")
     g.add_argument("--strip-cells", type=int, default=12, help="cells along x per wavelength")
     g.add_argument("--strip-ny", type=int, default=6, help="cells along y")
-    g.add_argument("--strip-degree", type=int, default=2, help="Lagrange degree 1..4")
+    g.add_argument("--strip-degree", type=int, default=2, help="Lagrange degree 1..4 (the "
+                   "estimate solves degree + 1)")
     g.add_argument("--strip-c-max", type=float, default=1.0,
                    help="box |Im Lambda| <= strip_c_max k c_d + omega0 (c_d: the slider's "
                    "largest; --omega0 0: none), Re Lambda in [--re-min, --re-max]")
@@ -58,9 +88,17 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray]:
     if not math.isfinite(params.H) or (params.two_body and not math.isfinite(params.H2)):
         raise _cli.ParameterError("H = inf (or H2 = inf) is outside its allowed range here: "
                                   "the Bloch cell needs finite H > 0 (and H2 > 0)")
-    if args.layers or args.mu_profile or args.rho_profile or args.beta_profile or args.resume:
-        raise _cli.ParameterError("--layers, --*-profile and --resume are outside the allowed "
-                                  "options of --model strip")
+    if args.layers or args.mu_profile or args.rho_profile or args.beta_profile:
+        raise _cli.ParameterError("--layers and --*-profile are outside the allowed options of "
+                                  "--model strip")
+    for name, option, default, instead in NOT_FOR_STRIP:
+        if getattr(args, name) != default:
+            raise _cli.ParameterError(f"{option} = {getattr(args, name)} is outside its allowed "
+                                      f"values for --model strip: {default} only ({instead})")
+    if args.check_exact not in ("auto", "no"):
+        raise _cli.ParameterError(f"--check-exact = {args.check_exact} is outside its allowed "
+                                  "values auto | no for --model strip (no exact roots are used)")
+    args.rtol = STRIP_RTOL if args.rtol is None else args.rtol
     _cli.positive_int("--strip-cells", args.strip_cells, 2, 1000)
     _cli.positive_int("--strip-ny", args.strip_ny, 1, 1000)
     _cli.positive_int("--strip-degree", args.strip_degree, 1, 4)
@@ -74,24 +112,35 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray]:
     return params, np.unique(_cli.parse_k(args.k))
 
 
-def solve_k(comm: object, params: Params, k: float, args: argparse.Namespace
-            ) -> tuple[list[dict], dict]:
-    """The strip at ``k`` and, on rank 0, its comparison with the 1D sets (collective)."""
+def solve_k(comm: object, params: Params, k: float, args: argparse.Namespace,
+            k_next: float | None = None) -> tuple[list[dict], dict]:
+    """The strip at ``k`` and, on rank 0, its comparison with the 1D sets (collective).
+
+    With ``k_next`` each eigenvalue is also continued there (the links of the labels).
+    """
     t0 = time.perf_counter()
     box = ss.strip_box(params, k, args.re_min, args.re_max, args.strip_c_max, args.omega0)
-    spec = ss.strip_spectrum(comm, params, k, box, cells_per_wavelength=args.strip_cells,
-                             ny=args.strip_ny, degree=args.strip_degree)
+    mesh = {"cells_per_wavelength": args.strip_cells, "ny": args.strip_ny,
+            "degree": args.strip_degree}
+    spec = ss.strip_spectrum(comm, params, k, box, **mesh)
+    if k_next is not None and len(spec.values):
+        t_c = time.perf_counter()
+        ks = np.linspace(k, k_next, sweep.TRACK_SUBSTEPS + 1)
+        spec.next_values, _ = ss.continue_values(comm, params, ks, spec.values, **mesh)
+        spec.seconds["continuation"] = time.perf_counter() - t_c
     t1 = time.perf_counter()
     rows, entry = [], {}
     if comm.rank == 0:
-        sets = ss.section_sets(params, k, [*spec.harmonics, 1.0], spec.box, args.rtol,
-                               args.degree, args.cells)
+        sets = ss.section_sets(params, k, [*spec.harmonics, 1.0], spec.box,
+                               min(args.rtol, SECTION_RTOL), args.degree, args.cells)
         dist, per = ss.compare_with_section(spec, sets)
-        rows = ss.strip_rows(spec, dist)
+        rows = ss.strip_rows(spec, dist, args.rtol)
         entry = {"k": float(k), "box": list(spec.box), "unknowns": spec.unknowns,
-                 "counted": spec.counted, "found": len(spec.values), "closed": spec.closed,
-                 "harmonics": per, "seconds": {**spec.seconds, "strip_total": t1 - t0,
-                                               "section_sets": time.perf_counter() - t1}}
+                 "unknowns_estimate": spec.fine_unknowns, "counted": spec.counted,
+                 "found": len(spec.values), "closed": spec.closed, "harmonics": per,
+                 "certificate": [r["certificate"] for r in rows],
+                 "seconds": {**spec.seconds, "strip_total": t1 - t0,
+                             "section_sets": time.perf_counter() - t1}}
     return rows, entry
 
 
@@ -100,26 +149,50 @@ def run(comm: object, args: argparse.Namespace, outputs: tuple[str, ...]) -> int
     params, ks = validate(args)
     config = {"model": "strip", "params": params.as_dict(), "k": [float(v) for v in ks],
               "re_min": args.re_min, "re_max": args.re_max, "strip_c_max": args.strip_c_max,
-              "omega0": args.omega0, "strip": {"cells_per_wavelength": args.strip_cells,
-                                               "ny": args.strip_ny, "degree": args.strip_degree},
-              "section": {"rtol": args.rtol, "degree": args.degree, "cells": args.cells}}
-    with _cli.RunFolder(comm, args.out, "sweep_k", config, outputs=outputs) as run_:
-        t_start, rows, per_k = time.perf_counter(), [], []
-        for k in ks:
-            r, entry = solve_k(comm, params, float(k), args)
-            rows += r
-            per_k.append(entry)
-            if comm.rank == 0 and not args.quiet:
-                _cli.say(f"k = {k:g}: {entry['found']} eigenvalues (counted {entry['counted']}"
-                         f"), {entry['seconds']['strip_total']:.1f} s", err=True)
+              "omega0": args.omega0, "rtol": args.rtol,
+              "strip": {"cells_per_wavelength": args.strip_cells, "ny": args.strip_ny,
+                        "degree": args.strip_degree},
+              "section": {"degree": args.degree, "cells": args.cells}}
+    with _cli.RunFolder(comm, args.out, "sweep_k", config, resume=args.resume, resumable=True,
+                        outputs=outputs) as run_:
+        t_start = time.perf_counter()
+        parts = run_.parts("raw", "k{:05d}", count=len(ks))  # --resume: the k values left
+        for i in parts.todo:
+            k = float(ks[i])
+            rows, entry = solve_k(comm, params, k, args,
+                                  float(ks[i + 1]) if i + 1 < len(ks) else None)
+            if comm.rank == 0:  # a KResult's fields (sweep.k_result_from_json) + the entry
+                parts.save(i, KResult(k, rows, None, entry["counted"], tuple(entry["box"]),
+                                      entry["closed"], "", entry["seconds"]["strip_total"]
+                                      ).as_dict() | {"entry": entry})
+                if not args.quiet:
+                    _cli.say(f"k = {k:g}: {entry['found']} eigenvalues (counted "
+                             f"{entry['counted']}), {entry['seconds']['strip_total']:.1f} s",
+                             err=True)
         code = 0
         if comm.rank == 0:
+            saved = [parts.load(i) for i in range(len(ks))]
+            results = [sweep.k_result_from_json(d) for d in saved]
+            per_k = [_entry_back(d["entry"]) for d in saved]
+            rows = [r for res in results for r in res.rows]
+            if len(results) > 1:  # c0, c1, ... over k, the same names in every run
+                sweep.label_by_continuation(results)
+                ss.canonical_labels(rows)
             summary = summarise(config, rows, per_k, comm.size, WHY_BOX)
+            summary["resume"] = {"resumed": run_.resumed, "computed_k": len(parts.todo)}
             summary["timing_s"] = {"wall": time.perf_counter() - t_start}
-            _write(run_.path, rows, summary)
+            _write(run_.path, results, summary, params, not args.no_plot)
             code = report(summary, run_.path)
         code = comm.bcast(code)
     return code
+
+
+def _entry_back(entry: dict) -> dict:
+    """A saved ``k``'s entry read back from strict JSON: infinite distances restored."""
+    for v in entry["harmonics"].values():
+        if v["max_rel_distance"] in ("inf", "-inf"):
+            v["max_rel_distance"] = float(v["max_rel_distance"])
+    return entry
 
 
 def summarise(config: dict, rows: list[dict], per_k: list[dict], ranks: int, why: str) -> dict:
@@ -130,36 +203,67 @@ def summarise(config: dict, rows: list[dict], per_k: list[dict], ranks: int, why
             if v["max_rel_distance"] is not None:
                 by_h[h] = max(by_h.get(h, 0.0), v["max_rel_distance"])
     ones = [e["harmonics"]["1"] for e in per_k]
-    best = max(rows, key=lambda r: r["re_lambda"], default=None)
+    # a conjugate pair (harmonics h and -h, real parts equal to rounding): Im <= 0 first, as
+    # the region solver orders them, so that serial and MPI runs name the same row
+    best = max(rows, key=lambda r: (round(r["re_lambda"], 9), -r["im_lambda"]), default=None)
+    ests = [r["error_estimate"] for r in rows if math.isfinite(r["error_estimate"])]
+    open_k = [e["k"] for e in per_k if not e["closed"]]
+    if best is not None:  # as the section's: its row ok and every k's count closed
+        best = best | {"certified": best["status"] == "ok" and not open_k}
     return {**config, "box_reason": why, "versions": _cli.versions(), "command": _cli.command(),
             "mpi": {"ranks": ranks}, "certificate": {
+                "statement": "fe: the count (argument principle on MUMPS's log det) equals the "
+                "eigenvalues found, and the row's estimate against degree p + 1 on the same "
+                "mesh is within rtol; no exact root is used",
                 "rows": len(rows), "rows_ok": sum(r["status"] == "ok" for r in rows),
-                "k_not_closed": [e["k"] for e in per_k if not e["closed"]]},
+                "k_not_closed": open_k},
+            "accuracy": {"rtol": config["rtol"],
+                         "max_error_estimate": max(ests) if ests else None,
+                         "estimates_missing": len(rows) - len(ests)},
             "harmonic_1": {"strip": sum(v["strip"] for v in ones),
                            "section": sum(v["section"] for v in ones),
                            "max_rel_distance": by_h.get("1")},
-            "max_rel_distance_by_harmonic": by_h, "most_unstable": best, "per_k": per_k}
+            "max_rel_distance_by_harmonic": by_h, "most_unstable": best,
+            "labels": TRACK_STATEMENT if len(per_k) > 1 else LABEL_STATEMENT, "per_k": per_k}
 
 
-def _write(out: str, rows: list[dict], summary: dict) -> None:
+def _write(out: str, results: list[KResult], summary: dict, params: Params,
+           plot: bool) -> None:
     with _cli.atomic_open(os.path.join(out, "spectrum.csv"), "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(FIELDS))
         w.writeheader()
-        w.writerows(sweep.csv_row(r, FIELDS) for r in rows)
+        w.writerows(sweep.csv_rows(results, FIELDS))
     _cli.write_json(os.path.join(out, "summary.json"), summary)
+    if plot and any(res.rows for res in results):
+        best = summary["most_unstable"]
+        c = summary
+        title = (f"2D Bloch cell (P{c['strip']['degree']}, {c['strip']['cells_per_wavelength']}"
+                 f" x {c['strip']['ny']} cells): every eigenvalue with {c['re_min']:g} <= Re <= "
+                 f"{c['re_max']:g}, |Im| <= {c['strip_c_max']:g} k c_d + {c['omega0']:g}\n"
+                 f"colour: harmonic h (wavenumber h k); f={params.f:g}, gamma={params.gamma:g}, "
+                 f"beta={params.beta:g}, Delta={params.Delta:g}, H={params.H:g}, bc={params.bc}")
+        region = Region(re_min=c["re_min"], re_max=c["re_max"], c_max=c["strip_c_max"])
+        plot_dispersion(os.path.join(out, "dispersion.png"), params, region, results, [],
+                        None if best is None else best | {"branch": best["label"]},
+                        c["params"], colour_by="harmonic", title=title)
 
 
 def report(summary: dict, out: str) -> int:
-    """Rank 0: the result line (and a warning if a count did not close); exit code."""
+    """Rank 0: the result line (and a warning if a count did not close or rows are flagged)."""
     cert, one = summary["certificate"], summary["harmonic_1"]
     code = 0
-    if cert["k_not_closed"]:
+    if cert["k_not_closed"] or cert["rows_ok"] < cert["rows"]:
         code = 1
-        print(f"warning: count not closed at k = {cert['k_not_closed']}", flush=True)
+        print(f"warning: {cert['rows'] - cert['rows_ok']} of {cert['rows']} eigenvalue(s) "
+              f"flagged, count not closed at k = {cert['k_not_closed']}; see status in "
+              f"{out}/spectrum.csv", flush=True)
     best = summary["most_unstable"]
-    top = "none" if best is None else (f"{best['label']} at k = {best['k']:g}: Lambda = "
-                                       f"{best['re_lambda']:.6g} {best['im_lambda']:+.6g}i")
-    print(f"strip: {cert['rows']} eigenvalues over {len(summary['per_k'])} k value(s); "
-          f"harmonic 1: {one['strip']} (1D: {one['section']}), max relative distance "
-          f"{one['max_rel_distance']}; most unstable {top} -> {out}", flush=True)
+    top = "none" if best is None else (
+        f"{best['label']} ({'certified' if best['certified'] else 'NOT certified'}) at k = "
+        f"{best['k']:g}: Lambda = {best['re_lambda']:.6g} {best['im_lambda']:+.6g}i")
+    print(f"strip: {cert['rows']} eigenvalues over {len(summary['per_k'])} k value(s), "
+          f"{cert['rows_ok']} ok (largest estimate {summary['accuracy']['max_error_estimate']}"
+          f", rtol {summary['accuracy']['rtol']:g}); harmonic 1: {one['strip']} (1D: "
+          f"{one['section']}), max relative distance {one['max_rel_distance']}; most unstable "
+          f"{top} -> {out}", flush=True)
     return code

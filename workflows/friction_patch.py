@@ -9,8 +9,10 @@ swaps the two sets (a strengthening patch in a weakening interface).
 
 For every ``Lp``: every eigenvalue in the box (``--box``) found and counted by the argument
 principle (``forms.studies.patch.patch_spectrum``, options prefix ``patch_region_``, its LU
-``patch_region_det_``), the fastest kept with its P+1 estimate. Writes, as each ``Lp``
-finishes (``--resume`` keeps them): ``friction_patch.csv`` and ``friction_patch.json``; at the
+``patch_region_det_``), the fastest kept with its P+1 estimate. As each ``Lp`` finishes, its
+row and certificate are saved as a part ``raw/Lp<Lp>.json`` (:mod:`_parts`; ``--resume`` keeps
+them and computes only the other lengths, else they are cleared) and ``friction_patch.csv`` and
+``friction_patch.json`` are written from the parts; at the
 end ``friction_patch.png`` (``max Re Lambda`` against ``Lp``, the critical length ``Lc`` where
 it crosses 0, interpolated, and the published nucleation estimates) and ``patch_mode_<Lp>.png``
 (the fastest mode at ``--pictures`` lengths).
@@ -24,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import os
 
 import _cli
 import _plot_patch
@@ -35,7 +36,8 @@ from forms.studies import patch as fp
 from forms.studies.strip_mode import interface_of
 
 PETSC_PREFIXES = ("patch_region_", "patch_region_det_")
-OUTPUTS = ("friction_patch.csv", "friction_patch.json", "friction_patch.png", "patch_mode_*.png")
+OUTPUTS = ("friction_patch.csv", "friction_patch.json", "friction_patch.png", "patch_mode_*.png",
+           "raw")
 COLUMNS = ("Lp", "re_lambda", "im_lambda", "residual", "estimate", "found", "counted", "closed")
 
 
@@ -58,7 +60,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--nev", type=int, default=8, help="eigenpairs per tile solve")
     p.add_argument("--lateral", choices=("free", "roller", "clamped"), default="free")
     p.add_argument("--pictures", type=int, default=3, help="mode pictures (evenly spaced Lp)")
-    p.add_argument("--resume", action="store_true", help="keep the Lp already in the CSV")
+    p.add_argument("--resume", action="store_true", help="keep the finished Lp (raw/Lp*.json)")
     p.add_argument("--out", default="out/friction_patch", help="output directory")
     return p
 
@@ -91,13 +93,6 @@ def validate(args: argparse.Namespace):
     return params, inside, lp, box
 
 
-def _read_done(path: str) -> list[dict]:
-    if not os.path.exists(path):
-        return []
-    with open(path) as f:
-        return list(csv.DictReader(f))
-
-
 def main(comm=None, argv: list[str] | None = None) -> int:
     """Scan the patch lengths; exit code 1 if some count did not close."""
     args, comm = _cli.start(build_parser(), argv, comm)
@@ -108,51 +103,55 @@ def main(comm=None, argv: list[str] | None = None) -> int:
     with _cli.RunFolder(comm, args.out, "friction_patch", record, resume=args.resume,
                         resumable=True, outputs=OUTPUTS) as run:
         csv_path, json_path = run.file("friction_patch.csv"), run.file("friction_patch.json")
-        rows = comm.bcast(_read_done(csv_path) if run.resumed and comm.rank == 0 else [], root=0)
-        _cli.say_plan(comm, f"{len(lp)} patch length(s)", fp.estimate_seconds(_cli.block_unknowns(
-            args.length, args.cells_per_unit, args.ny, args.degree, params.two_body), len(lp)))
+        parts = run.parts("raw", "Lp*", payloads=True)  # one per finished Lp (--resume)
+        done = {float(d["row"]["Lp"]): d for d in parts.present.values()}
         shown = set(lp[np.linspace(0, len(lp) - 1, min(args.pictures, len(lp))).astype(int)])
-        certs = {}
+        todo = [x for x in lp if float(x) not in done or x in shown]
+        _cli.say_plan(comm, f"{len(todo)} patch length(s)", fp.estimate_seconds(_cli.block_unknowns(
+            args.length, args.cells_per_unit, args.ny, args.degree, params.two_body), len(todo)))
         for x in lp:
-            if any(float(r["Lp"]) == float(x) for r in rows) and x not in shown:
+            if float(x) in done and x not in shown:
                 continue
             spec = fp.patch_spectrum(
                 comm, params, args.length, fp.Patch(float(x), inside.Delta, inside.f,
                                                      inside.gamma),
                 cells_per_unit=args.cells_per_unit, ny=args.ny, degree=args.degree,
                 lateral=args.lateral, box=box, nev=args.nev, keep_mode=x in shown)
-            rows = [r for r in rows if float(r["Lp"]) != float(x)] + [_row(x, spec)]
-            certs[f"{x:g}"] = spec.record()
+            part = {"row": _row(x, spec), "certificate": spec.record()}
+            done[float(x)] = parts.save(f"Lp{float(x)!r}", part) if comm.rank == 0 else part
             data = interface_of(spec.u, params) if spec.u is not None else None
             if comm.rank == 0:
-                _write(csv_path, json_path, rows, record, certs)
+                _write(csv_path, json_path, done, record)
                 if data is not None:
                     z = spec.values[0]
                     _plots.plot_interface(data, run.file(f"patch_mode_{x:g}.png"),
                                           f"fastest mode, Lp = {x:g}: Lambda = {z:.5f}", record)
         weak = min(params, inside, key=lambda q: q.Delta)  # the velocity-weakening side
-        return _finish(comm, args, rows, record, certs, weak, run)
+        return _finish(comm, args, done, record, weak, run)
 
 
 def _row(x: float, spec) -> dict:
+    """The CSV row of one ``Lp`` as the strings csv writes (so a part keeps ``nan``)."""
     z = spec.values[0] if spec.found else complex("nan")
-    return dict(zip(COLUMNS, (x, z.real, z.imag, spec.residuals[0] if spec.found else np.nan,
-                               spec.estimates[0] if spec.found else np.nan, spec.found,
-                               spec.counted, "yes" if spec.closed else "no"), strict=True))
+    return {c: str(float(v) if isinstance(v, float) else v) for c, v in zip(COLUMNS, (
+        float(x), z.real, z.imag, spec.residuals[0] if spec.found else np.nan,
+        spec.estimates[0] if spec.found else np.nan, spec.found, spec.counted,
+        "yes" if spec.closed else "no"), strict=True)}
 
 
-def _write(csv_path: str, json_path: str, rows: list, record: dict, certs: dict) -> None:
-    rows = sorted(rows, key=lambda r: float(r["Lp"]))
+def _write(csv_path: str, json_path: str, done: dict, record: dict) -> None:
+    """The CSV and JSON from the finished lengths' parts ``{Lp: part}``, by increasing Lp."""
     with _cli.atomic_open(csv_path, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=COLUMNS)
         w.writeheader()
-        w.writerows(rows)
+        w.writerows(done[x]["row"] for x in sorted(done))
+    certs = {f"{x:g}": done[x]["certificate"] for x in sorted(done)}
     _cli.write_json(json_path, {**record, "certificates": certs, "versions": _cli.versions(),
                                 "command": _cli.command()})
 
 
-def _finish(comm, args, rows, record, certs, weak, run) -> int:
-    rows = sorted(rows, key=lambda r: float(r["Lp"]))
+def _finish(comm, args, done, record, weak, run) -> int:
+    rows = [done[x]["row"] for x in sorted(done)]
     lp = np.array([float(r["Lp"]) for r in rows])
     g = np.array([float(r["re_lambda"]) for r in rows])
     closed = np.array([r["closed"] == "yes" for r in rows])
@@ -160,8 +159,7 @@ def _finish(comm, args, rows, record, certs, weak, run) -> int:
     est = fp.nucleation_estimates(weak, weak.Delta)
     if comm.rank == 0:
         record = {**record, "Lc": lc, "estimates": est}
-        _write(run.file("friction_patch.csv"), run.file("friction_patch.json"), rows, record,
-               certs)
+        _write(run.file("friction_patch.csv"), run.file("friction_patch.json"), done, record)
         _plot_patch.plot_growth(lp, g, closed, lc, est, run.file("friction_patch.png"),
                                 f"friction patch in a block L = {args.length:g}"
                                 + (" (reversed)" if args.reverse else ""), record)

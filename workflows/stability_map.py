@@ -9,9 +9,10 @@ in the region (argument principle on ``det_M``; ``--re-min``, ``--c-max``) at ``
 ``k H`` from ``--kH-min`` to ``--kH-max`` (geometric), the largest local maxima refined along
 their family (``analytic.studies.stability_map.map_point``). "Stable" means a certified zero count
 at every grid ``k`` (nothing is proven between grid points). Points are shared over the ranks and
-each is written at once to ``DIR/raw/p#####.json`` (``--resume`` continues a run with the same
-parameters). Writes ``stability_map.csv``, ``summary.json``, ``stability_map.png`` (with the
-boundary max Re Lambda = 0 and the closed-form k H -> infinity boundary of ``phase_diagram.py``).
+each is written at once to ``DIR/raw/p#####.json``, a part of :mod:`_parts` (``--resume``
+continues a run with the same parameters: the points there are not computed again). Writes
+``stability_map.csv``, ``summary.json``, ``stability_map.png`` (with the boundary
+max Re Lambda = 0 and the closed-form k H -> infinity boundary of ``phase_diagram.py``).
 Exit code 1 if a root count failed somewhere (the point is then not called stable).
 """
 
@@ -19,8 +20,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import glob
-import json
 import math
 import os
 
@@ -90,26 +89,22 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
               "region": region.as_dict(base)}
     with _cli.RunFolder(comm, args.out, "stability_map", config, resume=args.resume,
                         resumable=True, outputs=OUTPUTS) as run:
-        _cli.say_plan(comm, f"{nx * ny} map points x {len(khs)} k H values", sm.estimate_seconds(
-            base, x, y, khs, region, comm.size), "(plus the refinement of each point's peaks)")
-        raw = run.file("raw")
-        if comm.rank == 0:
-            os.makedirs(raw, exist_ok=True)
-            for name in [] if run.resumed else glob.glob(os.path.join(raw, "p*.json")):
-                os.remove(name)
-        comm.Barrier()
+        parts = run.parts("raw", "p{:05d}", count=nx * ny)  # cleared unless --resume
+        todo = set(parts.todo)
+        t_est = sm.estimate_seconds(base, x, y, khs, region, comm.size) * len(todo) / (nx * ny)
+        _cli.say_plan(comm, f"{len(todo)} map point(s) x {len(khs)} k H values", t_est,
+                      "(plus the refinement of each point's peaks)")
 
         def point(i: int) -> dict:
-            path = os.path.join(raw, f"p{i:05d}.json")
-            if os.path.exists(path):  # --resume: done by the interrupted run
-                with open(path) as fh:
-                    return json.load(fh)
+            if i not in todo:  # --resume: done by the interrupted run
+                row = parts.load(i)  # strict JSON: no closed form (NaN) came back as null
+                return {**row, "delta_closed_form": math.nan if row["delta_closed_form"] is None
+                        else row["delta_closed_form"]}
             ix, iy = i % nx, i // nx
             p = sm.point_params(base, (x[0], x[1][ix]), (y[0], y[1][iy]))
-            row = {"ix": ix, "iy": iy, "x": float(x[1][ix]), "y": float(y[1][iy]),
-                   **sm.map_point(p, khs, region), "delta_closed_form": sm.closed_form_delta(p)}
-            _cli.write_json(path, row, indent=None)  # strict JSON: NaN -> null
-            return row
+            return parts.save(i, {"ix": ix, "iy": iy, "x": float(x[1][ix]), "y": float(y[1][iy]),
+                                  **sm.map_point(p, khs, region),
+                                  "delta_closed_form": sm.closed_form_delta(p)})
 
         rows = _cli.progress_mapper(comm, "map points", unit=" points")(  # a bar from the start
             [1.0] * (nx * ny), point)

@@ -69,6 +69,7 @@ from forms.studies import sweep  # noqa: E402
 
 #: Default k grid: the paper's range (k H up to 3 at H = 0.5).
 DEFAULT_K = "0.05:6:120"
+DEFAULT_RTOL = 1e-8  # --rtol of --model section and layers
 PETSC_PREFIXES: tuple[str, ...] = _sweep_strip.PETSC_PREFIXES  # --model strip only
 OUTPUTS = ("spectrum.csv", "summary.json", "dispersion.png", "raw", "run.json", "run.lock")
 
@@ -90,9 +91,10 @@ def build_parser() -> argparse.ArgumentParser:
                     "mode")
     ap.add_argument("--omega0", type=float, default=0.0,
                     help="region R: |Im Lambda| allowance at k -> 0 (0: 2 pi/(beta H))")
-    ap.add_argument("--rtol", type=float, default=1e-8,
+    ap.add_argument("--rtol", type=float, default=None,
                     help="relative accuracy every eigenvalue must reach to be 'ok'; sets the "
-                    "default discretisation")
+                    f"default discretisation (default {DEFAULT_RTOL:g}; --model strip: "
+                    f"{_sweep_strip.STRIP_RTOL:g})")
     ap.add_argument("--degree", type=int, default=0, help="Lagrange degree 1..6 (0: auto, P4)")
     ap.add_argument("--cells", type=int, default=0,
                     help="cells of the interval mesh (0: chosen from the region and --rtol)")
@@ -146,6 +148,7 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
                                   " model needs a finite H > 0")
     k_all = _cli.parse_k(args.k)
     k = np.unique(k_all)
+    args.rtol = DEFAULT_RTOL if args.rtol is None else args.rtol
     _cli.check_section_options(args)  # --degree, --cells, --rtol, --omega0
     if args.solver not in SOLVERS:
         raise _cli.ParameterError(f"--solver = {args.solver} is outside its allowed values "

@@ -32,9 +32,13 @@ exact determinant in bands ``W < |Im| < 3 W`` and states the measured ratios.
 
 Not derived (:func:`tail_bound` returns ``None``): ``alpha_pc > 0`` (stress top: the
 denominator ``-alpha_pc omega s + a/gamma`` can vanish, the first-order shift does not decay with
-``omega``; velocity top: only ``|den| >= |a|`` holds, which the ``e`` term spoils) and a
-deformable substrate (the interface is no longer ``u_y = 0``: the resonances are
-those of the stack).
+``omega``; velocity top: only ``|den| >= |a|`` holds, which the ``e`` term spoils).
+
+A deformable substrate (finite ``mu2``): the resonances are those of the stack's dilatational
+rod; :mod:`analytic.physics.tail_stack` derives the first-order shift there and bounds it over
+the stack's own phases (not over independent phases, on which it is unbounded). Not derived for
+a half-space substrate or slider (``H2`` or ``H`` infinite: no resonances, radiation) nor for
+phase rates that are not commensurate (:func:`analytic.physics.tail_stack.period`).
 """
 
 from __future__ import annotations
@@ -44,6 +48,7 @@ import math
 import numpy as np
 
 from analytic.params import Params
+from analytic.physics import tail_stack
 
 #: Grid points in the phase ``H omega`` (on ``[0, pi/2]``) for the supremum over it.
 _N_PHASE = 4001
@@ -58,8 +63,11 @@ def velocity_scale(p: Params) -> float:
 
     ``1/beta`` for the rigid substrate; with a deformable substrate also the substrate's
     ``c_d2 = sqrt(mu2/rho2)/beta2``, capped at :data:`SCALE_CAP` times the slider's ``c_d``
-    (not derived: a nearly rigid substrate, ``mu2 -> inf``, would otherwise ask for its own
-    thickness resonances at ``c_d2 pi / H2``, coupled to the interface only at ``O(1/mu2)``).
+    (a cost rule, not a proof: a nearly rigid substrate would otherwise start the ladder at
+    ``4 c_d2``). The proof does not depend on it: the stack's tail bound
+    (:func:`analytic.physics.tail_stack.stack_tail_bound`) is ``inf`` until ``W > 2 k c_d`` of
+    every layer, so the adaptive region climbs past the cap where it must (e.g. ``mu2 = 100``,
+    ``k = 2``: proven at ``c_max = 12`` of the capped scale, 96 slider ``c_d``).
     """
     c = 1.0 / p.beta
     if p.two_body:
@@ -69,12 +77,19 @@ def velocity_scale(p: Params) -> float:
 
 def why_no_tail_bound(p: Params) -> str:
     """Why :func:`tail_bound` has no bound for ``p`` ("" if it has one)."""
-    if p.two_body:
-        return ("no tail bound derived for a deformable substrate (mu2 finite): the region is "
-                "not proven to hold the fastest mode")
     if p.alpha_pc > 0:
         return ("no tail bound derived for alpha_pc > 0: the region is not proven to hold the "
                 "fastest mode")
+    if p.two_body and not (math.isfinite(p.H) and math.isfinite(p.H2)):
+        return ("no tail bound derived for a half-space (H or H2 = inf): no thickness "
+                "resonances; the region is not proven to hold the fastest mode")
+    if p.two_body and tail_stack.period(p) is None:
+        return ("no tail bound derived for two bodies whose phase rates H, beta H, H2/c_s2, "
+                "H2/c_d2 are not commensurate (ratios p/q, q <= "
+                f"{tail_stack.MAX_DENOMINATOR}): shear resonances of the two bodies come "
+                "arbitrarily close at high frequency, where the first-order expansion behind the "
+                "bound breaks down; "
+                "the region is not proven to hold the fastest mode")
     return ""
 
 
@@ -104,19 +119,22 @@ def tail_bound(p: Params, k: float, W: float) -> float | None:
     """Upper bound on ``Re Lambda`` of every root with ``|Im Lambda| > W`` at wavenumber ``k``.
 
     Args:
-        p: Parameters (rigid substrate; see the module docstring for what is derived).
+        p: Parameters (see the module docstring for what is derived).
         k: Wavenumber ``> 0``.
         W: Frequency ``> 0`` beyond which the bound holds (the region's ``im_max``).
 
     Returns:
         ``k |f_eff| G (1 + k/W) / (beta^2 H W)`` (module docstring), ``inf`` when ``W`` is too
         small for the expansion (``W <= max(k, 1, |Delta - 1|)``), or ``None`` when no bound is
-        derived for ``p`` (:func:`why_no_tail_bound`).
+        derived for ``p`` (:func:`why_no_tail_bound`). Two bodies:
+        :func:`analytic.physics.tail_stack.stack_tail_bound`.
     """
     if why_no_tail_bound(p):
         return None
     k = float(k)
     W = float(W)
+    if p.two_body:
+        return tail_stack.stack_tail_bound(p, k, W)
     if not (W > max(k, 1.0, abs(p.Delta - 1.0))):
         return math.inf
     f_eff = abs(p.f - p.alpha_ld) + p.alpha_ld / W

@@ -202,20 +202,31 @@ def node_bodies(strip: StripMesh, V: dolfinx.fem.FunctionSpace) -> np.ndarray:
     return np.where(ind.x.array.reshape(-1, 2)[:n_owned, 0].real > 0.5, 1, 2)
 
 
+def cellwise(mesh: dolfinx.mesh.Mesh, cells: np.ndarray,
+             pairs: tuple[tuple[float, float], ...]) -> tuple:
+    """Cell-wise (DG0) coefficients of two bodies.
+
+    Per ``(one, two)`` of ``pairs``: a function equal to ``one`` on every cell of ``mesh`` and
+    to ``two`` on ``cells`` (this rank's substrate cells).
+    """
+    Q = dolfinx.fem.FunctionSpace(mesh, ("DG", 0))
+    out = []
+    for one, two in pairs:
+        c = dolfinx.fem.Function(Q)
+        c.x.array[:] = one
+        c.interpolate(lambda x, v=two: np.full(x.shape[1], v), cells=cells)
+        out.append(c)
+    return tuple(out)
+
+
 def materials(strip: StripMesh, params: Params) -> tuple:
     """``(mu, lambda, rho)`` as UFL coefficients: numbers (one body) or cell-wise (DG0)."""
     if not strip.two_body:
         return 1.0, params.lame_lambda, 1.0
-    Q = dolfinx.fem.FunctionSpace(strip.mesh, ("DG", 0))
     sub = strip.cell_tags.indices[strip.cell_tags.values == SUBSTRATE]
-    out = []
-    for one, two in ((1.0, params.mu2), (params.lame_lambda, params.substrate.lame_lambda),
-                     (1.0, params.rho2)):
-        c = dolfinx.fem.Function(Q)
-        c.x.array[:] = one
-        c.interpolate(lambda x, v=two: np.full(x.shape[1], v), cells=sub)
-        out.append(c)
-    return tuple(out)
+    return cellwise(strip.mesh, sub, ((1.0, params.mu2),
+                                      (params.lame_lambda, params.substrate.lame_lambda),
+                                      (1.0, params.rho2)))
 
 
 def _assemble(strip: StripMesh, params: Params, V: dolfinx.fem.FunctionSpace

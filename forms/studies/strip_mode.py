@@ -43,7 +43,7 @@ from analytic.numerics.tracking import Branch, waveguide_lambda
 from analytic.params import Params
 from forms.elasticity import sigma
 from forms.mode_postprocessing import interface_stresses, normalise
-from forms.models.strip import build_strip_problem, solve_modes, strip_mesh_for
+from forms.models.strip import build_strip_problem, cellwise, solve_modes, strip_mesh_for
 from forms.solvers.continuation import (
     CrossSectionMode,
     cross_section_mode,
@@ -295,18 +295,12 @@ def stress_coefficients(u: dolfinx.fem.Function, params: Params) -> tuple:
     if not params.two_body:
         return params.lame_lambda, 1.0
     msh = u.function_space.mesh
-    Q = dolfinx.fem.FunctionSpace(msh, ("DG", 0))
     cmap = msh.topology.index_map(msh.topology.dim)
     cells = np.arange(cmap.size_local + cmap.num_ghosts, dtype=np.int32)
     mid = dolfinx.mesh.compute_midpoints(msh, msh.topology.dim, cells)
-    sub = cells[mid[:, 1] < 0]
-    out = []
-    for one, two in ((params.lame_lambda, params.substrate.lame_lambda), (1.0, params.mu2)):
-        c = dolfinx.fem.Function(Q)
-        c.x.array[:] = one
-        c.interpolate(lambda x, v=two: np.full(x.shape[1], v), cells=sub)
-        out.append(c)
-    return tuple(out)
+    return cellwise(msh, cells[mid[:, 1] < 0], ((params.lame_lambda,
+                                                 params.substrate.lame_lambda),
+                                                (1.0, params.mu2)))
 
 
 def interface_of(u: dolfinx.fem.Function, params: Params) -> dict[str, np.ndarray]:

@@ -14,8 +14,10 @@
 # trees' own ./run (an older ./run would reinstall the shared environment for its own
 # requirements). Serial pass: TEST_WORKERS pytest-xdist workers (default 0: one process, less
 # noise); SUITE_MPI=1 adds the mpirun -n 2 pass (ids not marked serial), same order. Extra
-# pytest options: SUITE_PYTEST (e.g. '-m "not slow"'). Prints the wall times, pytest's last
-# line of each run and the ratio NEW/OLD; $SUITE_WORK/times.txt keeps them.
+# pytest options: SUITE_PYTEST (e.g. '-m "not slow"'). SUITE_TOGETHER=1 runs OLD and NEW at
+# the same time (each pass of both side by side: on a machine shared with other jobs both see
+# the same load; with TEST_WORKERS=0 that is two processes on the two cores). Prints the wall
+# times, pytest's last line of each run and the ratio NEW/OLD; $SUITE_WORK/times.txt keeps them.
 # The full suite takes about 20 min per commit on 2 idle cores: run it on a quiet machine.
 set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
@@ -89,8 +91,13 @@ run_pass() {  # run_pass <side> <pass> -> seconds on stdout, pytest's last line 
 : > "$WORK/times.txt"
 for pass in "${passes[@]}"; do
   [ -s "$WORK/ids_$pass.txt" ] || { echo "$pass pass: no common test id" >&2; continue; }
-  t_old=$(run_pass old "$pass")
-  t_new=$(run_pass new "$pass")
+  if [ "${SUITE_TOGETHER:-0}" = 1 ]; then  # both at once: the same machine load for both
+    run_pass old "$pass" > "$WORK/t_old" & run_pass new "$pass" > "$WORK/t_new" & wait
+    t_old=$(cat "$WORK/t_old"); t_new=$(cat "$WORK/t_new")
+  else
+    t_old=$(run_pass old "$pass")
+    t_new=$(run_pass new "$pass")
+  fi
   echo "$pass old: ${t_old} s ($(tail -n 1 "$WORK/old_$pass.log"))" | tee -a "$WORK/times.txt"
   echo "$pass new: ${t_new} s ($(tail -n 1 "$WORK/new_$pass.log"))" | tee -a "$WORK/times.txt"
   echo "$t_old $t_new" | awk -v p="$pass" '{printf "%s new/old = %.3f\n", p, $2 / $1}' \

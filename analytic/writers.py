@@ -1,8 +1,13 @@
-"""Analytic dispersion curves (growth rate and frequency vs k) as CSV + JSON + PNG."""
+"""The files of ``python -m analytic``: dispersion curves and the generalized-Rayleigh map.
+
+The command line's writers (CSV + JSON + PNG); the physics and the root machinery of
+:mod:`analytic` write nothing.
+"""
 
 from __future__ import annotations
 
 import csv
+import math
 import os
 import shlex
 import sys
@@ -13,6 +18,7 @@ from analytic.cli import dumps, versions, world_size
 from analytic.numerics.branches import BranchResult, follow_branches
 from analytic.params import Params
 from analytic.physics.smallk import lambda_smallk
+from analytic.physics.twobody import gr_existence_map, rayleigh_speed
 
 
 def plot_dispersion(p: Params, results: list[BranchResult], path: str,
@@ -108,3 +114,60 @@ def write_dispersion(p: Params, k: np.ndarray, n_branches: int, out: str) -> lis
                               "Comment": dumps(p.as_dict()),
                               "Software": "bimaterial-stability " + dumps(versions())})
     return [csv_path, json_path, png_path]
+
+
+def write_gr_map(out: str, beta: float = 0.5, beta2: float | None = None,
+                 mu2_range: tuple[float, float] = (0.01, 100.0),
+                 rho2_range: tuple[float, float] = (0.1, 10.0), n: int = 121) -> list[str]:
+    """Where the generalized Rayleigh wave exists in the ``(mu2, rho2)`` plane: CSV, JSON, PNG.
+
+    Log-spaced ``n x n`` grid; the colour is the speed relative to ``c_max = min(c_s1, c_s2)``
+    (1: the wave merges into the slower shear wave at the existence boundary); the lines of
+    equal shear wave speed (``mu2 = rho2``: speed = Rayleigh speed) and of equal shear
+    impedance (``mu2 rho2 = 1``) are drawn. Returns the written paths.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    os.makedirs(out, exist_ok=True)
+    mu2s = np.logspace(math.log10(mu2_range[0]), math.log10(mu2_range[1]), n)
+    rho2s = np.logspace(math.log10(rho2_range[0]), math.log10(rho2_range[1]), n)
+    speed = gr_existence_map(mu2s, rho2s, beta, beta2)
+    c_max = np.minimum(1.0, np.sqrt(mu2s[None, :] / rho2s[:, None]))
+    paths = [os.path.join(out, f"gr_map.{ext}") for ext in ("csv", "json", "png")]
+    with open(paths[0], "w", newline="") as fh:
+        w = csv.writer(fh, lineterminator="\n")
+        w.writerow(["mu2", "rho2", "exists", "speed", "speed_over_cmax"])
+        for i, r in enumerate(rho2s):
+            for j, m in enumerate(mu2s):
+                s = speed[i, j]
+                w.writerow([f"{m:.8g}", f"{r:.8g}", int(np.isfinite(s)),
+                            "" if not np.isfinite(s) else f"{s:.12g}",
+                            "" if not np.isfinite(s) else f"{s / c_max[i, j]:.12g}"])
+    b2 = beta if beta2 is None else beta2
+    meta = {"beta": beta, "beta2": b2, "mu2_range": list(mu2_range),
+            "rho2_range": list(rho2_range), "n": n,
+            "fraction_exists": float(np.isfinite(speed).mean()),
+            "rayleigh_speed_body1": rayleigh_speed(beta),
+            "model": "two half-spaces, frictionless contact without opening (Weertman 1963)"}
+    with open(paths[1], "w") as fh:
+        fh.write(dumps(meta, indent=2) + "\n")
+    fig, ax = plt.subplots(figsize=(6.2, 5.0), constrained_layout=True)
+    pc = ax.pcolormesh(mu2s, rho2s, speed / c_max, shading="auto", cmap="viridis")
+    fig.colorbar(pc, ax=ax, label="GR speed / min(c_s1, c_s2)")
+    ax.plot(mu2s, mu2s, "w--", lw=1, label="c_s2 = c_s1")
+    ax.plot(mu2s, 1.0 / mu2s, "w:", lw=1, label="rho2 c_s2 = rho1 c_s1")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlim(*mu2_range)
+    ax.set_ylim(*rho2_range)
+    ax.set_xlabel("mu2 / mu1")
+    ax.set_ylabel("rho2 / rho1")
+    ax.set_title(f"generalized Rayleigh wave exists (coloured); beta = {beta:g}, beta2 = {b2:g}",
+                 fontsize=9)
+    ax.legend(loc="lower right", fontsize=8)
+    fig.savefig(paths[2], dpi=110)
+    plt.close(fig)
+    return paths

@@ -48,7 +48,8 @@ PLAN = re.compile(r"plan: (?P<what>.+) on (?P<ranks>\d+) rank\(s\), about (?P<s>
 #: (measured / estimate) when calibrated, 2026-11-25, load 3-12: counts 0.7-1.4 (rigid), 0.1-1.4
 #: (two bodies); block lengths 0.9-1.9; patch lengths 0.4-2.4; time steps 0.5-1.4. This test's
 #: scene runs, twice at a load of 10-13: finite_block 1.3, 3.2; friction_patch 0.9, 2.0;
-#: time_domain 2.3, 4.2.
+#: time_domain 2.3, 4.2; once at 4: finite_block 0.62, friction_patch 0.45, time_domain 1.9,
+#: figures 1.8, methods_chart 1.1, phase_diagram 0.28 (then at 3 s a point, now 2 s: 0.43).
 FACTOR = 10.0
 
 

@@ -179,10 +179,10 @@ def tasks(rows: list[tuple[float, float]],
 
 
 #: Seconds of one point of :func:`tasks` (its threshold: bracketing, then Brent bisection) on
-#: one rank. Measured on this 2-core machine (2026-11-25, in the scene): 6 points in 11.4 s at
-#: a load of 3 (1.9 s each); the default's first 54 of 210 points in 249 s at a load of 11
-#: (4.6 s each, 1-16 s).
-TASK_SECONDS = 3.0
+#: one rank. Measured on this 2-core machine (2026-11-25, in the scene): ``--f 0.3 --beta 0.5
+#: --n-gamma 2`` (9 points) 11.4 s and 7.7 s at a load of 3-4 (1.3 and 0.85 s each); the
+#: default's first 54 of 210 points in 249 s at a load of 11 (4.6 s each, 1-16 s).
+TASK_SECONDS = 2.0
 
 
 def estimate_seconds(n_tasks: int, ranks: int) -> float:

@@ -27,10 +27,11 @@ one job each (docs/workflows.md):
 
 - :mod:`_options`: parser rules and the PETSc/SLEPc option filter (:func:`make_parser`,
   :func:`start`, :func:`split_petsc`, :func:`check_petsc_options`);
-- :mod:`_grids`: :func:`parse_grid`;
+- :mod:`_grids`: :func:`parse_grid`, the solver limits, :func:`block_unknowns`;
 - :mod:`_provenance`: :func:`command`, :func:`versions`, :func:`png_metadata`, strict JSON
   (:func:`dumps`: NaN -> null, inf -> "inf");
-- :mod:`_sharing`: :func:`rank`, :func:`say`, :func:`share_by_cost`, :func:`map_shared`;
+- :mod:`_sharing`: :func:`rank`, :func:`say`, :func:`say_plan`, :func:`share_by_cost`,
+  :func:`map_shared`;
 - :mod:`_writing`: whole-or-nothing output files (:func:`atomic_open`, :func:`write_json`,
   :func:`save_figure`, :func:`atomic_files`);
 - :mod:`_runfolder`: :class:`RunFolder` (checks, lock, record, ``--resume``);
@@ -57,6 +58,7 @@ from _grids import (
     SWEEP_DELTA_MAX,
     SWEEP_W_MAX,
     SWEEP_WH_MAX,
+    block_unknowns,
     check_block_size,
     check_branch_kh,
     check_roots_region,
@@ -86,7 +88,17 @@ from _provenance import (
     versions,
 )
 from _runfolder import LOCK, LOCK_GRACE, RECORD, RunFolder
-from _sharing import map_shared, my_share, quiet_jit, rank, say, share_by_cost, world_size
+from _sharing import (
+    map_shared,
+    my_share,
+    plan_line,
+    quiet_jit,
+    rank,
+    say,
+    say_plan,
+    share_by_cost,
+    world_size,
+)
 from _supervise import EXIT_FAILED, EXIT_USAGE, run
 from _writing import atomic_files, atomic_open, is_no_space, save_figure, write_json
 

@@ -59,11 +59,18 @@ SWEEP_DELTA_MAX = 1000.0
 BLOCK_UNKNOWNS_MAX = 100_000
 
 
+def block_unknowns(length: float, cells_per_unit: int, ny: int, degree: int,
+                   two_body: bool = False) -> int:
+    """Unknowns of a finite block's mesh (``ceil(L cells_per_unit) x ny`` cells, P``degree``)."""
+    nx = math.ceil(length * cells_per_unit)
+    return 2 * (degree * nx + 1) * (degree * ny + 1) * (2 if two_body else 1)
+
+
 def check_block_size(length: float, cells_per_unit: int, ny: int, degree: int,
                      two_body: bool = False, name: str = "--lengths") -> None:
     """Refuse a finite block larger than :data:`BLOCK_UNKNOWNS_MAX` unknowns, in one line."""
     nx = math.ceil(length * cells_per_unit)
-    n = 2 * (degree * nx + 1) * (degree * ny + 1) * (2 if two_body else 1)
+    n = block_unknowns(length, cells_per_unit, ny, degree, two_body)
     if n > BLOCK_UNKNOWNS_MAX:
         raise ParameterError(
             f"{name} = {length:g}: the block would have about {n:.3g} unknowns (P{degree}, "

@@ -1,4 +1,6 @@
-"""Ranks and work sharing of the scenes: :func:`rank`, :func:`say`, :func:`map_shared`.
+"""Ranks, messages and work sharing of the scenes: :func:`say`, :func:`map_shared`, ...
+
+:func:`say_plan` prints a long run's plan line up front.
 
 :func:`rank` and :func:`world_size` are :mod:`analytic.cli`'s (one definition in the project).
 """
@@ -12,13 +14,29 @@ from typing import Any
 
 from analytic.cli import rank, world_size
 
-__all__ = ["map_shared", "my_share", "quiet_jit", "rank", "say", "share_by_cost", "world_size"]
+__all__ = ["map_shared", "my_share", "plan_line", "quiet_jit", "rank", "say", "say_plan",
+           "share_by_cost", "world_size"]
 
 
 def say(*parts: object, err: bool = False) -> None:
     """Print on rank 0 only (stdout, or stderr with ``err``), flushed."""
     if rank() == 0:
         print(*parts, file=sys.stderr if err else sys.stdout, flush=True)
+
+
+def plan_line(what: str, seconds: float, ranks: int, note: str = "") -> str:
+    """The up-front plan of a long run: ``plan: <what> on R rank(s), about T s[ note]``.
+
+    ``T`` to 0.1 s below 10 s, else to 1 s.
+    """
+    t = f"{seconds:.1f}" if seconds < 10 else f"{seconds:.0f}"
+    return f"plan: {what} on {ranks} rank(s), about {t} s" + (f" {note}" if note else "")
+
+
+def say_plan(comm: Any, what: str, seconds: float, note: str = "", quiet: bool = False) -> None:
+    """Rank 0 prints :func:`plan_line` on stderr (after validation, before the work)."""
+    if not quiet and comm.rank == 0:
+        print(plan_line(what, seconds, comm.size, note), file=sys.stderr, flush=True)
 
 
 def quiet_jit() -> None:

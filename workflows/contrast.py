@@ -23,7 +23,7 @@ import os
 import _cli
 import numpy as np
 
-from analytic.studies.growth import best_over_k, curve_shape
+from analytic.studies.growth import best_over_k, counts_seconds, curve_shape
 
 PETSC_PREFIXES: tuple[str, ...] = ()
 OUTPUTS = ("contrast.csv", "summary.json", "contrast.png", "run.json", "run.lock")
@@ -84,6 +84,10 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     config = {"params": p0.as_dict(), "mu2_grid": args.mu2_grid, "H2s": h2s, "k": args.k,
               "rho2_exponent": args.rho2_exponent, "region": region.as_dict(p0)}
     with _cli.RunFolder(comm, args.out, "contrast", config, outputs=OUTPUTS) as run:
+        refine = 8 * min(2, len(ks))  # best_over_k: 8 samples around each of the best 2
+        _cli.say_plan(comm, f"{len(cases)} (mu2, H2) case(s) x {len(ks)} k values + {refine}",
+                      counts_seconds([[(q, k) for k in [*ks, *[ks[len(ks) // 2]] * refine]]
+                                      for q in params], region, comm.size))
         res = _cli.progress_mapper(comm, "(mu2, H2) cases", False, " cases")(
             [1.0 + (not math.isfinite(h)) for _, h in cases],  # a bar: minutes per case
             lambda i: best_over_k(params[i], ks, region))

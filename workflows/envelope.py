@@ -34,6 +34,7 @@ from analytic.numerics.spectrum import Region, fastest_root
 from analytic.params import require_rigid
 from analytic.physics import halfspace
 from analytic.studies.growth import (
+    counts_seconds,
     envelope_maximum,
     local_extrema,
     plateau_dependence,
@@ -85,6 +86,9 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     config = {"params": p.as_dict(), "k": args.k, "region": region.as_dict(p),
               "min_ratio": args.min_ratio, "refine_rounds": args.refine_rounds}
     with _cli.RunFolder(comm, args.out, "envelope", config, outputs=OUTPUTS) as run:
+        _cli.say_plan(comm, f"{len(k)} k values, then up to {args.refine_rounds} rounds of "
+                      "refinement,", counts_seconds([[(p, float(v))] for v in k], region,
+                                                    comm.size), "for the grid")
 
         def fastest(kk: float) -> tuple[complex | None, int, str]:
             try:

@@ -123,6 +123,8 @@ def _run(comm: MPI.Comm, opts: argparse.Namespace, names: list[str]) -> int:
     """Figures' data split over ranks, FE checks split over ranks, each rank writes its PNGs."""
     t_start = time.perf_counter()
     settings = gallery.Settings(n_q=opts.n_q, n_gamma=opts.n_gamma, fe_points=opts.fe_points)
+    _cli.say_plan(comm, f"{len(names)} figure(s)" + ("" if opts.no_fe else " with FE points"),
+                  gallery.estimate_seconds(names, settings, not opts.no_fe, comm.size))
     mine = _cli.my_share(comm, [gallery.FIGURE_COST[n] for n in names])
     data = [gallery.MAKERS[names[i]](settings) for i in mine]
     t_analytic = time.perf_counter() - t_start

@@ -200,18 +200,22 @@ def main(comm=None, argv: list[str] | None = None) -> int:
 def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, branches,
          k_scan) -> int:
     t_start = time.perf_counter()
+    parts = run.parts("raw", "L*", payloads=True)  # one per finished length (--resume)
+    done = {float(d["L"]): d for d in parts.present.values()}
+    todo = [L for L in lengths if float(L) not in done]
+    _cli.say_plan(comm, f"the infinite strip's reference, then {len(todo)} block length(s)",
+                  block.estimate_seconds([_cli.block_unknowns(L, args.cells_per_unit, args.ny,
+                                          args.degree, params.two_body) for L in todo],
+                                         args.targets, args.search, len(k_scan), len(branches)))
     ref = block.infinite_strip_reference(comm, params, branches, k_scan, args.targets)
     csv_path = os.path.join(args.out, "finite_block.csv")
     json_path = os.path.join(args.out, "finite_block.json")
-    parts = run.parts("raw", "L*", payloads=True)  # one per finished length (--resume)
-    done = {float(d["L"]): d for d in parts.present.values()}
     if comm.rank == 0:
         _write_table(csv_path, done)
     if comm.rank == 0 and args.search == "complete":
         _block_search.start_spectrum(args.out, run.resumed)
     for lb_, kb_, zb_ in ref.per_branch:
         _cli.say(f"infinite strip, branch {lb_}: max Re Lambda = {zb_:.8g} at k = {kb_:.6g}")
-    todo = [L for L in lengths if float(L) not in done]
     bar = tqdm(total=len(todo), desc="block lengths", file=sys.stderr) if comm.rank == 0 else None
     # per-L times and certificates of the lengths kept from the earlier run
     timings = {f"{L:g}": d["seconds"] for L, d in done.items()}

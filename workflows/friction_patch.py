@@ -106,6 +106,9 @@ def main(comm=None, argv: list[str] | None = None) -> int:
         parts = run.parts("raw", "Lp*", payloads=True)  # one per finished Lp (--resume)
         done = {float(d["row"]["Lp"]): d for d in parts.present.values()}
         shown = set(lp[np.linspace(0, len(lp) - 1, min(args.pictures, len(lp))).astype(int)])
+        todo = [x for x in lp if float(x) not in done or x in shown]
+        _cli.say_plan(comm, f"{len(todo)} patch length(s)", fp.estimate_seconds(_cli.block_unknowns(
+            args.length, args.cells_per_unit, args.ny, args.degree, params.two_body), len(todo)))
         for x in lp:
             if float(x) in done and x not in shown:
                 continue

@@ -199,6 +199,8 @@ def _run(comm, args: argparse.Namespace, p: Params, ks, hs, bcs, branches) -> in
         roots = [r for b in branches for r in follow(args.family, ks, p, branch=b)]
     # cost of one k: the PML solve (two layer settings) plus one solve per truncated strip
     costs = [2.0 + len(hs) * len(bcs) for _ in roots]
+    _cli.say_plan(comm, f"{len(roots)} root(s) x (PML + {len(hs) * len(bcs)} truncated strips)",
+                  halfspace_modes.estimate_seconds(costs, args.degree, comm.size))
     mine = []
     for i in _cli.my_share(comm, costs):
         extra = {} if p.two_body else {"heights": hs, "bcs": bcs}

@@ -54,6 +54,8 @@ def main(comm=None, argv: list[str] | None = None) -> int:
     _cli.check_sweep_limits(Params(), np.array(ks), Region(c_max=max(cs)))  # the sweep's
     parameters = {"k": ks, "c_max": cs, "rtol": args.rtol}
     with _cli.RunFolder(comm, args.out, "methods_chart", parameters, outputs=OUTPUT_FILES):
+        _cli.say_plan(comm, f"{len(ks)} k x {len(cs)} c_max point(s), {len(ms.METHODS)} methods "
+                      "each", ms.estimate_seconds(Params(), ks, cs, comm.size))
         rows = ms.methods_grid(Params(), ks, cs, args.rtol, comm=comm)
         if comm.rank == 0:
             with _cli.atomic_open(os.path.join(args.out, OUTPUT_FILES[0]), "w",

@@ -120,6 +120,8 @@ def main(comm: MPI.Comm | None = None, argv: list[str] | None = None) -> int:
 def _run(comm: MPI.Comm, opts: argparse.Namespace, rows: list[tuple[float, float]]) -> int:
     window = pd.Window(opts.gamma_min, opts.gamma_max, opts.delta_min, opts.delta_max)
     tasks = pd.tasks(rows, pd.gamma_grid(opts.gamma_min, opts.gamma_max, opts.n_gamma))
+    _cli.say_plan(comm, f"{len(tasks)} boundary points (rows x families x Gamma)",
+                  pd.estimate_seconds(len(tasks), comm.size))
     mine = [tasks[i] for i in _cli.my_share(comm, [1.0] * len(tasks))]
     t0 = time.perf_counter()
     iterator = mine

@@ -91,6 +91,9 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                         resumable=True, outputs=OUTPUTS) as run:
         parts = run.parts("raw", "p{:05d}", count=nx * ny)  # cleared unless --resume
         todo = set(parts.todo)
+        t_est = sm.estimate_seconds(base, x, y, khs, region, comm.size) * len(todo) / (nx * ny)
+        _cli.say_plan(comm, f"{len(todo)} map point(s) x {len(khs)} k H values", t_est,
+                      "(plus the refinement of each point's peaks)")
 
         def point(i: int) -> dict:
             if i not in todo:  # --resume: done by the interrupted run

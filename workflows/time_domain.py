@@ -47,7 +47,7 @@ from analytic import parse_branch_label
 from analytic.params import require_rigid
 from analytic.studies.growth_fit import excited_branch, figure_data, mode_period, summarise_run
 from forms.timedomain.model import NonlinearLaw
-from forms.timedomain.run import run_record, run_time_domain, setup_strip
+from forms.timedomain.run import estimate_seconds, run_record, run_time_domain, setup_strip
 
 PETSC_PREFIXES = ("td_",)
 #: Files the scene writes (and the results folder's measured tables, made from its runs).
@@ -186,6 +186,8 @@ def _run(args: argparse.Namespace, comm: object, params: object, law: object) ->
     n_steps = int(math.ceil(t_end / td.dt))
     writer = RunWriter(comm, args.out, config, args.chunk, args.xdmf_every)
     theta_switch = writer.start(td, resume)
+    _cli.say_plan(comm, f"{n_steps - td.step} time steps of {td.num_dofs} unknowns",
+                  estimate_seconds(td.num_dofs, n_steps - td.step), quiet=args.quiet)
     bar = None
     if comm.rank == 0 and not args.quiet:
         bar = tqdm(total=n_steps, initial=td.step, unit="step", file=sys.stderr,

@@ -123,6 +123,8 @@ def _run(comm, args: argparse.Namespace) -> int:
     scales = TINY_HALF if args.tiny else HALF_SCALES
     dense_max = TINY_DENSE_MAX if args.tiny else DENSE_MAX
     jobs = wp.make_jobs(cells, scales)
+    _cli.say_plan(comm, f"{len(jobs)} jobs (meshes, PML scales, analytic) x {args.repeats} "
+                  "repeat(s)", wp.estimate_seconds(jobs, args.repeats, comm.size))
     mine: list[dict] = []
     for i in _cli.my_share(comm, [wp.job_cost(*job) for job in jobs]):
         mine += wp.job_points(MPI.COMM_SELF, jobs[i], cases, args.repeats, not args.no_dense,

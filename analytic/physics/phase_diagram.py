@@ -10,7 +10,8 @@ it is unstable. Two sources, compared point by point:
 
 :func:`boundary_records` gives one grid point's records (the rows of ``boundaries.csv``),
 :func:`measured_differences` the largest relative difference of the two sources and
-:func:`closed_form_points` the diagram's special points. Used by ``workflows/phase_diagram.py``
+:func:`closed_form_points` the diagram's special points, :func:`estimate_seconds` the time the
+points take. Used by ``workflows/phase_diagram.py``
 and the gallery ``workflows/figures.py``.
 """
 
@@ -175,6 +176,18 @@ def tasks(rows: list[tuple[float, float]],
         The arguments of :func:`boundary_records` (without the cap), one tuple per point.
     """
     return [(f, b, fam, float(g)) for f, b in rows for fam in FAMILIES for g in grid]
+
+
+#: Seconds of one point of :func:`tasks` (its threshold: bracketing, then Brent bisection) on
+#: one rank. Measured on this 2-core machine (2026-11-25, in the scene): ``--f 0.3 --beta 0.5
+#: --n-gamma 2`` (9 points) 11.4 s and 7.7 s at a load of 3-4 (1.3 and 0.85 s each); the
+#: default's first 54 of 210 points in 249 s at a load of 11 (4.6 s each, 1-16 s).
+TASK_SECONDS = 2.0
+
+
+def estimate_seconds(n_tasks: int, ranks: int) -> float:
+    """Estimated seconds of ``n_tasks`` points of :func:`tasks` shared over ``ranks``."""
+    return TASK_SECONDS * math.ceil(n_tasks / max(1, ranks))
 
 
 def sort_records(records: list[dict]) -> tuple[list[dict], list[dict]]:

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import csv
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -39,6 +39,16 @@ FIGURES = ("finiteH", "comparison", "both", "phase_diagram", "modified1", "modif
 FIGURE_COST = {"finiteH": 6.0, "comparison": 2.0, "both": 2.0, "phase_diagram": 8.0,
                "modified1": 2.0, "modified2": 2.0, "stress_top": 3.0, "gaps": 2.0}
 
+#: Seconds per unit of :data:`FIGURE_COST` at the default resolution (``n_q = 240``,
+#: ``n_gamma = 16``), one rank, analytic part; the FE points add :data:`FE_SHARE` of it.
+#: Measured on this 2-core machine (every figure, 27 units): workflows/results/figures (2
+#: ranks) 50.5 s of analytic work over both ranks, 1.9 s per unit, FE points about 10 s; the
+#: default on one rank at a load of 7-8 (2026-11-25): analytic 257 s, 9.5 s per unit, FE 49 s
+#: (0.19 of it), 316 s in all (model 130 s); ``--only both --no-fe --n-q 20`` about 1.2 s
+#: at a load of 3 (model 0.7 s).
+SECONDS_PER_COST = 4.0
+FE_SHARE = 0.2
+
 Draw = tuple[tuple[int, str], ...]
 
 
@@ -55,6 +65,18 @@ class Settings:
     n_q: int = 240
     n_gamma: int = 16
     fe_points: int = 10
+
+
+def estimate_seconds(names: Sequence[str], settings: Settings, fe: bool, ranks: int) -> float:
+    """Estimated seconds of the figures ``names`` on ``ranks`` (shared by :data:`FIGURE_COST`).
+
+    Curves scale with ``n_q``, the phase diagram with ``n_gamma``; the largest figure sets a
+    floor (figures are not split).
+    """
+    costs = [FIGURE_COST[n] * (settings.n_gamma / 16 if n == "phase_diagram" else
+                               settings.n_q / 240) for n in names]
+    work = max(sum(costs) / max(1, ranks), max(costs, default=0.0))
+    return SECONDS_PER_COST * work * (1.0 + (FE_SHARE if fe else 0.0))
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,9 @@ The fastest root in a region at one ``k`` comes from the argument principle
   (``workflows/envelope.py``);
 - :func:`best_over_k`: the fastest root over ``k`` for one parameter set, refined by sampling
   between the best grid values (``workflows/contrast.py``);
-- :func:`curve_shape`: maximum and monotonicity of a growth rate sampled against a parameter.
+- :func:`curve_shape`: maximum and monotonicity of a growth rate sampled against a parameter;
+- :func:`count_seconds`, :func:`counts_seconds`: up-front estimates of the time the counts take
+  (the scenes print them before the work).
 """
 
 from __future__ import annotations
@@ -213,6 +215,50 @@ def best_over_k(p: Params, ks: np.ndarray, region: Region) -> dict:
     k, g, z, _ = best
     return {"k": k, "re_lambda": g if np.isfinite(g) else None,
             "im_lambda": z.imag if z is not None else None, "failed_counts": failed}
+
+
+#: Seconds of one count (:func:`fastest_root`) per ``S^COUNT_EXPONENT``, ``S`` the region's
+#: height ``W`` times the S-wave travel time across the stack (``H/c_s + H2/c_s2``: the roots'
+#: spacing in ``Im Lambda`` goes as its inverse). Measured on this 2-core machine under a load
+#: of 12 (2026-11-25, ``fastest_root`` in-process, region ``c_max = 4``): rigid substrate,
+#: paper parameters, ``S = 13.8, 24.6, 52.6, 92.6, 132.6``: 0.18, 0.25-0.38, 0.9-1.3, 4.0,
+#: 4.8-5.1 s (1e-3 S^1.75 + 0.1: 0.20, 0.37, 1.2, 2.9, 5.3 s; 1625 tall at ``H = 0.5``, 226 s,
+#: and 825, 47 s, in the README: 1e-3 S^1.75 gives 123 and 38 s).
+COUNT_SECONDS = 1e-3
+#: The exponent of the region's size in :data:`COUNT_SECONDS`.
+COUNT_EXPONENT = 1.75
+#: Seconds of the smallest count (set-up, a few contour samples).
+COUNT_FLOOR = 0.1
+#: A two-body count costs this many times a rigid one of the same size (larger determinant,
+#: more samples): measured 3.4-5.4 for ``H2 = H``, ``mu2 = 0.1, 100`` (and 0.1-0.3 for the
+#: stable ``mu2 = 1``, 1.3 for a half-space ``mu2 = 100``: overestimated).
+TWO_BODY_COUNT_FACTOR = 4.0
+
+
+def count_seconds(p: Params, k: float, region: Region) -> float:
+    """Estimated seconds of one count at ``k`` (:func:`fastest_root`; see :data:`COUNT_SECONDS`).
+
+    An adaptive region (``c_max = None``) is estimated at its first rung (4 ``c_d``): where it
+    grows the count takes longer.
+    """
+    reg = region if region.c_max is not None else region.fixed(4.0)
+    travel = p.H / p.slider.c_s
+    if p.two_body and math.isfinite(p.H2):
+        travel += p.H2 / p.substrate.c_s
+    size = reg.im_max(p, float(k)) * travel
+    factor = TWO_BODY_COUNT_FACTOR if p.two_body else 1.0
+    return COUNT_FLOOR + COUNT_SECONDS * factor * size**COUNT_EXPONENT
+
+
+def counts_seconds(items: Sequence[Sequence[tuple[Params, float]]], region: Region,
+                   ranks: int) -> float:
+    """Estimated wall seconds of counts: ``items[i]`` the ``(p, k)`` counts of one work item.
+
+    The items are shared over ``ranks`` (largest first): the wall time is the larger of the
+    total over the ranks and the largest item.
+    """
+    costs = [sum(count_seconds(p, k, region) for p, k in item) for item in items]
+    return max(sum(costs) / max(1, ranks), max(costs, default=0.0))
 
 
 def curve_shape(x: Sequence[float], growth: Sequence[float], name: str = "x") -> dict:

@@ -29,7 +29,7 @@ from analytic.numerics.roots import ContourError
 from analytic.numerics.spectrum import Region, fastest_root
 from analytic.params import ParameterError, Params
 from analytic.physics import phase_diagram as pd
-from analytic.studies.growth import refine_envelope
+from analytic.studies.growth import counts_seconds, refine_envelope
 
 #: The parameters a map axis may vary (fields of :class:`analytic.params.Params`).
 AXES: tuple[str, ...] = ("H", "Delta", "gamma", "f", "beta", "alpha_pc", "alpha_ld", "mu2",
@@ -120,6 +120,16 @@ def map_point(p: Params, khs: np.ndarray, region: Region, top: int = 2) -> dict:
     out.update(re_lambda=z.real, im_lambda=z.imag, k=k, kH=k * p.H,
                phase_velocity_over_c_d=abs(z.imag) / k * p.beta, refined=k != ks[j])
     return out
+
+
+def estimate_seconds(base: Params, x: tuple[str, np.ndarray], y: tuple[str, np.ndarray],
+                     khs: np.ndarray, region: Region, ranks: int) -> float:
+    """Estimated wall seconds of the map's grid counts on ``ranks`` (refinement not included).
+
+    Every point's counts at ``k = khs / H`` (:func:`analytic.studies.growth.counts_seconds`).
+    """
+    points = [point_params(base, (x[0], xv), (y[0], yv)) for yv in y[1] for xv in x[1]]
+    return counts_seconds([[(p, float(kh) / p.H) for kh in khs] for p in points], region, ranks)
 
 
 def closed_form_delta(p: Params) -> float:

@@ -17,7 +17,8 @@ Used by ``workflows/finite_block.py``:
 - :func:`converged_rows`: lengths and eigenvalues of the rows that converged;
 - :func:`extrapolate`: the limit ``L -> infinity`` (Richardson, observed order);
 - :func:`long_block_limit`: the cross-section model's long-block limit at the largest ``L``
-  (:func:`forms.solvers.spatial_stability.kulikovskii_limit`; rigid substrate only).
+  (:func:`forms.solvers.spatial_stability.kulikovskii_limit`; rigid substrate only);
+- :func:`estimate_seconds`: the up-front estimate of a scan (``finite_block.py`` prints it).
 
 Two bodies (``params.two_body``, finite ``H2``): the block is the slider on a substrate block of
 the same length (:func:`forms.models.strip.strip_mesh_for`), and the infinite strip's reference
@@ -60,6 +61,37 @@ ROW_COLUMNS = ("L", "re_lambda", "im_lambda", "residual", "candidates", "re_lamb
 NODES_PER_WAVELENGTH = 8
 #: Growth floor and ceiling of :func:`auto_box`, in units of the strip's reference growth.
 AUTO_GROWTH = (0.5, 2.0)
+
+
+#: Seconds of one block length with ``--search targets``: per length, per shift target, per
+#: unknown and target. Measured on this 2-core machine (2026-11-25, load 12, one rank, P2,
+#: 4 cells per unit, ny = 3, 3 targets): 238, 462, 910 unknowns 1.6, 2.1, 3.7 s (model 1.7,
+#: 1.8, 1.9 s); workflows/results/finite_block (2 ranks, P2, 8 x 8 per unit, 3 targets):
+#: 69 666 unknowns 24.5 s velocity top, 41.6 s stress top (model 26.7 s).
+TARGET_SECONDS = (1.0, 0.2, 1.2e-4)
+#: Seconds of one length of the complete search (:func:`block_spectrum`, the default
+#: :func:`auto_box`): per length, per unknown. Measured as above: 238, 462 unknowns 146, 187 s.
+COMPLETE_SECONDS = (100.0, 0.18)
+#: Seconds of the infinite strip's reference (exact continuation): fixed, and per ``k`` of the
+#: scan and branch. The run above, 80 ``k`` and 2 branches, spent about 25 s before its first
+#: length (model 22.8 s); test_faults.SCENES's, 3 ``k`` and 2 branches, about 3 s with the
+#: pictures (model 2.8 s).
+REFERENCE_SECONDS = (2.0, 0.13)
+
+
+def estimate_seconds(unknowns: Sequence[int], targets: int, search: str, k_scan: int,
+                     branches: int) -> float:
+    """Estimated seconds of a scan: the reference, then one length per entry of ``unknowns``.
+
+    ``search`` is ``targets`` (:data:`TARGET_SECONDS`) or ``complete``
+    (:data:`COMPLETE_SECONDS`); the ranks share each solve (no speed-up assumed).
+    """
+    if search == "complete":
+        each = [COMPLETE_SECONDS[0] + COMPLETE_SECONDS[1] * n for n in unknowns]
+    else:
+        a, b, c = TARGET_SECONDS
+        each = [a + targets * (b + c * n) for n in unknowns]
+    return REFERENCE_SECONDS[0] + REFERENCE_SECONDS[1] * k_scan * branches + float(sum(each))
 
 
 #: Columns of :meth:`BlockSpectrum.rows` (``finite_block_spectrum.csv``: every eigenvalue in the

@@ -189,6 +189,20 @@ def solve_two_body_k(comm: MPI.Comm, p: Params, root: TwoBodyRoot, family: str, 
              "flags": ";".join(flags)}]
 
 
+#: Seconds per unit of the scene's cost of one ``k`` (2 for the PML solve with two layer
+#: settings, 1 per truncated strip) at degree 4, one rank; times ``(degree / 4)^2.5``.
+#: Measured on this 2-core machine (2026-11-25): the default run (11 ``k``, 66 units, P4)
+#: 45.6 s in all at a load of 8 (about 40 s of solves: 0.6 s a unit); ``--k 0.3 --degree 2
+#: --H-trunc ''`` (2 units, P2) 0.2 s at a load of 3 (model 0.21 s).
+UNIT_SECONDS = 0.6
+
+
+def estimate_seconds(costs: Sequence[float], degree: int, ranks: int) -> float:
+    """Estimated seconds of the ``k`` values of cost ``costs`` shared over ``ranks``."""
+    work = max(sum(costs) / max(1, ranks), max(costs, default=0.0))
+    return UNIT_SECONDS * (degree / 4) ** 2.5 * work
+
+
 def merge_rows(parts: Iterable[list[dict]]) -> list[dict]:
     """All ranks' rows, sorted by branch, ``k``, method, top condition and height."""
     return sorted((r for part in parts for r in part),

@@ -294,6 +294,20 @@ def methods_point(params: Params, k: float, c_max: float, rtol: float = 1e-6,
         cs.destroy()
 
 
+#: Seconds of one ``(k, c_max)`` point (every method) per ``(W H)^2``, ``W`` the region's
+#: height. Measured on this 2-core machine (2026-11-25, load 8, one rank): the default
+#: points (``k = 0.5, 2, 6`` x ``c_max = 2, 4``, ``W H`` = 13.6-36.6) 1.8, 1.9, 1.1, 2.0, 5.7,
+#: 12.1 s (model 1.7, 1.9, 2.5, 3.8, 5.4, 12.1 s).
+SECONDS_PER_WH2 = 9e-3
+
+
+def estimate_seconds(params: Params, ks: list[float], c_maxes: list[float], ranks: int) -> float:
+    """Estimated seconds of :func:`methods_grid` (points round-robin over ``ranks``)."""
+    costs = [SECONDS_PER_WH2 * (Region(c_max=c).im_max(params, k) * params.H) ** 2
+             for k in ks for c in c_maxes]
+    return max(sum(costs[r::ranks]) for r in range(max(1, ranks)))
+
+
 def methods_grid(params: Params, ks: list[float], c_maxes: list[float], rtol: float = 1e-6,
                  methods: tuple[str, ...] = METHODS, comm: MPI.Comm = MPI.COMM_WORLD
                  ) -> list[dict]:

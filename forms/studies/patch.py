@@ -106,6 +106,23 @@ def patch_spectrum(comm: MPI.Comm, params: Params, length: float, patch: Patch, 
                           prefix="patch_region_")
 
 
+#: Seconds of one patch length (:func:`patch_spectrum`: count and tiles in the default box
+#: ``-0.05 < Re < 0.5``, ``|Im| < 3``) per unknown squared (the count's samples grow with the
+#: unknowns, and so does each sample's factorisation). Measured on this 2-core machine
+#: (2026-11-25, load 3-12, one rank, P2): 350 unknowns (L = 3, 4 x 3 cells per unit) 4.1 and
+#: 3.9 s (model 4.7 s); workflows/results/friction_patch (910 unknowns) 9.3-63 s per patch
+#: length, 10.2-21.7 s below the critical length (model 25.8 s).
+SECONDS_PER_UNKNOWN2 = 3e-5
+
+
+def estimate_seconds(unknowns: int, lengths: int) -> float:
+    """Estimated seconds of ``lengths`` patch lengths on a block of ``unknowns`` unknowns.
+
+    The ranks share each solve (no speed-up assumed).
+    """
+    return lengths * (1.0 + SECONDS_PER_UNKNOWN2 * unknowns**2)
+
+
 def critical_length(lp: Sequence[float], growth: Sequence[float]) -> float | None:
     """The first ``Lp`` where ``growth`` changes sign, by linear interpolation (``None``: none).
 

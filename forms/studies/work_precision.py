@@ -272,6 +272,22 @@ def job_cost(kind: str, degree: int, sub: tuple) -> float:
     return 1.0
 
 
+#: Seconds per unit of :func:`job_cost` and per repeat on one rank. Measured on this 2-core
+#: machine (2026-11-25): ``--tiny --repeats 1 --no-dense`` (479 units) 0.9 s at a load of 3
+#: (model 0.7 s); the default (23 715 units, 3 repeats, dense baseline) 88 s for the whole
+#: scene at a load of 9 (model 107 s).
+SECONDS_PER_COST = 1.5e-3
+
+
+def estimate_seconds(jobs: Sequence[tuple[str, int, tuple]], repeats: int, ranks: int) -> float:
+    """Estimated seconds of ``jobs`` (:func:`make_jobs`) shared over ``ranks``.
+
+    The total over the ranks, or the largest job.
+    """
+    costs = [job_cost(*job) for job in jobs]
+    return SECONDS_PER_COST * repeats * max(sum(costs) / max(1, ranks), max(costs, default=0.0))
+
+
 def job_points(comm: MPI.Comm, job: tuple[str, int, tuple], cases: Cases, repeats: int,
                dense: bool, dense_max: int = DENSE_MAX,
                prefixes: tuple[str, str] = PREFIXES) -> list[dict]:

@@ -123,6 +123,19 @@ class RunOutcome:
     run_time: float = 0.0
 
 
+#: Seconds per time step: fixed, and per unknown. Measured on this 2-core machine, one rank:
+#: workflows/results/time_domain/benchmark.csv, 1478 steps at 2176, 8448, 33 280 unknowns in
+#: 0.92, 1.78, 7.09 s (model 1.96, 3.35, 8.87 s; the stepping only), and the README run
+#: (summary.json timing: 7762 steps at 2176 unknowns, 14.5 s with its files; model 10.3 s).
+#: Two ranks were slower there (benchmark.csv: 17.4, 13.0, 75.4 s): no speed-up assumed.
+STEP_SECONDS = (1.0e-3, 1.5e-7)
+
+
+def estimate_seconds(unknowns: int, steps: int) -> float:
+    """Estimated seconds of ``steps`` time steps of a mesh with ``unknowns`` unknowns."""
+    return steps * (STEP_SECONDS[0] + STEP_SECONDS[1] * unknowns)
+
+
 def run_time_domain(td: TimeDomainStrip, writer: Recorder, n_steps: int, frame_every: int,
                     linear_limit: float, friction_theta: float,
                     theta_switch: float | None = None,

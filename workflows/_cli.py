@@ -27,7 +27,8 @@ one job each (docs/workflows.md):
 
 - :mod:`_options`: parser rules and the PETSc/SLEPc option filter (:func:`make_parser`,
   :func:`start`, :func:`split_petsc`, :func:`check_petsc_options`);
-- :mod:`_grids`: :func:`parse_grid`, the solver limits, :func:`block_unknowns`;
+- :mod:`_grids`: :func:`parse_grid`, the solver limits, :func:`block_unknowns`,
+  :func:`require_finite_heights`;
 - :mod:`_provenance`: :func:`command`, :func:`versions`, :func:`png_metadata`, strict JSON
   (:func:`dumps`: NaN -> null, inf -> "inf");
 - :mod:`_sharing`: :func:`rank`, :func:`say`, :func:`say_plan`, :func:`share_by_cost`,
@@ -67,6 +68,7 @@ from _grids import (
     parse_grid,
     progress_mapper,
     region_from_args,
+    require_finite_heights,
 )
 from _options import (
     PETSC_FAMILIES,

@@ -59,6 +59,22 @@ SWEEP_DELTA_MAX = 1000.0
 BLOCK_UNKNOWNS_MAX = 100_000
 
 
+def require_finite_heights(params: Any, what: str, substrate: bool = False) -> None:
+    """One line (exit 2) unless ``H`` is finite (and, with ``substrate``, ``H2`` of two bodies).
+
+    Args:
+        params: The parameters.
+        what: Why a finite height is needed here (e.g. "a finite strip"), named in the line.
+        substrate: Also refuse ``H2 = inf`` when the substrate is deformable (both bodies
+            meshed).
+    """
+    if not math.isfinite(params.H):
+        raise ParameterError(f"H = inf is outside its allowed range here ({what})")
+    if substrate and params.two_body and not math.isfinite(params.H2):
+        raise ParameterError(f"H2 = inf is outside its allowed range here ({what}: both "
+                             "bodies are meshed)")
+
+
 def block_unknowns(length: float, cells_per_unit: int, ny: int, degree: int,
                    two_body: bool = False) -> int:
     """Unknowns of a finite block's mesh (``ceil(L cells_per_unit) x ny`` cells, P``degree``)."""

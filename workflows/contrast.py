@@ -67,8 +67,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     """Run the contrast scan."""
     args, comm = _cli.start(build_parser(), argv, comm)
     p0 = _cli.params_from_args(args)
-    if not math.isfinite(p0.H):
-        raise _cli.ParameterError("H = inf is outside its allowed range here (a finite slider)")
+    _cli.require_finite_heights(p0, "a finite slider")
     mus = _cli.parse_grid(args.mu2_grid, "--mu2-grid", max_count=10000)
     ks = _cli.parse_grid(args.k, "--k", max_count=10000)
     h2s = heights(args.H2s, p0.H)

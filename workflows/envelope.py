@@ -71,8 +71,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     """Compute the envelope (k values shared over the ranks by cost)."""
     args, comm = _cli.start(build_parser(), argv, comm)
     p = _cli.params_from_args(args)
-    if not math.isfinite(p.H):
-        raise _cli.ParameterError("H = inf is outside its allowed range here (a finite strip)")
+    _cli.require_finite_heights(p, "a finite strip")
     require_rigid(p, "envelope.py")
     k = _cli.parse_grid(args.k)
     if not (args.min_ratio > 1.0 and math.isfinite(args.min_ratio)):

@@ -38,7 +38,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import math
 import os
 import sys
 import time
@@ -93,11 +92,7 @@ def build_parser() -> argparse.ArgumentParser:
 def validate(args: argparse.Namespace):
     """Check every option before anything collective or any file is created."""
     params = _cli.params_from_args(args)
-    if math.isinf(params.H):
-        raise _cli.ParameterError("H = inf is outside its allowed range here (a finite block)")
-    if params.two_body and math.isinf(params.H2):
-        raise _cli.ParameterError("H2 = inf is outside its allowed range here (a finite"
-                                  " substrate block)")
+    _cli.require_finite_heights(params, "a finite block", substrate=True)
     lengths = _cli.parse_k(args.lengths, name="--lengths")
     branches = [parse_branch_label(b, name="--branches") for b in args.branches.split(",")
                 if b.strip()]

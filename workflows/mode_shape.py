@@ -97,11 +97,7 @@ def build_parser() -> argparse.ArgumentParser:
 def validate(args: argparse.Namespace):
     """Check every option before anything collective or any file is created."""
     params = _cli.params_from_args(args)
-    if math.isinf(params.H):
-        raise _cli.ParameterError("H = inf is outside its allowed range here (a finite strip)")
-    if params.two_body and math.isinf(params.H2):
-        raise _cli.ParameterError("H2 = inf is outside its allowed range here (a finite"
-                                  " substrate: both bodies are meshed)")
+    _cli.require_finite_heights(params, "a finite strip", substrate=True)
     if params.two_body and args.source == "cross-section":
         raise _cli.ParameterError("--source = cross-section is for the rigid substrate (mu2 ="
                                   " inf); use --source strip")

@@ -75,8 +75,7 @@ def validate(args: argparse.Namespace) -> tuple:
     for xv in x[1]:  # every point valid (finite H), before any file is written
         for yv in y[1]:
             p = sm.point_params(base, (x[0], xv), (y[0], yv))
-            if not math.isfinite(p.H):
-                raise _cli.ParameterError("H = inf is outside its allowed range here (a strip)")
+            _cli.require_finite_heights(p, "a strip")
     return base, x, y, sm.kh_grid(args.kH_min, args.kH_max, args.nk), region
 
 

@@ -117,8 +117,7 @@ def validate(args: argparse.Namespace):  # noqa: ANN201 - (Params, NonlinearLaw)
     """Check every option (no collective call); raise ParameterError with one line."""
     params = _cli.params_from_args(args)
     require_rigid(params, "the time-domain scene")
-    if not math.isfinite(params.H):
-        raise _cli.ParameterError("H = inf is outside its allowed range (finite H for a strip)")
+    _cli.require_finite_heights(params, "finite H for a strip")
     _cli.check_k(args.k)
     law = NonlinearLaw(params, a=args.a, v0=args.v0, kind=args.friction)
     parse_branch_label(args.branch)

@@ -183,6 +183,30 @@ def test_finite_block_complete_search_is_certified_and_deterministic(tmp_path):
             complex(float(s["re_lambda"]), float(s["im_lambda"])), rel=1e-9)
 
 
+@pytest.mark.slow  # two small complete searches (~20-40 s each, loaded machine)
+@pytest.mark.serial
+def test_finite_block_complete_search_resume_writes_each_length_once(tmp_path):
+    """The spectrum CSV is rewritten from the lengths' parts: a run stopped after a length's
+    rows were written but before its part was saved (the part removed here) does not get
+    that length's rows twice on --resume (the CSV used to be appended to)."""
+    env = dict(os.environ)
+    env.pop("DISPLAY", None)
+    out = tmp_path / "out"
+    args = [sys.executable, SCRIPT, "--out", str(out), "--search", "complete", "--lengths", "2",
+            "--cells-per-unit", "4", "--ny", "3", "--nev", "8", "--k-scan", "0.5:3:6",
+            "--box", "0.05:0.6:10", "--no-kulikovskii"]
+    res = subprocess.run(args, capture_output=True, text=True, env=env, timeout=600)
+    assert res.returncode == 0, res.stderr[-3000:]
+    first = (out / "finite_block_spectrum.csv").read_text().splitlines()
+    assert len(first) > 2  # header and the eigenvalues of L = 2 (measured 4)
+    os.remove(out / "raw" / "L2.0.json")
+    res = subprocess.run([*args, "--resume"], capture_output=True, text=True, env=env,
+                         timeout=600)
+    assert res.returncode == 0, res.stderr[-3000:]
+    again = (out / "finite_block_spectrum.csv").read_text().splitlines()
+    assert again == first
+
+
 # ---------------------------------------------------------------- forms.studies.block, called
 # directly
 @pytest.mark.serial

@@ -57,17 +57,25 @@ def box_for(box: tuple[float, float, float] | None, lam_inf: complex, params,
     return box[0], box[1], -box[2], box[2]
 
 
-def start_spectrum(out: str, resumed: bool) -> None:
-    """Header of the spectrum CSV unless resumed onto an existing one (rank 0)."""
-    path = os.path.join(out, SPECTRUM_CSV)
-    if not (resumed and os.path.exists(path)):
-        with _cli.atomic_open(path, "w", newline="") as f:
-            csv.writer(f).writerow(block.SPECTRUM_COLUMNS)
+def write_spectrum(out: str, certificates: dict) -> None:
+    """The spectrum CSV, whole, from the certificates' rows (rank 0; complete search only).
+
+    The rows live in each length's certificate, which is saved in the length's part: a
+    resumed run rewrites the file from the parts, so no length appears twice.
+    """
+    rows = [r for key in sorted(certificates, key=float)
+            for r in certificates[key].get("spectrum", [])]
+    if not any("spectrum" in c for c in certificates.values()):
+        return
+    with _cli.atomic_open(os.path.join(out, SPECTRUM_CSV), "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(block.SPECTRUM_COLUMNS)
+        w.writerows(rows)
 
 
 def solve_length(comm, args: argparse.Namespace, params, L: float, ref, keep_mode: bool,
                  certificates: dict) -> tuple[block.BlockMode, bool]:
-    """One length by ``args.search``; the spectrum rows appended and the certificate kept.
+    """One length by ``args.search``; its certificate (with the spectrum's rows) kept.
 
     Returns the fastest mode found and whether the length is done: a mode found (targets), or
     the count closed (complete; an empty box that counts 0 is an answer: no mode in it).
@@ -84,10 +92,8 @@ def solve_length(comm, args: argparse.Namespace, params, L: float, ref, keep_mod
         nev=args.nev,
         estimate=True, keep_mode=keep_mode)
     if comm.rank == 0:
-        with open(os.path.join(args.out, SPECTRUM_CSV), "a", newline="") as f:
-            csv.writer(f).writerows([[f"{v:.12g}" if isinstance(v, float) else v for v in r]
-                                     for r in spec.rows()])
-        certificates[f"{L:g}"] = spec.record()
+        certificates[f"{L:g}"] = {**spec.record(), "spectrum": [
+            [f"{v:.12g}" if isinstance(v, float) else v for v in r] for r in spec.rows()]}
     return spec.mode(), spec.closed
 
 

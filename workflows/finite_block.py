@@ -83,8 +83,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-kulikovskii", action="store_true",
                    help="skip the long-block limit from the cross-section model")
     p.add_argument("--resume", action="store_true",
-                   help="keep the rows already in the CSV (same parameters required; --lengths"
-                        " may differ: only the missing lengths are computed)")
+                   help="keep the lengths already finished (raw/L*.json; same parameters "
+                        "required; --lengths may differ: only the missing lengths are computed)")
     p.add_argument("--out", default="out/finite_block", help="output directory")
     return p
 
@@ -110,12 +110,13 @@ def validate(args: argparse.Namespace):
     return params, np.unique(lengths), branches, k_scan
 
 
-def _write_table(path: str, done: dict[float, dict]) -> None:
-    """``finite_block.csv`` from the finished lengths' parts, by increasing L (rank 0)."""
+def _write_table(path: str, done: dict[float, dict], out: str, certificates: dict) -> None:
+    """``finite_block.csv`` and the complete search's spectrum CSV from the parts (rank 0)."""
     with _cli.atomic_open(path, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(COLUMNS)
         w.writerows(done[L]["row"] for L in sorted(done))
+    _block_search.write_spectrum(out, certificates)
 
 
 def plot_convergence(L: np.ndarray, lam: np.ndarray, g_inf: float, order_p: float,
@@ -205,16 +206,14 @@ def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, b
     ref = block.infinite_strip_reference(comm, params, branches, k_scan, args.targets)
     csv_path = os.path.join(args.out, "finite_block.csv")
     json_path = os.path.join(args.out, "finite_block.json")
-    if comm.rank == 0:
-        _write_table(csv_path, done)
-    if comm.rank == 0 and args.search == "complete":
-        _block_search.start_spectrum(args.out, run.resumed)
     for lb_, kb_, zb_ in ref.per_branch:
         _cli.say(f"infinite strip, branch {lb_}: max Re Lambda = {zb_:.8g} at k = {kb_:.6g}")
     bar = tqdm(total=len(todo), desc="block lengths", file=sys.stderr) if comm.rank == 0 else None
     # per-L times and certificates of the lengths kept from the earlier run
     timings = {f"{L:g}": d["seconds"] for L, d in done.items()}
     certificates = {f"{L:g}": d["certificate"] for L, d in done.items() if d["certificate"]}
+    if comm.rank == 0:
+        _write_table(csv_path, done, args.out, certificates)
     failed, last = 0, None
     for L in todo:
         t0 = time.perf_counter()
@@ -228,7 +227,7 @@ def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, b
                 "L": float(L), "seconds": timings[f"{float(L):g}"], "certificate":
                 certificates.get(f"{float(L):g}"), "row": [f"{v:.12g}" if isinstance(v, float)
                                                           else v for v in mode.row(ref)]})
-            _write_table(csv_path, done)
+            _write_table(csv_path, done, args.out, certificates)
             bar.update(1)
     if bar is not None:
         bar.close()

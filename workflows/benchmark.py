@@ -98,7 +98,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     """Run the benchmark (one rank)."""
     args, comm = _cli.start(build_parser(), argv, comm)
     k = np.unique(_cli.parse_k(args.k))
-    _cli.parse_k(args.sweep_k, name="--sweep-k")
+    sweep_k = _cli.parse_k(args.sweep_k, name="--sweep-k")
     cases = [] if args.sweeps == "none" else args.sweeps.split(",")
     if any(c not in bench.SWEEP_CASES for c in cases):
         raise _cli.ParameterError(f"--sweeps = {args.sweeps} is outside its allowed values: "
@@ -107,6 +107,10 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         raise _cli.ParameterError("run the benchmark on one rank (it starts mpirun itself)")
     with _cli.RunFolder(comm, args.out, "benchmark", {"k": args.k, "sweep_k": args.sweep_k},
                         outputs=OUTPUTS) as run:
+        _cli.say_plan(comm, f"{k.size} k in the speed comparison, {len(cases)} sweep case(s) in "
+                      f"{len(bench.SWEEP_MODES)} modes" + ("" if args.skip_mpi else ", MPI timing"),
+                      bench.estimate_seconds(k.size, sweep_k, {c: bench.SWEEP_CASES[c]
+                                                               for c in cases}, not args.skip_mpi))
         report = {"machine": {"cpus": os.cpu_count(), "load_average_at_start": os.getloadavg()},
                   "speed": bench.speed(k)}
         if not args.skip_mpi:

@@ -132,6 +132,45 @@ SWEEP_TARGETS: dict[str, float] = {"default_velocity": 2.0, "default_stress": 2.
 FE_FIRST_OVER_SEEDED = 2.0
 
 
+#: Speed and convergence sections (one rank): seconds per k of the speed grid and fixed
+#: seconds (2026-11-25, OpenBLAS, load average about 1: ``--skip-mpi --sweeps none`` took
+#: 19.4 s with 400 k and 7.9 s with 100 k).
+SPEED_S_PER_K, SPEED_FIXED_S = 0.038, 4.1
+#: A sweep mode's cost over the FE-first estimate (the exact families are followed in the
+#: checked and the exact-seeded modes: 44.5 s and 15.8 s of solving, default velocity sweep on
+#: 2 ranks, 2026-11-25), and the start of one ``sweep_k.py`` process (imports, MPI, folder).
+MODE_FACTOR = {"fe_first": 1.0, "fe_first_checked": 2.8, "exact_seeded": 2.8}
+SWEEP_START_S = 4.0
+
+
+def estimate_seconds(n_k: int, sweep_k: np.ndarray, cases: dict, mpi: bool) -> float:
+    """Up-front estimate of a benchmark run (wall seconds): the sections it will run.
+
+    The sweeps (the largest part) by :func:`forms.studies.sweep.estimate_seconds` at each
+    case's top and ranks (first rung of the region), times :data:`MODE_FACTOR` per mode.
+
+    Args:
+        n_k: Points of the speed grid.
+        sweep_k: ``k`` of the MPI timing's sweep.
+        cases: The sweep cases to run (:data:`SWEEP_CASES` entries).
+        mpi: The MPI timing runs (one sweep on one rank, one on two).
+    """
+    from analytic.cli import parse_k
+    from analytic.numerics.spectrum import Region
+    from forms.studies.sweep import estimate_seconds as sweep_seconds
+
+    def sweep(k: np.ndarray, options: Sequence[str], ranks: int) -> float:
+        p = Params(bc="stress" if "stress" in options else "velocity")
+        return SWEEP_START_S + sweep_seconds(p, Region(c_max=None), k, ranks)
+
+    t = SPEED_FIXED_S + SPEED_S_PER_K * n_k
+    if mpi:
+        t += sweep(sweep_k, [], 1) + sweep(sweep_k, [], 2)
+    for k_spec, options, ranks in cases.values():
+        t += sum(MODE_FACTOR[m] for m in SWEEP_MODES) * sweep(parse_k(k_spec), options, ranks)
+    return float(t)
+
+
 def check_targets(values: dict[str, float | None], targets: dict[str, float],
                   at_least: Sequence[str] = ()) -> list[dict]:
     """Each target with its measured value and whether it is met.

@@ -47,7 +47,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--length", type=float, default=2.0, help="block length L")
     p.add_argument("--box", default="0.02:0.6:10", help="RE_MIN:RE_MAX:IM_MAX of the region")
     p.add_argument("--nev", type=int, default=8, help="eigenpairs per tile solve")
-    p.add_argument("--count-up-to", type=int, default=3000,
+    p.add_argument("--count-up-to", type=int, default=10000,
                    help="count by the argument principle only up to this many unknowns")
     p.add_argument("--out", default="out/scale", help="output directory")
     return p

@@ -97,6 +97,7 @@ def measure_region_solve(comm: MPI.Comm, params: Params, length: float, nx: int,
         if count:
             st_count.push()
             counted, bx, info = count_in_box(op.matrices, box, op.law.spurious,
+                                             cleared_rows=op.cleared_rows,
                                              prefix=prefix + "det_")
             st_count.pop()
         t_count = comm.allreduce(info["seconds"], op=MPI.MAX)

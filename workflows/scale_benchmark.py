@@ -67,7 +67,11 @@ def validate(args: argparse.Namespace) -> tuple[list[int], tuple[float, ...]]:
                                   " (0, 1000]")
     _cli.positive_int("--nev", args.nev, 1, 200)
     _cli.positive_int("--count-up-to", args.count_up_to, 0)
-    return sizes, _block_search.box_for(_block_search.parse_box(args.box), 0j)
+    box = _block_search.parse_box(args.box)
+    if box is None:
+        raise _cli.ParameterError(f"--box {args.box!r} is outside its allowed values here"
+                                  " (RE_MIN:RE_MAX:IM_MAX; auto is not taken)")
+    return sizes, (box[0], box[1], -box[2], box[2])
 
 
 def main(comm=None, argv: list[str] | None = None) -> int:

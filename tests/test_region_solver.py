@@ -10,10 +10,18 @@ import slepc4py
 slepc4py.init(sys.argv[:1])
 
 from mpi4py import MPI  # noqa: E402
+from petsc4py import PETSc  # noqa: E402
 
 from analytic.params import Params  # noqa: E402
 from forms.models.strip import build_strip_problem, friction_operator_for  # noqa: E402
-from forms.solvers.region import LogDet, RegionSolver, count_in_box, winding  # noqa: E402
+from forms.solvers.region import (  # noqa: E402
+    LogDet,
+    RegionSolver,
+    count_in_box,
+    inverted,
+    inverted_disc,
+    winding,
+)
 from forms.solvers.slepc import dense_companion_eigenvalues  # noqa: E402
 from meshes.strip import strip_mesh  # noqa: E402
 
@@ -109,5 +117,97 @@ def test_box_with_the_spurious_root_is_refused():
         with pytest.raises(ValueError, match="re_max > re_min"):
             count_in_box(op.matrices, (0.5, 0.1, -2.0, 2.0), op.law.spurious)
     finally:
+        op.destroy()
+        problem.destroy()
+
+
+SYNTHETIC_BOX = (0.02, 0.6, -10.0, 10.0)
+
+
+def _diagonal_operator(m):
+    """``T(z)`` diagonal, ``det T`` = product of the rows' polynomials: ``m`` rows
+    ``z + 1 + 0.07/i^2`` (the block's cluster next to the cleared root -1: -1.0002 .. -1.07
+    measured), 60 weakly damped modes ``(z + 0.01)^2 + (0.7 j)^2``, two conjugate pairs in the
+    box, a pair 1e-4 inside the left edge and a pair straddling the top edge (one zero inside).
+    Returns the matrices and the number of zeros in the box (7)."""
+    rows = [[1 + 0.07 / i**2, 1.0] for i in range(1, m + 1)]
+    rows += [[1e-4 + (0.7 * j) ** 2, 0.02, 1.0] for j in range(1, 61)]
+    for a in (0.11 + 6.35j, 0.1 + 7.67j, SYNTHETIC_BOX[0] + 1e-4 + 3.3j):
+        rows.append([abs(a) ** 2, -2 * a.real, 1.0])
+    rows.append(list(np.poly([0.3 + 9.999j, 0.3 + 10.001j])[::-1]))
+    mats = []
+    for j in range(4):
+        a = PETSc.Mat().createAIJ([len(rows)] * 2, nnz=1, comm=MPI.COMM_SELF)
+        for i, r in enumerate(rows):
+            a.setValue(i, i, r[j] if j < len(r) else 0.0)
+        a.assemble()
+        mats.append(a)
+    return mats, 7
+
+
+@pytest.mark.serial
+def test_count_divides_out_the_cleared_cluster():
+    """The count's factorisations do not grow with the cluster next to -1 (the interface rows).
+
+    Measured (this operator): E = 1080 for m = 25, 100 and 400 cluster rows with
+    ``cleared_rows = m``; undivided (``cleared_rows = 0``) E = 2088, 4128, 16405 (~40 m). The
+    count is the same either way (the divisor winds 0 times round the box).
+    """
+    evaluations = []
+    for m in (25, 200):
+        mats, inside = _diagonal_operator(m)
+        try:
+            n, _, info = count_in_box(mats, SYNTHETIC_BOX, (-1.0 + 0j,), cleared_rows=m)
+            assert n == inside
+            evaluations.append(info["evaluations"])
+            if m == 25:
+                assert count_in_box(mats, SYNTHETIC_BOX, (-1.0 + 0j,))[0] == inside
+        finally:
+            for a in mats:
+                a.destroy()
+    # measured equal (1080, 1080); undivided the ratio is ~8 (2088 -> ~8250)
+    assert evaluations[1] <= 1.25 * evaluations[0]
+
+
+@pytest.mark.serial
+def test_inverted_operator_and_disc():
+    """``sum_k mu^k B_k = mu^d T(pole + 1/mu)``; the disc's boundary maps onto its image's."""
+    rng = np.random.default_rng(3)
+    dense = [rng.standard_normal((5, 5)) + 1j * rng.standard_normal((5, 5)) for _ in range(4)]
+    mats = [PETSc.Mat().createDense([5, 5], array=a.copy(), comm=MPI.COMM_SELF) for a in dense]
+    pole, mu = -1.0 + 0.2j, 0.3 - 0.7j
+    out = inverted(mats, pole)
+    got = sum(mu**k * np.array(b.getDenseArray()) for k, b in enumerate(out))
+    lam = pole + 1.0 / mu
+    want = mu**3 * sum(lam**j * a for j, a in enumerate(dense))
+    assert np.abs(got - want).max() < 1e-12 * np.abs(want).max()
+    for a in (*mats, *out):
+        a.destroy()
+    centre, radius = 0.31 + 5.0j, 0.9
+    c, r = inverted_disc(centre, radius, pole)
+    edge = centre + radius * np.exp(2j * np.pi * np.arange(16) / 16)
+    assert np.allclose(np.abs(1.0 / (edge - pole) - c), r, rtol=1e-12, atol=0)
+    assert abs(1.0 / (centre - pole) - c) < r
+    assert inverted_disc(-0.5 + 0j, 0.6, -1.0 + 0j) is None  # the disc holds the pole
+
+
+def test_tiles_next_to_the_cluster_converge():
+    """Block L = 2, 12 x 3 cells (350 unknowns), tiles only: the tile centred on the real axis,
+    whose nearest eigenvalues in ``Lambda`` are the cluster next to -1, converges in ``mu``.
+
+    Measured (serial): at most 4 restarts per tile in ``mu``; 89 in ``Lambda``
+    (``invert=False``, the same 4 eigenvalues), and none converged in 300 at 1274 unknowns.
+    """
+    problem, op = _block_operator(MPI.COMM_WORLD, "velocity", length=2.0, nx=12, ny=3)
+    box = (0.02, 0.6, -10.0, 10.0)
+    solver = RegionSolver(MPI.COMM_WORLD, nev=8)
+    res = solver.solve(op.matrices, box, op.law.spurious, count=False)
+    solver.destroy()
+    try:
+        assert res.found == 4  # measured: 0.1087 +- 6.3559i, 0.0975 +- 7.6814i
+        assert res.restarts <= 20 and res.residuals.max() < 1e-10
+        assert res.conjugate_gap() < 1e-8
+    finally:
+        res.destroy()
         op.destroy()
         problem.destroy()

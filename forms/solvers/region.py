@@ -337,6 +337,7 @@ class RegionResult:
         tiles: Tiles solved (including those split).
         seconds: ``{"solve": ..., "count": ...}``.
         count_evaluations: LU factorisations of the count.
+        restarts: Most SLEPc restarts (``PEP.getIterationNumber``) of one tile solve.
     """
 
     box: Box
@@ -347,6 +348,7 @@ class RegionResult:
     tiles: int = 0
     seconds: dict = field(default_factory=dict)
     count_evaluations: int = 0
+    restarts: int = 0
 
     @property
     def found(self) -> int:
@@ -370,7 +372,7 @@ class RegionResult:
         """JSON-ready summary (no vectors)."""
         return {"box": list(self.box), "found": self.found, "counted": self.counted,
                 "closed": self.closed, "tiles": self.tiles, "seconds": self.seconds,
-                "count_evaluations": self.count_evaluations,
+                "count_evaluations": self.count_evaluations, "restarts": self.restarts,
                 "values": [[z.real, z.imag] for z in self.values],
                 "residuals": [float(r) for r in self.residuals]}
 
@@ -482,6 +484,7 @@ class RegionSolver:
         pep.setOperators(list(mats))
         pep.setTarget(target)
         pep.solve()
+        self._restarts = max(self._restarts, pep.getIterationNumber())
         out = []
         for i in range(pep.getConverged()):
             v = mats[0].createVecRight()
@@ -548,7 +551,7 @@ class RegionSolver:
             self.pep.reset()  # SLEPc 3.18 keeps work arrays of the previous size
         self._shape = shape
         self._mats = list(matrices)
-        self._pole = None
+        self._pole, self._restarts = None, 0
         if self.invert and spurious:
             self._pole = complex(min(spurious, key=lambda z: _distance(bx, z)))
             self._inv = inverted(matrices, self._pole)
@@ -585,7 +588,7 @@ class RegionSolver:
         residuals = np.array([_residual(matrices, norms, lam, v) for lam, v in kept])
         return RegionResult(bx, values, residuals, [v for _, v in kept], counted, solved,
                             {"solve": t_solve, "count": info["seconds"]},
-                            info["evaluations"])
+                            info["evaluations"], self._restarts)
 
     def destroy(self) -> None:
         """Destroy the SLEPc object."""

@@ -211,3 +211,43 @@ def test_tiles_next_to_the_cluster_converge():
         res.destroy()
         op.destroy()
         problem.destroy()
+
+
+def _turns_on_edge(op, re, im_max, n=257, divide=True):
+    """Turns of the (divided) determinant's phase along ``Re = re`` from -im_max to im_max."""
+    logdet = LogDet(op.matrices)
+    z = re + 1j * np.linspace(-im_max, im_max, n)
+    f = logdet(z)
+    logdet.destroy()
+    if divide:
+        f = f - op.cleared_rows * np.log(z + 1.0)
+    return float(np.sum(np.angle(np.exp(1j * np.diff(f.imag)))) / (2 * np.pi))
+
+
+@pytest.mark.serial
+def test_cleared_cluster_is_one_eigenvalue_per_interface_node():
+    """The block's eigenvalues next to -1 number ``cleared_rows`` (one per interface node), and
+    only the undivided determinant's phase along the far edge grows with them.
+
+    Measured (block L = 2, P2, edge Re = 0.6, |Im| <= 10, 257 samples): 20.0 / 24.6 turns
+    undivided, 12.4 / 13.4 divided, for 8 x 2 / 12 x 3 cells (17 / 25 interface nodes); the
+    cluster lies in [-1.071, -1.0003].
+    """
+    turns = {}
+    for nx, ny in ((8, 2), (12, 3)):
+        problem, op = _block_operator(MPI.COMM_SELF, "velocity", 2.0, nx, ny)
+        try:
+            assert op.cleared_rows == 2 * nx + 1
+            w = dense_companion_eigenvalues(op)
+            cluster = w[np.abs(w + 1.0) < 0.2]
+            assert cluster.size == op.cleared_rows
+            assert np.all(np.abs(cluster.imag) < 1e-8) and np.all(cluster.real < -1.0)
+            turns[nx] = (_turns_on_edge(op, 0.6, 10.0, divide=False),
+                         _turns_on_edge(op, 0.6, 10.0))
+        finally:
+            op.destroy()
+            problem.destroy()
+    grow_undivided = turns[12][0] - turns[8][0]
+    grow_divided = turns[12][1] - turns[8][1]
+    assert grow_undivided > 0.4 * 8  # measured 4.6 for 8 more nodes
+    assert abs(grow_divided) < 1.5  # measured 1.0

@@ -195,8 +195,9 @@ def test_tiles_next_to_the_cluster_converge():
     """Block L = 2, 12 x 3 cells (350 unknowns), tiles only: the tile centred on the real axis,
     whose nearest eigenvalues in ``Lambda`` are the cluster next to -1, converges in ``mu``.
 
-    Measured (serial): at most 4 restarts per tile in ``mu``; 89 in ``Lambda``
-    (``invert=False``, the same 4 eigenvalues), and none converged in 300 at 1274 unknowns.
+    Measured (serial, the 12 tiles): at most 13 restarts per tile in ``mu``; 299 in ``Lambda``
+    (``invert=False``: one tile ran into ``max_it = 300``; the same 4 eigenvalues), and at 1274
+    unknowns none converged in 300 restarts on the tile centred at 0.31.
     """
     problem, op = _block_operator(MPI.COMM_WORLD, "velocity", length=2.0, nx=12, ny=3)
     box = (0.02, 0.6, -10.0, 10.0)
@@ -205,7 +206,7 @@ def test_tiles_next_to_the_cluster_converge():
     solver.destroy()
     try:
         assert res.found == 4  # measured: 0.1087 +- 6.3559i, 0.0975 +- 7.6814i
-        assert res.restarts <= 20 and res.residuals.max() < 1e-10
+        assert res.restarts <= 40 and res.residuals.max() < 1e-10  # 13 measured, 299 in Lambda
         assert res.conjugate_gap() < 1e-8
     finally:
         res.destroy()

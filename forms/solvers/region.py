@@ -445,7 +445,9 @@ class RegionSolver:
     -1.07 on the block L = 2, P2), a near-degenerate cluster that grows with the mesh; in
     ``Lambda`` it is the nearest set of every tile near the real axis whose own eigenvalues are
     fewer than ``nev`` (measured, target 0.31, block L = 2: 8 cluster members in 89 restarts at
-    350 unknowns, none converged in 300 restarts at 1274, 19 s); in ``mu`` it lies beyond
+    350 unknowns, none converged in 300 restarts at 1274, 19 s; the 12 tiles of the box
+    ``(0.02, 0.6, -10, 10)`` at 350 unknowns: at most 299 restarts in ``Lambda``, 13 in ``mu``);
+    in ``mu`` it lies beyond
     ``1/0.07``, and no tile disc holding ``s`` is mapped (then ``Lambda`` is used).
 
     Args:

@@ -447,8 +447,8 @@ class RegionSolver:
     fewer than ``nev`` (measured, target 0.31, block L = 2: 8 cluster members in 89 restarts at
     350 unknowns, none converged in 300 restarts at 1274, 19 s; the 12 tiles of the box
     ``(0.02, 0.6, -10, 10)`` at 350 unknowns: at most 299 restarts in ``Lambda``, 13 in ``mu``);
-    in ``mu`` it lies beyond
-    ``1/0.07``, and no tile disc holding ``s`` is mapped (then ``Lambda`` is used).
+    in ``mu`` it lies beyond ``1/0.07``. A tile disc holding ``s`` is not mapped (``Lambda`` is
+    used for it).
 
     Args:
         comm: Communicator of the matrices.
@@ -477,7 +477,9 @@ class RegionSolver:
                 "st": st.getType(), "factor_solver": st.getKSP().getPC().getFactorSolverType(),
                 "nev_per_tile": pep.getDimensions()[0], "tol": tol, "max_it": max_it,
                 "options_prefix": pep.getOptionsPrefix() or "",
-                "count": "argument principle on log det T_h (MUMPS ICNTL(33))"}
+                "count": "argument principle on log det T_h (MUMPS ICNTL(33))",
+                "tiles_in": ("mu = 1/(Lambda - s), s the spurious root nearest the box"
+                             if self.invert else "Lambda")}
 
     def _solve_at(self, mats: Sequence[PETSc.Mat], target: complex
                   ) -> list[tuple[complex, PETSc.Vec]]:
@@ -554,7 +556,7 @@ class RegionSolver:
             self.pep.reset()  # SLEPc 3.18 keeps work arrays of the previous size
         self._shape = shape
         self._mats = list(matrices)
-        self._pole, self._restarts = None, 0
+        self._pole, self._restarts, self._inv = None, 0, []
         if self.invert and spurious:
             self._pole = complex(min(spurious, key=lambda z: _distance(bx, z)))
             self._inv = inverted(matrices, self._pole)
@@ -580,10 +582,7 @@ class RegionSolver:
                 xm, ym = 0.5 * (ta + tb), 0.5 * (tc + td)
                 todo += [(ta, xm, tc, ym), (xm, tb, tc, ym), (ta, xm, ym, td), (xm, tb, ym, td)]
         t_solve = time.perf_counter() - t0
-        if self._pole is not None:
-            for b in self._inv:
-                b.destroy()
-            self._inv = []
+        self._release()
         # by decreasing real part; a conjugate pair (real parts equal to rounding) in a fixed
         # order, Im <= 0 first, so that "the fastest" is the same value in every run
         kept.sort(key=lambda p: (-round(p[0].real / scale, 9), p[0].imag))
@@ -593,6 +592,12 @@ class RegionSolver:
                             {"solve": t_solve, "count": info["seconds"]},
                             info["evaluations"], self._restarts)
 
+    def _release(self) -> None:
+        for b in getattr(self, "_inv", []):
+            b.destroy()
+        self._inv = []
+
     def destroy(self) -> None:
-        """Destroy the SLEPc object."""
+        """Destroy the SLEPc object (and the inverted matrices of an interrupted solve)."""
+        self._release()
         self.pep.destroy()

@@ -87,6 +87,9 @@ class FrictionOperator:
         form: ``"polynomial"`` or ``"split"``.
         constant_term: Index of the ``L^0`` matrix (where Dirichlet rows get their diagonal).
         law: The friction law used.
+        cleared_rows: Rows multiplied by the law's denominator (polynomial form; global over
+            the communicator): ``det T = prod_s (L - s)^cleared_rows det T_rational`` up to a
+            constant, ``s`` in ``law.spurious`` (0: not known).
     """
 
     matrices: list[PETSc.Mat]
@@ -94,6 +97,7 @@ class FrictionOperator:
     form: str
     constant_term: int
     law: FrictionLaw
+    cleared_rows: int = 0
 
     def scalars(self, lam: complex) -> np.ndarray:
         """Values ``phi_i(lam)`` of the scalar functions."""
@@ -163,8 +167,10 @@ def friction_operator(
             for ix, iy in zip(x_dofs.tolist(), y_dofs.tolist(), strict=True)]
     matrices = [_term_matrix(stiffness, mass, ck, cm, x_terms[t], x_dofs, rows, old_cols)
                 for t, (ck, cm) in enumerate(interior)]
+    cleared = stiffness.getComm().tompi4py().allreduce(len(x_dofs)) if form == "polynomial" else 0
     return FrictionOperator(
-        matrices=matrices, functions=functions, form=form, constant_term=0, law=law
+        matrices=matrices, functions=functions, form=form, constant_term=0, law=law,
+        cleared_rows=cleared,
     )
 
 

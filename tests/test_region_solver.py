@@ -10,10 +10,18 @@ import slepc4py
 slepc4py.init(sys.argv[:1])
 
 from mpi4py import MPI  # noqa: E402
+from petsc4py import PETSc  # noqa: E402
 
 from analytic.params import Params  # noqa: E402
 from forms.models.strip import build_strip_problem, friction_operator_for  # noqa: E402
-from forms.solvers.region import LogDet, RegionSolver, count_in_box, winding  # noqa: E402
+from forms.solvers.region import (  # noqa: E402
+    LogDet,
+    RegionSolver,
+    count_in_box,
+    inverted,
+    inverted_disc,
+    winding,
+)
 from forms.solvers.slepc import dense_companion_eigenvalues  # noqa: E402
 from meshes.strip import strip_mesh  # noqa: E402
 
@@ -111,3 +119,166 @@ def test_box_with_the_spurious_root_is_refused():
     finally:
         op.destroy()
         problem.destroy()
+
+
+SYNTHETIC_BOX = (0.02, 0.6, -10.0, 10.0)
+
+
+def _diagonal_operator(m):
+    """``T(z)`` diagonal, ``det T`` = product of the rows' polynomials: ``m`` rows
+    ``z + 1 + 0.07/i^2`` (the block's cluster next to the cleared root -1: -1.0002 .. -1.07
+    measured), 60 weakly damped modes ``(z + 0.01)^2 + (0.7 j)^2``, two conjugate pairs in the
+    box, a pair 1e-4 inside the left edge and a pair straddling the top edge (one zero inside).
+    Returns the matrices and the number of zeros in the box (7)."""
+    rows = [[1 + 0.07 / i**2, 1.0] for i in range(1, m + 1)]
+    rows += [[1e-4 + (0.7 * j) ** 2, 0.02, 1.0] for j in range(1, 61)]
+    for a in (0.11 + 6.35j, 0.1 + 7.67j, SYNTHETIC_BOX[0] + 1e-4 + 3.3j):
+        rows.append([abs(a) ** 2, -2 * a.real, 1.0])
+    rows.append(list(np.poly([0.3 + 9.999j, 0.3 + 10.001j])[::-1]))
+    mats = []
+    for j in range(4):
+        a = PETSc.Mat().createAIJ([len(rows)] * 2, nnz=1, comm=MPI.COMM_SELF)
+        for i, r in enumerate(rows):
+            a.setValue(i, i, r[j] if j < len(r) else 0.0)
+        a.assemble()
+        mats.append(a)
+    return mats, 7
+
+
+@pytest.mark.serial
+def test_count_divides_out_the_cleared_cluster():
+    """The count's factorisations do not grow with the cluster next to -1 (the interface rows).
+
+    Measured (this operator): E = 1080 for m = 25, 100 and 400 cluster rows with
+    ``cleared_rows = m``; undivided (``cleared_rows = 0``) E = 2088, 4128, 16405 (~40 m). The
+    count is the same either way (the divisor winds 0 times round the box).
+    """
+    evaluations = []
+    for m in (25, 200):
+        mats, inside = _diagonal_operator(m)
+        try:
+            n, _, info = count_in_box(mats, SYNTHETIC_BOX, (-1.0 + 0j,), cleared_rows=m)
+            assert n == inside
+            evaluations.append(info["evaluations"])
+            if m == 25:
+                assert count_in_box(mats, SYNTHETIC_BOX, (-1.0 + 0j,))[0] == inside
+        finally:
+            for a in mats:
+                a.destroy()
+    # measured equal (1080, 1080); undivided the ratio is ~8 (2088 -> ~8250)
+    assert evaluations[1] <= 1.25 * evaluations[0]
+
+
+@pytest.mark.serial
+def test_inverted_operator_and_disc():
+    """``sum_k mu^k B_k = mu^d T(pole + 1/mu)``; the disc's boundary maps onto its image's."""
+    rng = np.random.default_rng(3)
+    dense = [rng.standard_normal((5, 5)) + 1j * rng.standard_normal((5, 5)) for _ in range(4)]
+    mats = [PETSc.Mat().createDense([5, 5], array=a.copy(), comm=MPI.COMM_SELF) for a in dense]
+    pole, mu = -1.0 + 0.2j, 0.3 - 0.7j
+    out = inverted(mats, pole)
+    got = sum(mu**k * np.array(b.getDenseArray()) for k, b in enumerate(out))
+    lam = pole + 1.0 / mu
+    want = mu**3 * sum(lam**j * a for j, a in enumerate(dense))
+    assert np.abs(got - want).max() < 1e-12 * np.abs(want).max()
+    for a in (*mats, *out):
+        a.destroy()
+    centre, radius = 0.31 + 5.0j, 0.9
+    c, r = inverted_disc(centre, radius, pole)
+    edge = centre + radius * np.exp(2j * np.pi * np.arange(16) / 16)
+    assert np.allclose(np.abs(1.0 / (edge - pole) - c), r, rtol=1e-12, atol=0)
+    assert abs(1.0 / (centre - pole) - c) < r
+    assert inverted_disc(-0.5 + 0j, 0.6, -1.0 + 0j) is None  # the disc holds the pole
+
+
+def test_tiles_next_to_the_cluster_converge():
+    """Block L = 2, 12 x 3 cells (350 unknowns), tiles only: the tile centred on the real axis,
+    whose nearest eigenvalues in ``Lambda`` are the cluster next to -1, converges in ``mu``.
+
+    Measured (serial, the 12 tiles): at most 13 restarts per tile in ``mu``; 299 in ``Lambda``
+    (``invert=False``: one tile ran into ``max_it = 300``; the same 4 eigenvalues), and at 1274
+    unknowns none converged in 300 restarts on the tile centred at 0.31.
+    """
+    problem, op = _block_operator(MPI.COMM_WORLD, "velocity", length=2.0, nx=12, ny=3)
+    box = (0.02, 0.6, -10.0, 10.0)
+    solver = RegionSolver(MPI.COMM_WORLD, nev=8)
+    res = solver.solve(op.matrices, box, op.law.spurious, count=False)
+    solver.destroy()
+    try:
+        assert res.found == 4  # measured: 0.1087 +- 6.3559i, 0.0975 +- 7.6814i
+        assert res.restarts <= 40 and res.residuals.max() < 1e-10  # 13 measured, 299 in Lambda
+        assert res.conjugate_gap() < 1e-8
+    finally:
+        res.destroy()
+        op.destroy()
+        problem.destroy()
+
+
+def _turns_on_edge(op, re, im_max, n=257, divide=True):
+    """Turns of the (divided) determinant's phase along ``Re = re`` from -im_max to im_max."""
+    logdet = LogDet(op.matrices)
+    z = re + 1j * np.linspace(-im_max, im_max, n)
+    f = logdet(z)
+    logdet.destroy()
+    if divide:
+        f = f - op.cleared_rows * np.log(z + 1.0)
+    return float(np.sum(np.angle(np.exp(1j * np.diff(f.imag)))) / (2 * np.pi))
+
+
+@pytest.mark.serial
+def test_cleared_cluster_is_one_eigenvalue_per_interface_node():
+    """The block's eigenvalues next to -1 number ``cleared_rows`` (one per interface node), and
+    only the undivided determinant's phase along the far edge grows with them.
+
+    Measured (block L = 2, P2, edge Re = 0.6, |Im| <= 10, 257 samples): 20.0 / 24.6 turns
+    undivided, 12.4 / 13.4 divided, for 8 x 2 / 12 x 3 cells (17 / 25 interface nodes); the
+    cluster lies in [-1.0708, -1.0003] (-1.0709 .. -1.0002 at 16 x 4).
+    """
+    turns = {}
+    for nx, ny in ((8, 2), (12, 3)):
+        problem, op = _block_operator(MPI.COMM_SELF, "velocity", 2.0, nx, ny)
+        try:
+            assert op.cleared_rows == 2 * nx + 1
+            w = dense_companion_eigenvalues(op)
+            cluster = w[np.abs(w + 1.0) < 0.2]
+            assert cluster.size == op.cleared_rows
+            assert np.all(np.abs(cluster.imag) < 1e-8)
+            assert np.all((cluster.real > -1.0715) & (cluster.real < -1.0001))  # -1.0708, -1.0003
+            turns[nx] = (_turns_on_edge(op, 0.6, 10.0, divide=False),
+                         _turns_on_edge(op, 0.6, 10.0))
+        finally:
+            op.destroy()
+            problem.destroy()
+    grow_undivided = turns[12][0] - turns[8][0]
+    grow_divided = turns[12][1] - turns[8][1]
+    assert grow_undivided > 0.4 * 8  # measured 4.6 for 8 more nodes
+    assert abs(grow_divided) < 1.5  # measured 1.0
+
+
+@pytest.mark.slow  # ~1000 LU factorisations and one dense companion solve (1782 x 1782)
+@pytest.mark.serial
+def test_far_edge_turns_as_stated():
+    """The numbers quoted in the README and design.md (block L = 2, P2, edge Re = 0.6,
+    |Im| <= 10, 257 samples): turns of det T_h 20.0, 24.6, 28.7 for 8 x 2, 12 x 3, 16 x 4 cells
+    (17, 25, 33 interface nodes, 33 cluster eigenvalues at 16 x 4); divided by
+    (Lambda + 1)^m 12.4, 13.4, 13.8 and 14.4 at 24 x 6 cells (1274 unknowns)."""
+    stated = {(8, 2): (20.0, 12.4), (12, 3): (24.6, 13.4), (16, 4): (28.7, 13.8),
+              (24, 6): (None, 14.4)}
+    for (nx, ny), (undivided, divided) in stated.items():
+        problem, op = _block_operator(MPI.COMM_SELF, "velocity", 2.0, nx, ny)
+        try:
+            logdet = LogDet(op.matrices)
+            z = 0.6 + 1j * np.linspace(-10.0, 10.0, 257)
+            f = logdet(z)
+            logdet.destroy()
+            turns = [float(np.sum(np.angle(np.exp(1j * np.diff(g.imag)))) / (2 * np.pi))
+                     for g in (f, f - op.cleared_rows * np.log(z + 1.0))]
+            if undivided is not None:
+                assert abs(turns[0] - undivided) < 0.05, (nx, turns)
+            assert abs(turns[1] - divided) < 0.05, (nx, turns)
+            if (nx, ny) == (16, 4):
+                w = dense_companion_eigenvalues(op)
+                assert np.sum(np.abs(w + 1.0) < 0.2) == op.cleared_rows == 33
+        finally:
+            op.destroy()
+            problem.destroy()

@@ -47,8 +47,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--length", type=float, default=2.0, help="block length L")
     p.add_argument("--box", default="0.02:0.6:10", help="RE_MIN:RE_MAX:IM_MAX of the region")
     p.add_argument("--nev", type=int, default=8, help="eigenpairs per tile solve")
-    p.add_argument("--count-up-to", type=int, default=3000,
+    p.add_argument("--count-up-to", type=int, default=10000,
                    help="count by the argument principle only up to this many unknowns")
+    p.add_argument("--no-divide", action="store_true",
+                   help="count det T_h itself, without dividing out the cleared denominator's"
+                        " (Lambda + 1)^m (for comparison: its sampling grows with the mesh)")
     p.add_argument("--out", default="out/scale", help="output directory")
     return p
 
@@ -67,7 +70,11 @@ def validate(args: argparse.Namespace) -> tuple[list[int], tuple[float, ...]]:
                                   " (0, 1000]")
     _cli.positive_int("--nev", args.nev, 1, 200)
     _cli.positive_int("--count-up-to", args.count_up_to, 0)
-    return sizes, _block_search.box_for(_block_search.parse_box(args.box), 0j)
+    box = _block_search.parse_box(args.box)
+    if box is None:
+        raise _cli.ParameterError(f"--box {args.box!r} is outside its allowed values here"
+                                  " (RE_MIN:RE_MAX:IM_MAX; auto is not taken)")
+    return sizes, (box[0], box[1], -box[2], box[2])
 
 
 def main(comm=None, argv: list[str] | None = None) -> int:
@@ -75,7 +82,8 @@ def main(comm=None, argv: list[str] | None = None) -> int:
     args, comm = _cli.start(build_parser(), argv, comm)
     sizes, box = validate(args)
     parameters = {"unknowns": sizes, "length": args.length, "box": list(box),
-                  "nev": args.nev, "count_up_to": args.count_up_to, "degree": 2,
+                  "nev": args.nev, "count_up_to": args.count_up_to,
+                  "divide": not args.no_divide, "degree": 2,
                   "lateral": "free", "params": Params().as_dict()}
     name = f"scale_np{comm.size}"
     with _cli.RunFolder(comm, args.out, "scale_benchmark", parameters,
@@ -93,7 +101,8 @@ def _run(comm, args, sizes, box, parameters, name) -> int:
         nx, ny = scale.cells_for_unknowns(target, args.length, params.H)
         load = os.getloadavg()[0]
         row = scale.measure_region_solve(comm, params, args.length, nx, ny, box=box,
-                                         nev=args.nev, count=target <= args.count_up_to)
+                                         nev=args.nev, count=target <= args.count_up_to,
+                                         divide=not args.no_divide)
         row.update(load_start=load, load_end=os.getloadavg()[0])
         rows.append(row)
         _cli.say(f"{row['unknowns']} unknowns: wall {row['wall']:.1f} s, found {row['found']},"

@@ -488,6 +488,7 @@ def friction_operator_for(problem: StripProblem, form: str = "polynomial") -> Fr
                 cols, vals = b.getRow(row)
                 a.setValues([row], cols, vals, addv=PETSc.InsertMode.INSERT_VALUES)
             a.assemble()
+        op.cleared_rows += other.cleared_rows
         other.destroy()
     apply_dirichlet(op.matrices, problem.dirichlet, op.constant_term, DIRICHLET_DIAGONAL)
     return op

@@ -178,6 +178,12 @@ def winding(logf, box: Box, *, n_initial: int = 64,  # noqa: ANN001
         t, f, ok = t[order], f[order], ok[order]
 
 
+def _distance(box: Box, z: complex) -> float:
+    """Distance from ``z`` to the box."""
+    a, b, c, d = box
+    return math.hypot(max(a - z.real, 0.0, z.real - b), max(c - z.imag, 0.0, z.imag - d))
+
+
 def _check_box(box: Sequence[float], spurious: Sequence[complex]) -> Box:
     a, b, c, d = (float(v) for v in box)
     if not (b > a and d > c) or not all(math.isfinite(v) for v in (a, b, c, d)):
@@ -267,13 +273,23 @@ class LogDet:
 
 
 def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
-                 spurious: Sequence[complex] = (-1.0 + 0j,), *, prefix: str = "region_det_",
-                 n_initial: int = 16, nudge: float = 1e-3, tries: int = 3
-                 ) -> tuple[int, Box, dict]:
+                 spurious: Sequence[complex] = (-1.0 + 0j,), *, cleared_rows: int = 0,
+                 prefix: str = "region_det_", n_initial: int = 16, nudge: float = 1e-3,
+                 tries: int = 3) -> tuple[int, Box, dict]:
     """Discrete eigenvalues of ``T_h`` in ``box``: the winding number of ``det T_h`` on its edge.
 
     ``det T_h`` is a polynomial in ``Lambda`` (no poles), so the winding number is the number of
-    zeros inside, with multiplicity. If an eigenvalue lies on (or extremely near) the contour
+    zeros inside, with multiplicity. The samples are those of
+    ``F = det T_h / prod_s (Lambda - s)^cleared_rows`` (``s`` in ``spurious``, all outside the
+    box: the divisor winds 0 times, the count is the same for any ``cleared_rows``). With
+    ``cleared_rows`` = the rows multiplied by the cleared denominator
+    (:attr:`forms.friction.FrictionOperator.cleared_rows`), ``F`` is the determinant of the
+    rational operator, in which the cluster of ``cleared_rows`` discrete eigenvalues next to
+    each ``s`` (one per interface node: -1.0002 .. -1.07 on the block L = 2, P2) is cancelled by
+    as many poles; undivided, that cluster makes the phase turn about half a time per interface
+    node along the far edge (measured, edge ``Re = 0.6``: 20.0, 24.6, 28.7 turns with 17, 25, 33
+    nodes; 12.4, 13.4, 13.8 divided) and the sampling grow with the mesh. If an
+    eigenvalue lies on (or extremely near) the contour
     (:class:`~analytic.numerics.roots.ContourError`), the box is enlarged by ``nudge`` times its
     size on every side and counted again (up to ``tries`` times); the box actually used is
     returned.
@@ -283,10 +299,20 @@ def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
     """
     bx = _check_box(box, spurious)
     logdet = LogDet(matrices, prefix)
+
+    def logf(z: np.ndarray) -> np.ndarray:
+        z = np.atleast_1d(np.asarray(z, dtype=complex))
+        out = logdet(z)
+        for s in spurious if cleared_rows else ():
+            # an integer multiple of 2 pi i across the branch cut: the wrapped increments of
+            # :func:`winding` do not see it
+            out = out - cleared_rows * np.log(z - s)
+        return out
+
     try:
         for attempt in range(tries):
             try:
-                n = winding(logdet, bx, n_initial=n_initial)
+                n = winding(logf, bx, n_initial=n_initial)
                 break
             except ContourError:
                 if attempt == tries - 1:
@@ -312,6 +338,7 @@ class RegionResult:
         tiles: Tiles solved (including those split).
         seconds: ``{"solve": ..., "count": ...}``.
         count_evaluations: LU factorisations of the count.
+        restarts: Most SLEPc restarts (``PEP.getIterationNumber``) of one tile solve.
     """
 
     box: Box
@@ -322,6 +349,7 @@ class RegionResult:
     tiles: int = 0
     seconds: dict = field(default_factory=dict)
     count_evaluations: int = 0
+    restarts: int = 0
 
     @property
     def found(self) -> int:
@@ -345,7 +373,7 @@ class RegionResult:
         """JSON-ready summary (no vectors)."""
         return {"box": list(self.box), "found": self.found, "counted": self.counted,
                 "closed": self.closed, "tiles": self.tiles, "seconds": self.seconds,
-                "count_evaluations": self.count_evaluations,
+                "count_evaluations": self.count_evaluations, "restarts": self.restarts,
                 "values": [[z.real, z.imag] for z in self.values],
                 "residuals": [float(r) for r in self.residuals]}
 
@@ -370,8 +398,57 @@ def _residual(matrices: Sequence[PETSc.Mat], norms: np.ndarray, lam: complex,
     return float(num / den) if den > 0 else float("inf")
 
 
+def inverted(matrices: Sequence[PETSc.Mat], pole: complex) -> list[PETSc.Mat]:
+    """``B_0, ..., B_d`` with ``mu^d T(pole + 1/mu) = sum_k mu^k B_k`` (``T = sum_j L^j A_j``).
+
+    ``B_k = sum_j binom(j, i) pole^i A_j`` with ``i = k - d + j`` (``0 <= i <= j``): ``B_0 =
+    A_d``, ``B_d = T(pole)``. The eigenvalues are ``mu = 1/(Lambda - pole)`` with the same
+    vectors; ``Lambda = infinity`` (the Dirichlet rows) goes to ``mu = 0``, the eigenvalues next
+    to ``pole`` far away. Every ``B_k`` has the union pattern of the ``A_j`` (owned by the
+    caller).
+    """
+    d = len(matrices) - 1
+    union = _Combination(matrices)
+    out = []
+    for k in range(d + 1):
+        b = union.mat.duplicate(copy=False)
+        for j, a in enumerate(matrices):
+            i = k - d + j
+            if 0 <= i <= j:
+                b.axpy(math.comb(j, i) * complex(pole) ** i, a,
+                       PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        out.append(b)
+    union.destroy()
+    return out
+
+
+def inverted_disc(centre: complex, radius: float, pole: complex) -> tuple[complex, float] | None:
+    """Image ``(centre, radius)`` of the disc ``|Lambda - centre| <= radius`` in ``mu``.
+
+    ``mu = 1/(Lambda - pole)``; ``None`` if the disc holds ``pole`` (its image is no disc).
+    """
+    a = complex(centre) - pole
+    den = abs(a) ** 2 - radius**2
+    if den <= 1e-12 * abs(a) ** 2:
+        return None
+    return a.conjugate() / den, radius / den
+
+
 class RegionSolver:
     """Every eigenpair of ``sum_j Lambda^j A_j`` in a box: PEP shift-and-invert over tiles.
+
+    With ``invert`` (default), each tile is solved in ``mu = 1/(Lambda - s)`` (:func:`inverted`;
+    ``s`` the spurious root nearest the box), with its disc mapped by :func:`inverted_disc`
+    (discs go to discs: "the nearest ``nev`` in ``mu``" is again "every eigenvalue of the
+    tile's disc" when the farthest lies outside the mapped disc). Reason: each interface node
+    adds a discrete eigenvalue next to ``s`` (the state variable's relaxation; -1.0002 ..
+    -1.07 on the block L = 2, P2), a near-degenerate cluster that grows with the mesh; in
+    ``Lambda`` it is the nearest set of every tile near the real axis whose own eigenvalues are
+    fewer than ``nev`` (measured, target 0.31, block L = 2: 8 cluster members in 89 restarts at
+    350 unknowns, none converged in 300 restarts at 1274, 19 s; the 12 tiles of the box
+    ``(0.02, 0.6, -10, 10)`` at 350 unknowns: at most 299 restarts in ``Lambda``, 13 in ``mu``);
+    in ``mu`` it lies beyond ``1/0.07``. A tile disc holding ``s`` is not mapped (``Lambda`` is
+    used for it).
 
     Args:
         comm: Communicator of the matrices.
@@ -380,13 +457,15 @@ class RegionSolver:
         max_it: SLEPc maximum restarts.
         prefix: Options prefix of the PEP (the count's LU: ``prefix + "det_"``).
         max_tiles: Largest number of tile solves before giving up (the result is then open).
+        invert: Solve the tiles in ``mu`` (above); ``False``: in ``Lambda``.
     """
 
     def __init__(self, comm: MPI.Comm, nev: int = 12, tol: float = 1e-12, max_it: int = 300,
-                 prefix: str = "region_", max_tiles: int = 400) -> None:
+                 prefix: str = "region_", max_tiles: int = 400, invert: bool = True) -> None:
         self.comm = comm
         self.prefix = prefix
         self.max_tiles = max_tiles
+        self.invert = invert
         self.pep = sinvert_pep(comm, nev, tol, max_it, prefix)
 
     def settings(self) -> dict[str, object]:
@@ -398,33 +477,57 @@ class RegionSolver:
                 "st": st.getType(), "factor_solver": st.getKSP().getPC().getFactorSolverType(),
                 "nev_per_tile": pep.getDimensions()[0], "tol": tol, "max_it": max_it,
                 "options_prefix": pep.getOptionsPrefix() or "",
-                "count": "argument principle on log det T_h (MUMPS ICNTL(33))"}
+                "count": "argument principle on log det T_h (MUMPS ICNTL(33))",
+                "tiles_in": ("mu = 1/(Lambda - s), s the spurious root nearest the box"
+                             if self.invert else "Lambda")}
 
-    def _solve_at(self, target: complex) -> tuple[list[tuple[complex, PETSc.Vec]], int]:
+    def _solve_at(self, mats: Sequence[PETSc.Mat], target: complex
+                  ) -> list[tuple[complex, PETSc.Vec]]:
         pep = self.pep
         # setOperators resets the solver's state: without it, a new target alone is not taken
         # by the second solve (SLEPc 3.18 returned the previous tile's eigenvalues)
-        pep.setOperators(self._mats)
+        pep.setOperators(list(mats))
         pep.setTarget(target)
         pep.solve()
-        nconv = pep.getConverged()
+        self._restarts = max(self._restarts, pep.getIterationNumber())
         out = []
-        for i in range(nconv):
-            v = self._mats[0].createVecRight()
+        for i in range(pep.getConverged()):
+            v = mats[0].createVecRight()
             lam = complex(pep.getEigenpair(i, v))
             out.append((lam, v))
-        return out, nconv
+        return out
+
+    def _tile(self, centre: complex, radius: float, nev: int
+              ) -> tuple[list[tuple[complex, PETSc.Vec]], bool]:
+        """Pairs ``(Lambda, v)`` of one tile solve and whether they cover the tile's disc."""
+        disc = None if self._pole is None else inverted_disc(centre, radius, self._pole)
+        mats, (c, r) = (self._mats, (centre, radius)) if disc is None else (self._inv, disc)
+        # off the centre by 1e-3 of the disc: a shift on an eigenvalue is singular
+        pairs = self._solve_at(mats, shift_off(c, 1e-3 * r / max(abs(c), 1.0)))
+        pairs.sort(key=lambda p: abs(p[0] - c))
+        # covered: the farthest converged pair lies outside the disc (SLEPc converges the
+        # pairs nearest the shift first; it may return fewer than nev)
+        covered = bool(pairs) and abs(pairs[min(nev, len(pairs)) - 1][0] - c) > r
+        if disc is not None:
+            keep = [(self._pole + 1.0 / mu, v) for mu, v in pairs if mu != 0]
+            for mu, v in pairs:
+                if mu == 0:
+                    v.destroy()
+            pairs = keep
+        return pairs, covered
 
     def solve(self, matrices: Sequence[PETSc.Mat], box: Sequence[float],
               spurious: Sequence[complex] = (-1.0 + 0j,), *, count: bool = True,
-              expected: int | None = None, tiles: tuple[int, int] | None = None
-              ) -> RegionResult:
+              expected: int | None = None, tiles: tuple[int, int] | None = None,
+              cleared_rows: int = 0) -> RegionResult:
         """Every eigenpair in ``box``; with ``count``, the argument-principle count too.
 
         Args:
             matrices: ``A_0, ..., A_d`` (the cleared polynomial form).
             box: ``(re_min, re_max, im_min, im_max)``.
             spurious: Roots of the cleared denominator (outside the box; dropped).
+            cleared_rows: Rows multiplied by the cleared denominator, divided out of the
+                count's samples (:func:`count_in_box`; the count does not change).
             count: Count the eigenvalues in the box (:func:`count_in_box`) first; the tiling
                 starts with about ``counted / (nev / 2)`` tiles and stops as soon as the
                 count is found (the count, not the cover, is the certificate).
@@ -439,7 +542,7 @@ class RegionSolver:
         bx = _check_box(box, spurious)
         counted, info = None, {"evaluations": 0, "seconds": 0.0}
         if count:
-            counted, bx, info = count_in_box(matrices, bx, spurious,
+            counted, bx, info = count_in_box(matrices, bx, spurious, cleared_rows=cleared_rows,
                                              prefix=self.prefix + "det_")
         a, b, c, d = bx
         nev = self.pep.getDimensions()[0]
@@ -453,6 +556,10 @@ class RegionSolver:
             self.pep.reset()  # SLEPc 3.18 keeps work arrays of the previous size
         self._shape = shape
         self._mats = list(matrices)
+        self._pole, self._restarts, self._inv = None, 0, []
+        if self.invert and spurious:
+            self._pole = complex(min(spurious, key=lambda z: _distance(bx, z)))
+            self._inv = inverted(matrices, self._pole)
         norms = np.array([m.norm(PETSc.NormType.FROBENIUS) for m in matrices])
         scale = max(b - a, d - c)
         todo = [(a + (b - a) * i / n_re, a + (b - a) * (i + 1) / n_re,
@@ -466,14 +573,8 @@ class RegionSolver:
             ta, tb, tc, td = todo.pop()
             centre = complex(0.5 * (ta + tb), 0.5 * (tc + td))
             radius = 0.5 * math.hypot(tb - ta, td - tc)
-            # off the centre by 1e-3 of the tile size: a shift on an eigenvalue is singular
-            pairs, nconv = self._solve_at(shift_off(centre, 1e-3 * radius / max(abs(centre),
-                                                                                 1.0)))
+            pairs, covered = self._tile(centre, radius, nev)
             solved += 1
-            pairs.sort(key=lambda p: abs(p[0] - centre))
-            # covered: the farthest converged pair lies outside the tile's disc (SLEPc converges
-            # the pairs nearest the shift first; it may return fewer than nev)
-            covered = bool(pairs) and abs(pairs[min(nev, len(pairs)) - 1][0] - centre) > radius
             _keep_new(pairs, kept, bx, scale, spurious)
             # SLEPc may converge fewer than nev pairs: a tile that small is not split further
             # (without this, measured: endless splits towards a box corner, 7 of 8 converged)
@@ -481,6 +582,7 @@ class RegionSolver:
                 xm, ym = 0.5 * (ta + tb), 0.5 * (tc + td)
                 todo += [(ta, xm, tc, ym), (xm, tb, tc, ym), (ta, xm, ym, td), (xm, tb, ym, td)]
         t_solve = time.perf_counter() - t0
+        self._release()
         # by decreasing real part; a conjugate pair (real parts equal to rounding) in a fixed
         # order, Im <= 0 first, so that "the fastest" is the same value in every run
         kept.sort(key=lambda p: (-round(p[0].real / scale, 9), p[0].imag))
@@ -488,8 +590,14 @@ class RegionSolver:
         residuals = np.array([_residual(matrices, norms, lam, v) for lam, v in kept])
         return RegionResult(bx, values, residuals, [v for _, v in kept], counted, solved,
                             {"solve": t_solve, "count": info["seconds"]},
-                            info["evaluations"])
+                            info["evaluations"], self._restarts)
+
+    def _release(self) -> None:
+        for b in getattr(self, "_inv", []):
+            b.destroy()
+        self._inv = []
 
     def destroy(self) -> None:
-        """Destroy the SLEPc object."""
+        """Destroy the SLEPc object (and the inverted matrices of an interrupted solve)."""
+        self._release()
         self.pep.destroy()

@@ -395,7 +395,8 @@ def _region_solve(comm: MPI.Comm, params: Params, length: float, cells_per_unit:
     solver = RegionSolver(comm, nev=nev, prefix=prefix)
     res = None
     try:
-        res = solver.solve(op.matrices, box, op.law.spurious, count=count)
+        res = solver.solve(op.matrices, box, op.law.spurious, count=count,
+                           cleared_rows=op.cleared_rows)
         u = None
         if keep_mode and res.found:
             u = problem.to_function(res.vectors[0])

@@ -68,14 +68,16 @@ def _stage(name: str) -> PETSc.Log.Stage:
 
 def measure_region_solve(comm: MPI.Comm, params: Params, length: float, nx: int, ny: int, *,
                          box: Sequence[float], degree: int = 2, nev: int = 8, count: bool = True,
-                         prefix: str = "scale_region_") -> dict:
+                         divide: bool = True, prefix: str = "scale_region_") -> dict:
     """One region solve of the free block ``0 < x < length`` in ``box``, measured.
 
     The count (:func:`forms.solvers.region.count_in_box`, LU prefix ``prefix + "det_"``; only
-    with ``count``) and the tile solves (:class:`forms.solvers.region.RegionSolver`, prefix
-    ``prefix``, without a count: tiles split until the box is covered) run in the PETSc log
-    stages ``scale_count`` and ``scale_tiles``; event times are differences taken around this
-    call, so several calls in one process are independent. Collective; every PETSc object destroyed.
+    with ``count``; with ``divide`` the cleared denominator's ``(Lambda + 1)^m`` divided out of
+    its samples, ``m`` = ``FrictionOperator.cleared_rows``) and the tile solves
+    (:class:`forms.solvers.region.RegionSolver`, prefix ``prefix``, without a count: tiles
+    split until the box is covered) run in the PETSc log stages ``scale_count`` and
+    ``scale_tiles``; event times are differences taken around this call, so several calls in
+    one process are independent. Collective; every PETSc object destroyed.
 
     Returns:
         The row of :data:`COLUMNS` (a dict).
@@ -97,6 +99,7 @@ def measure_region_solve(comm: MPI.Comm, params: Params, length: float, nx: int,
         if count:
             st_count.push()
             counted, bx, info = count_in_box(op.matrices, box, op.law.spurious,
+                                             cleared_rows=op.cleared_rows if divide else 0,
                                              prefix=prefix + "det_")
             st_count.pop()
         t_count = comm.allreduce(info["seconds"], op=MPI.MAX)

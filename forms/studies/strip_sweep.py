@@ -118,7 +118,8 @@ def strip_spectrum(comm: MPI.Comm, params: Params, k: float, box: Sequence[float
     solver = RegionSolver(comm, nev=nev, prefix=PREFIX)
     res = None
     try:
-        res = solver.solve(op.matrices, box, op.law.spurious, count=True)
+        res = solver.solve(op.matrices, box, op.law.spurious, count=True,
+                           cleared_rows=op.cleared_rows)
         t0 = MPI.Wtime()
         harmonics = []
         for v in res.vectors:

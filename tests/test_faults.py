@@ -332,8 +332,8 @@ MORE_SCENES = {
     "benchmark.py": ["--k", "1", "--sweep-k", "1,2", "--skip-mpi", "--sweeps", "none"],
     "fastest_modes.py": ["--run", "v=workflows/results/sweep_k",
                          "--run", "s=workflows/results/sweep_k_stress"],
-}  # not scale_benchmark.py: at 102a8fb and 4fd7b76 its validate() raises a TypeError
-#  (_block_search.box_for's signature)
+    "scale_benchmark.py": ["--unknowns", "170", "--count-up-to", "0"],
+}
 #: The resumable scenes: the whole write (1 lock, 2 record, 3 ...: logged with the hook on
 #: the inputs of SCENES) before which the run holds a finished part (sweep_k: raw/k00000.json;
 #: stability_map: raw/p00000.json; finite_block: raw/L2.0.json; friction_patch: its CSV and

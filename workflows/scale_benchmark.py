@@ -88,6 +88,8 @@ def main(comm=None, argv: list[str] | None = None) -> int:
     name = f"scale_np{comm.size}"
     with _cli.RunFolder(comm, args.out, "scale_benchmark", parameters,
                         outputs=("scale_np*.csv", "scale_np*.json")):
+        _cli.say_plan(comm, f"{len(sizes)} size(s) of one region solve", scale.estimate_seconds(
+            sizes, args.count_up_to), "(the one-rank model)")
         return _run(comm, args, sizes, box, parameters, name)
 
 

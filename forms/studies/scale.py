@@ -179,6 +179,24 @@ def fit_cost_model(rows: Sequence[dict]) -> dict[int, dict[str, float]]:
     return out
 
 
+#: The plan line's model (one rank), power laws through two measured points each
+#: (2026-11-25): a tile solve 27 ms at 170 unknowns (load 1) and 97 s at 201 294 (np1, load
+#: 3-14); a count evaluation 1.0 ms at 170 (load 1) and 0.41 s at 49 454 (count50k_np1,
+#: load 3); 12 tiles and 1024 count evaluations (the default box).
+PLAN_MODEL = {"a_tile": 7.1e-5, "b_tile": 1.157, "a_count": 4.3e-6, "b_count": 1.06}
+PLAN_TILES, PLAN_EVALUATIONS = 12, 1024
+
+
+def estimate_seconds(sizes: Sequence[int], count_up_to: int) -> float:
+    """Up-front estimate of a scale run (one rank, seconds).
+
+    :func:`predict` of :data:`PLAN_MODEL` per size, the count only for the sizes up to
+    ``count_up_to``.
+    """
+    return float(sum(predict(PLAN_MODEL, n, PLAN_EVALUATIONS if n <= count_up_to else 0,
+                             PLAN_TILES) for n in sizes))
+
+
 def predict(model: dict[str, float], unknowns: float, evaluations: float, tiles: float) -> float:
     """Seconds of count + tiles by a model of :func:`fit_cost_model`."""
     return (model["a_count"] * unknowns ** model["b_count"] * evaluations

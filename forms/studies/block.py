@@ -27,7 +27,8 @@ comes from the exact two-body roots (:func:`analytic.numerics.branches.follow_br
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -384,6 +385,24 @@ class BlockSpectrum:
                 "tiles": self.tiles, "seconds": self.seconds}
 
 
+@contextmanager
+def region_session(comm: MPI.Comm, problem: object, nev: int, prefix: str
+                   ) -> Iterator[tuple[object, RegionSolver]]:
+    """The friction operator of a strip ``problem`` and a :class:`RegionSolver` on ``comm``.
+
+    On exit the solver, the operator and the problem are destroyed (in that order; a result
+    of the solver is the caller's to destroy first).
+    """
+    op = friction_operator_for(problem)
+    solver = RegionSolver(comm, nev=nev, prefix=prefix)
+    try:
+        yield op, solver
+    finally:
+        solver.destroy()
+        op.destroy()
+        problem.destroy()
+
+
 def _region_solve(comm: MPI.Comm, params: Params, length: float, cells_per_unit: int, ny: int,
                   degree: int, lateral: str, box: Sequence[float], nev: int, count: bool,
                   keep_mode: bool, friction: FrictionProfile | None, prefix: str):
@@ -391,23 +410,19 @@ def _region_solve(comm: MPI.Comm, params: Params, length: float, cells_per_unit:
     strip = strip_mesh_for(comm, params, float(length), nx, ny)
     problem = build_strip_problem(strip, params, k=None, degree=degree, lateral=lateral,
                                   friction=friction)
-    op = friction_operator_for(problem)
-    solver = RegionSolver(comm, nev=nev, prefix=prefix)
-    res = None
-    try:
-        res = solver.solve(op.matrices, box, op.law.spurious, count=count,
-                           cleared_rows=op.cleared_rows)
-        u = None
-        if keep_mode and res.found:
-            u = problem.to_function(res.vectors[0])
-            normalise(u)
-        return res, u
-    finally:
-        if res is not None:
-            res.destroy()  # the vectors; values and counts stay
-        solver.destroy()
-        op.destroy()
-        problem.destroy()
+    with region_session(comm, problem, nev, prefix) as (op, solver):
+        res = None
+        try:
+            res = solver.solve(op.matrices, box, op.law.spurious, count=count,
+                               cleared_rows=op.cleared_rows)
+            u = None
+            if keep_mode and res.found:
+                u = problem.to_function(res.vectors[0])
+                normalise(u)
+            return res, u
+        finally:
+            if res is not None:
+                res.destroy()  # the vectors; values and counts stay
 
 
 def block_spectrum(comm: MPI.Comm, params: Params, length: float, *, cells_per_unit: int,

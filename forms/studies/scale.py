@@ -25,8 +25,9 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from analytic.params import Params
-from forms.models.strip import build_strip_problem, friction_operator_for, strip_mesh_for
-from forms.solvers.region import RegionSolver, count_in_box
+from forms.models.strip import build_strip_problem, strip_mesh_for
+from forms.solvers.region import count_in_box
+from forms.studies.block import region_session
 
 #: Columns of a measured row (``scale_np<ranks>.csv``). Times in seconds (slowest rank), memory
 #: in MiB: ``rss_max`` the largest peak resident set over the ranks (``ru_maxrss``: the process's
@@ -90,34 +91,30 @@ def measure_region_solve(comm: MPI.Comm, params: Params, length: float, nx: int,
     t0 = MPI.Wtime()
     strip = strip_mesh_for(comm, params, float(length), nx, ny)
     problem = build_strip_problem(strip, params, k=None, degree=degree, lateral="free")
-    op = friction_operator_for(problem)
-    solver = RegionSolver(comm, nev=nev, prefix=prefix)
-    res = None
-    try:
-        t_setup = comm.allreduce(MPI.Wtime() - t0, op=MPI.MAX)
-        counted, bx, info = None, tuple(box), {"evaluations": 0, "seconds": 0.0}
-        if count:
-            st_count.push()
-            counted, bx, info = count_in_box(op.matrices, box, op.law.spurious,
-                                             cleared_rows=op.cleared_rows if divide else 0,
-                                             prefix=prefix + "det_")
-            st_count.pop()
-        t_count = comm.allreduce(info["seconds"], op=MPI.MAX)
-        st_tiles.push()
-        res = solver.solve(op.matrices, bx, op.law.spurious, count=False)
-        st_tiles.pop()
-        factor = solver.pep.getST().getKSP().getPC().getFactorMatrix()
-        mumps_mem = comm.allreduce(factor.getMumpsInfog(21), op=MPI.MAX)
-        unknowns = op.matrices[0].getSize()[0]
-        fastest = complex(res.values[0]) if res.found else complex("nan")
-        found, tiles, t_tiles = res.found, res.tiles, comm.allreduce(res.seconds["solve"],
-                                                                     op=MPI.MAX)
-    finally:
-        if res is not None:
-            res.destroy()
-        solver.destroy()
-        op.destroy()
-        problem.destroy()
+    with region_session(comm, problem, nev, prefix) as (op, solver):
+        res = None
+        try:
+            t_setup = comm.allreduce(MPI.Wtime() - t0, op=MPI.MAX)
+            counted, bx, info = None, tuple(box), {"evaluations": 0, "seconds": 0.0}
+            if count:
+                st_count.push()
+                counted, bx, info = count_in_box(op.matrices, box, op.law.spurious,
+                                                 cleared_rows=op.cleared_rows if divide else 0,
+                                                 prefix=prefix + "det_")
+                st_count.pop()
+            t_count = comm.allreduce(info["seconds"], op=MPI.MAX)
+            st_tiles.push()
+            res = solver.solve(op.matrices, bx, op.law.spurious, count=False)
+            st_tiles.pop()
+            factor = solver.pep.getST().getKSP().getPC().getFactorMatrix()
+            mumps_mem = comm.allreduce(factor.getMumpsInfog(21), op=MPI.MAX)
+            unknowns = op.matrices[0].getSize()[0]
+            fastest = complex(res.values[0]) if res.found else complex("nan")
+            found, tiles, t_tiles = res.found, res.tiles, comm.allreduce(res.seconds["solve"],
+                                                                         op=MPI.MAX)
+        finally:
+            if res is not None:
+                res.destroy()
     comm.barrier()
     wall = MPI.Wtime() - t0
 

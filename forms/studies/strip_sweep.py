@@ -36,8 +36,8 @@ from analytic.physics.tail import velocity_scale
 from forms.mode_postprocessing import harmonic_content
 from forms.models.strip import build_strip_problem, friction_operator_for
 from forms.solvers.certified import CertifiedSolver, default_discretisation
-from forms.solvers.region import RegionSolver
 from forms.solvers.slepc import shift_off, sinvert_pep
+from forms.studies.block import region_session
 from forms.studies.strip_mode import bloch_strip
 
 PREFIX = "strip_region_"
@@ -114,29 +114,25 @@ def strip_spectrum(comm: MPI.Comm, params: Params, k: float, box: Sequence[float
     """
     strip = bloch_strip(comm, params, k, wavelengths, cells_per_wavelength, ny)
     problem = build_strip_problem(strip, params, k=k, degree=degree)
-    op = friction_operator_for(problem)
-    solver = RegionSolver(comm, nev=nev, prefix=PREFIX)
-    res = None
-    try:
-        res = solver.solve(op.matrices, box, op.law.spurious, count=True,
-                           cleared_rows=op.cleared_rows)
-        t0 = MPI.Wtime()
-        harmonics = []
-        for v in res.vectors:
-            content = harmonic_content(problem, problem.to_function(v))
-            m = max(content, key=content.get)
-            harmonics.append(1.0 + m / wavelengths)
-        t_h = MPI.Wtime() - t0
-        out = StripSpectrum(float(k), tuple(res.box), res.values.copy(), res.residuals.copy(),
-                            np.array(harmonics, dtype=float), res.counted, res.closed,
-                            int(op.matrices[0].getSize()[0]),
-                            {**res.seconds, "harmonics": t_h})
-    finally:
-        if res is not None:
-            res.destroy()
-        solver.destroy()
-        op.destroy()
-        problem.destroy()
+    with region_session(comm, problem, nev, PREFIX) as (op, solver):
+        res = None
+        try:
+            res = solver.solve(op.matrices, box, op.law.spurious, count=True,
+                               cleared_rows=op.cleared_rows)
+            t0 = MPI.Wtime()
+            harmonics = []
+            for v in res.vectors:
+                content = harmonic_content(problem, problem.to_function(v))
+                m = max(content, key=content.get)
+                harmonics.append(1.0 + m / wavelengths)
+            t_h = MPI.Wtime() - t0
+            out = StripSpectrum(float(k), tuple(res.box), res.values.copy(), res.residuals.copy(),
+                                np.array(harmonics, dtype=float), res.counted, res.closed,
+                                int(op.matrices[0].getSize()[0]),
+                                {**res.seconds, "harmonics": t_h})
+        finally:
+            if res is not None:
+                res.destroy()
     if estimate:
         t0 = MPI.Wtime()
         out.fine, out.fine_unknowns = refine_values(strip, params, k, degree + 1, out.values)

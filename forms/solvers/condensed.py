@@ -109,16 +109,6 @@ class CondensedOperator:
         s = zp @ self._s_a - np.einsum("pe,pex->px", zp, x)
         return d, s.reshape(z.size, nb, nb)
 
-    def _parts(self, z: np.ndarray) -> tuple[np.ndarray, ...]:
-        """``phi_i(z)``, ``1/(z^2 + w)``, ``T_BI Phi``, ``Psi^H T_IB``, ``S`` at the points."""
-        ph = z[:, None] ** self.powers[None, :]
-        d = 1.0 / (z[:, None] ** 2 + self.w[None, :])
-        nf, nb, nm = self.g.shape
-        p = (ph @ self.g.reshape(nf, -1)).reshape(-1, nb, nm)
-        q = (ph @ self.h.reshape(nf, -1)).reshape(-1, nm, nb)
-        s = (ph @ self.a_bb.reshape(nf, -1)).reshape(-1, nb, nb) - (p * d[:, None, :]) @ q
-        return ph, d, p, q, s
-
     def log_det_many(self, z: np.ndarray) -> np.ndarray:
         """``log det T(z)`` at every point (some branch of the argument), vectorised."""
         flat = np.ravel(np.asarray(z, dtype=complex))

@@ -460,6 +460,7 @@ def zeros_in_box(
     tol: float = 1e-14,
     scale: float = 1.0,
     min_size: float = 1e-9,
+    total: int | None = None,
     **kwargs: float,
 ) -> list[Root]:
     """All zeros of ``fun`` inside ``box``, each polished; the total is checked.
@@ -478,6 +479,8 @@ def zeros_in_box(
         tol: Newton tolerance (see :func:`polish`).
         scale: Typical magnitude of ``fun`` (see :func:`polish`).
         min_size: Smallest box edge relative to ``max(|z|, 1)`` before giving up subdividing.
+        total: The count of ``box`` when the caller has just made it with the same ``poles``
+            and ``kwargs`` (saves one contour); ``None``: counted here.
         **kwargs: Passed to :func:`count_zeros`.
 
     Returns:
@@ -489,7 +492,8 @@ def zeros_in_box(
             the count of the whole box.
     """
     bx = _box_checked(box)
-    total = count_zeros(fun, bx, poles=poles, **kwargs)
+    if total is None:
+        total = count_zeros(fun, bx, poles=poles, **kwargs)
     found: list[tuple[Root, int]] = []
 
     def inside(z: complex, b: Box) -> bool:

@@ -421,9 +421,66 @@ class FastestMode:
     proven: bool
 
 
+#: The fastest-first search locates every root of a box holding at most this many; otherwise it
+#: narrows a band ``lo <= Re <= re_max`` until the band holds at most :data:`BAND_ROOTS`.
+LOCATE_ALL = 4
+#: See :data:`LOCATE_ALL`.
+BAND_ROOTS = 2
+
+
+def fastest_in_box(p: Params, k: float, box: Box) -> tuple[complex | None, int]:
+    """The fastest exact root in ``box`` and the box's count, locating as few roots as possible.
+
+    One argument-principle count of the whole box (the count reported). Up to
+    :data:`LOCATE_ALL` roots: all located (:func:`analytic.numerics.roots.zeros_in_box`).
+    More: bisection of a band ``lo <= Re <= re_max`` (one count each) until it holds at most
+    :data:`BAND_ROOTS` roots, and only that band's roots located; the band holds the fastest
+    root by construction (``count(lo..re_max) >= 1``). Locating and polishing every root of a
+    tall box costs most of the time at large ``k`` (18 roots at ``k = 20``).
+    tests/test_spectrum_fastest.py checks it against every root of the box.
+
+    Returns:
+        ``(root, count)``; ``root`` is ``None`` when the count is 0.
+
+    Raises:
+        ContourError: The box's contour is not usable (the caller nudges it:
+            :func:`on_usable_box`), or no cut of a band is.
+    """
+    from analytic.numerics.branches import _n_initial, spectrum_function
+    from analytic.numerics.roots import count_zeros
+
+    fun = spectrum_function(p, float(k))
+    n_init = _n_initial(p, box)
+
+    def band(a: float) -> Box:
+        return (a, box[1], box[2], box[3])
+
+    n = count_zeros(fun, box, n_initial=n_init)
+    if n == 0:
+        return None, 0
+    lo, up, n_lo = box[0], box[1], n  # count(lo..re_max) = n_lo >= 1, count(up..re_max) = 0
+    while n > LOCATE_ALL and n_lo > BAND_ROOTS and up - lo > 1e-6 * max(1.0, abs(up)):
+        for frac in (0.5, 0.4617, 0.5383, 0.4209, 0.5791):  # off a root sitting on the cut
+            mid = lo + frac * (up - lo)
+            try:
+                m = count_zeros(fun, band(mid), n_initial=n_init)
+                break
+            except ContourError as e:
+                err = e
+        else:
+            raise ContourError(f"no usable cut of the band {band(lo)} at k = {k:g}: {err}")
+        lo, n_lo, up = (mid, m, up) if m >= 1 else (lo, n_lo, mid)
+    roots = zeros_in_box(fun, band(lo), n_initial=n_init, total=n_lo)
+    best = max(roots, key=lambda r: r.value.real)
+    return complex(best.value), n
+
+
 def _fastest_in(p: Params, k: float, region: Region) -> tuple[complex | None, int, Box]:
-    roots, bx = exact_roots(p, k, region.box(p, k))
-    # a nudged box may reach slightly below re_min: report the region's roots only
+    (z, n), bx = on_usable_box(region.box(p, k), k, lambda b: fastest_in_box(p, k, b))
+    if bx[0] >= region.re_min or n == 0:
+        return z, n, bx
+    # a box nudged below re_min: report the region's roots only (every root located)
+    roots, bx = exact_roots(p, k, bx)
     roots = [r for r in roots if r.value.real >= region.re_min]
     if not roots:
         return None, 0, bx

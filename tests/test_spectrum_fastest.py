@@ -1,0 +1,59 @@
+"""The fastest-first search (analytic.numerics.spectrum.fastest_in_box) against every root.
+
+The search counts the whole box, then narrows a band below ``re_max`` by counts and locates only
+that band's roots. Checked here against the independent way: every root of the box located and
+polished (``zeros_in_box`` on the whole box), the fastest taken from them.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from analytic.numerics import spectrum
+from analytic.numerics.branches import _n_initial, spectrum_function
+from analytic.numerics.roots import zeros_in_box
+from analytic.numerics.spectrum import BAND_ROOTS, LOCATE_ALL, Region, fastest_in_box
+from analytic.params import Params
+
+pytestmark = pytest.mark.serial
+
+#: Parameters and the k of each case (two bodies: 43 roots at k = 20, whose whole-box search
+#: alone takes 10-40 s here, so smaller k).
+CASES = {
+    "velocity": ({"bc": "velocity"}, (0.5, 8.0, 20.0)),
+    "stress": ({"bc": "stress"}, (0.5, 8.0, 20.0)),
+    "two_body": ({"mu2": 4.0, "rho2": 1.0, "H2": 0.5}, (0.5, 1.0, 2.0)),
+}
+
+
+@pytest.mark.parametrize("ik", [0, 1, 2])
+@pytest.mark.parametrize("case", ["velocity", "stress", "two_body"])
+@pytest.mark.parametrize("re_min", [1e-6, 0.3])
+def test_fastest_in_box_equals_the_fastest_of_every_root(case, ik, re_min):
+    kw, ks = CASES[case]
+    p, k = Params(**kw), ks[ik]
+    box = Region(c_max=4.0, re_min=re_min).box(p, k)
+    every = zeros_in_box(spectrum_function(p, k), box, n_initial=_n_initial(p, box))
+    z, n = fastest_in_box(p, k, box)
+    assert n == len(every)
+    if not every:
+        assert z is None
+        return
+    best = max(every, key=lambda r: r.value.real).value
+    # both are the same root polished from different starts: measured 0 .. 2.4e-16 relative
+    assert abs(z - best) <= 1e-13 * abs(best)
+
+
+def test_only_the_band_is_located_at_large_k(monkeypatch):
+    """At k = 20 (velocity top, 18 roots) only a band of at most BAND_ROOTS roots is located."""
+    totals = []
+
+    def recording(*args, **kwargs):
+        totals.append(kwargs.get("total"))
+        return zeros_in_box(*args, **kwargs)
+
+    monkeypatch.setattr(spectrum, "zeros_in_box", recording)
+    p = Params()
+    z, n = fastest_in_box(p, 20.0, Region(c_max=4.0, re_min=1e-6).box(p, 20.0))
+    assert n > LOCATE_ALL
+    assert totals and all(t is not None and 1 <= t <= BAND_ROOTS for t in totals)

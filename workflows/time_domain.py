@@ -236,7 +236,9 @@ def _summarise(args: argparse.Namespace, params: object, td: object, mode: objec
         plot_all(args.out, figure_data(data, frames, exact, summary["window"],
                                        summary["measured"]), frames, summary, exact,
                  f"{label}, k = {args.k:g}, bc = {args.bc}, f = {args.f:g},"
-                 f" gamma = {args.gamma:g}, Delta = {args.Delta:g}, H = {args.H:g}")
+                 f" gamma = {args.gamma:g}, Delta = {args.Delta:g}, H = {args.H:g}"
+                 + (f", mu2 = {params.mu2:g}, rho2 = {params.rho2:g}, H2 = {params.H2:g},"
+                    f" bc2 = {params.bc2}" if params.two_body else ""))
     print(_cli.dumps({"predicted": summary["predicted"], "measured": summary["measured"],
                       "relative_difference": summary["relative_difference"],
                       "end": summary["end"]}, indent=1))

@@ -3,8 +3,9 @@
 Model (issue 10). The periodic strip ``0 < x < L``, ``0 < y < H`` of :mod:`meshes.strip` (``L``
 a whole number of wavelengths ``2 pi / k``), plane-strain elastodynamics with the one
 definition of stress in :mod:`forms.elasticity`, on a rigid substrate: ``u_y = 0`` at ``y = 0``
-and rate-and-state friction there; on top ``sigma_yy = -sigma0`` and either ``du_x/dt = v0``
-(``bc = "velocity"``) or ``sigma_xy = tau0 = f sigma0`` (``bc = "stress"``).
+and rate-and-state friction there (or on a deformable substrate: see **Two deformable
+bodies**); on top ``sigma_yy = -sigma0`` and either ``du_x/dt = v0`` (``bc = "velocity"``) or
+``sigma_xy = tau0 = f sigma0`` (``bc = "stress"``).
 
 **Perturbation frame.** The steady solution ``u0 = (v0 t + tau0 y / mu, -sigma0 y/(lambda +
 2 mu))`` is exact for the continuum and for P1/Q1 elements (it is linear in ``y``), so the
@@ -75,6 +76,23 @@ second-order exponential integrator of ``dtau/dt = -kappa (tau - S)`` at constan
 it is second order in ``dt``. Stable step: Gershgorin bound of ``m^{-1} K`` (free dofs),
 ``dt = cfl * 2 / sqrt(bound)``; the friction rows are implicit in the slip rate (no extra
 limit from the radiation-damping-like direct effect).
+
+**Two deformable bodies** (``params.two_body``, finite ``H2``; P1 on the two-body mesh of
+:func:`forms.models.strip.strip_mesh_for`). The interface nodes are duplicated and tied by the
+model's map (``u_y`` continuous, ``u_x1 = s + u_x2``: the slip ``s`` is a reduced unknown,
+``ix`` its rows). The reduced lumped mass ``M_r = P^T diag(m) P`` has the block ``[[m1, m1],
+[m1, m1 + m2]]`` per pair ``(s, u_x2)`` (``m1``, ``m2`` the lumped masses of the slider's and
+the substrate's node) and is diagonal elsewhere; the scheme is the same with ``m^{-1}``
+replaced by the distributed ``M_r^{-1}`` (block ``[[1/m1 + 1/m2, -1/m2], [-1/m2, 1/m2]]``):
+``v^{n+1/2} = v^{n-1/2} + dt M_r^{-1} (-K w^n + F^n)``, the friction force ``-B dtau`` acting
+on the slip row only, so the implicit solve's coefficient is ``c = dt B (M_r^{-1})_ss / 2``.
+The normal stress is the slider's own reaction (the eigen-model's ``reactions``):
+``B dsigma^n = (K_1 w^n)_y + m1 a_y^n`` with ``a_y^n = (M_r^{-1} (-K w^n))_y`` (``F`` has no
+``y`` part, so ``a_y`` is known before the friction solve). The bottom's rows (``bc2``) are
+the eigen-model's; the steady state is linear in ``y`` in each body (exact for P1), so ``w``
+has homogeneous conditions there too. Stable step: the Gershgorin bound in the variables ``(u_x1, u_x2)`` where
+the lumped mass is diagonal (the same spectrum). Every identity below holds with ``M_r`` in
+place of ``m``.
 
 **Energy.** For the perturbation, ``E^{n+1/2} = 1/2 v^{n+1/2} m v^{n+1/2} + 1/2 w^{n+1} K w^n``
 satisfies ``E^{n+1/2} - E^{n-1/2} = dt F^n . v^n`` exactly (central differences), so the budget

@@ -90,9 +90,9 @@ The normal stress is the slider's own reaction (the eigen-model's ``reactions``)
 ``B dsigma^n = (K_1 w^n)_y + m1 a_y^n`` with ``a_y^n = (M_r^{-1} (-K w^n))_y`` (``F`` has no
 ``y`` part, so ``a_y`` is known before the friction solve). The bottom's rows (``bc2``) are
 the eigen-model's; the steady state is linear in ``y`` in each body (exact for P1), so ``w``
-has homogeneous conditions there too. Stable step: the Gershgorin bound in the variables ``(u_x1, u_x2)`` where
-the lumped mass is diagonal (the same spectrum). Every identity below holds with ``M_r`` in
-place of ``m``.
+has homogeneous conditions there too. Stable step: the Gershgorin bound in the variables
+``(u_x1, u_x2)`` where the lumped mass is diagonal (the same spectrum). Every identity below
+holds with ``M_r`` in place of ``m``.
 
 **Energy.** For the perturbation, ``E^{n+1/2} = 1/2 v^{n+1/2} m v^{n+1/2} + 1/2 w^{n+1} K w^n``
 satisfies ``E^{n+1/2} - E^{n-1/2} = dt F^n . v^n`` exactly (central differences), so the budget

@@ -159,11 +159,12 @@ def validate(args: argparse.Namespace):  # noqa: ANN201 - (Params, NonlinearLaw)
 
 def _config(args: argparse.Namespace, nranks: int) -> dict:
     """Options that must match for ``--resume``."""
-    keys = ["f", "gamma", "beta", "Delta", "H", "bc", "alpha_pc", "alpha_ld", "mu2", "rho2",
-            "beta2", "H2", "bc2", "a", "v0",
+    keys = ["f", "gamma", "beta", "Delta", "H", "bc", "alpha_pc", "alpha_ld", "a", "v0",
             "friction", "k", "branch", "most_unstable", "initial", "amplitude", "wavelengths",
             "cells_per_wavelength", "ny", "cell", "cfl", "dt", "frame_every", "chunk", "xdmf_every",
             "linear_limit", "friction_theta"]
+    if math.isfinite(args.mu2):  # two bodies (finite H2): the substrate must match too
+        keys += ["mu2", "rho2", "beta2", "H2", "bc2"]
     out = {key: getattr(args, key) for key in keys}
     out["ranks"] = nranks
     return out

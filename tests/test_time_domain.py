@@ -643,6 +643,7 @@ def test_two_body_stepper_is_the_one_2d_model():
 
 
 @pytest.mark.serial
+@pytest.mark.slow
 def test_two_body_scene_serial_and_mpi(tmp_path):
     """The scene accepts a substrate; 1 and 2 ranks measure the same (measured ~1e-13)."""
     out = {}
@@ -662,6 +663,7 @@ def test_two_body_scene_serial_and_mpi(tmp_path):
 
 
 @pytest.mark.serial
+@pytest.mark.slow
 def test_two_body_scene_resume(tmp_path):
     """Two bodies: a run cut at t = 1 and resumed to t = 2 writes the same series as one run
     (the substrate's options are part of the checkpoint's configuration)."""

@@ -12,6 +12,11 @@ errors) and compares them with the exact eigenvalue (:func:`analytic.follow_bran
 keeps going into the nonlinear regime until ``--t-end``/``--periods`` or the end of the
 model's validity (normal stress reaching zero: opening; slip rate reversing).
 
+Two deformable bodies: ``--mu2 M --rho2 R [--beta2 B] --H2 H2 [--bc2 velocity|stress]``
+puts the slider on a meshed substrate ``-H2 < y < 0`` (P1 triangles, ``--ny`` cells in each
+body; ``--initial lumped`` only); the exact eigenvalue is the two-body root of
+:mod:`analytic.physics.twobody` and the growth rate is measured on the interface slip rate.
+
 Writes into ``--out`` as it goes: ``timeseries.csv`` (every step: Fourier coefficient,
 energies, friction work, extremes), ``interface_NNNN.npz`` (interface ``v/v0``, ``(tau -
 tau0)/sigma0``, ``(sigma - sigma0)/sigma0``, ``theta`` every ``--frame-every`` steps, in chunks),
@@ -44,7 +49,6 @@ from _time_files import RunWriter, read_checkpoint, read_outputs
 from tqdm import tqdm
 
 from analytic import parse_branch_label
-from analytic.params import require_rigid
 from analytic.studies.growth_fit import excited_branch, figure_data, mode_period, summarise_run
 from forms.timedomain.model import NonlinearLaw
 from forms.timedomain.run import estimate_seconds, run_record, run_time_domain, setup_strip
@@ -81,9 +85,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--t-end", type=float, default=None, help="run length (overrides --periods)")
     p.add_argument("--wavelengths", type=int, default=1, help="strip length in wavelengths")
     p.add_argument("--cells-per-wavelength", type=int, default=64, help="cells along x")
-    p.add_argument("--ny", type=int, default=16, help="cells along y")
-    p.add_argument("--cell", choices=("quadrilateral", "triangle"), default="quadrilateral",
-                   help="Q1 or P1")
+    p.add_argument("--ny", type=int, default=16, help="cells along y (in each body)")
+    p.add_argument("--cell", choices=("quadrilateral", "triangle"), default=None,
+                   help="Q1 or P1 (default: quadrilateral; two bodies: triangle, the only one)")
     p.add_argument("--cfl", type=float, default=0.9,
                    help="time step as a fraction of the stable step (Gershgorin), (0, 1]")
     p.add_argument("--dt", type=float, default=None, help="explicit time step (overrides --cfl)")
@@ -116,8 +120,15 @@ def build_parser() -> argparse.ArgumentParser:
 def validate(args: argparse.Namespace):  # noqa: ANN201 - (Params, NonlinearLaw)
     """Check every option (no collective call); raise ParameterError with one line."""
     params = _cli.params_from_args(args)
-    require_rigid(params, "the time-domain scene")
-    _cli.require_finite_heights(params, "finite H for a strip")
+    _cli.require_finite_heights(params, "a finite strip", substrate=True)
+    if params.two_body:
+        if args.cell == "quadrilateral":
+            raise _cli.ParameterError("cell = 'quadrilateral' is outside its allowed values"
+                                      " here (two bodies: triangle)")
+        if args.initial == "cross-section":
+            raise _cli.ParameterError("initial = 'cross-section' is outside its allowed values"
+                                      " here (two bodies: lumped)")
+    args.cell = args.cell or ("triangle" if params.two_body else "quadrilateral")
     _cli.check_k(args.k)
     law = NonlinearLaw(params, a=args.a, v0=args.v0, kind=args.friction)
     parse_branch_label(args.branch)
@@ -152,6 +163,8 @@ def _config(args: argparse.Namespace, nranks: int) -> dict:
             "friction", "k", "branch", "most_unstable", "initial", "amplitude", "wavelengths",
             "cells_per_wavelength", "ny", "cell", "cfl", "dt", "frame_every", "chunk", "xdmf_every",
             "linear_limit", "friction_theta"]
+    if math.isfinite(args.mu2):  # two bodies (finite H2): the substrate must match too
+        keys += ["mu2", "rho2", "beta2", "H2", "bc2"]
     out = {key: getattr(args, key) for key in keys}
     out["ranks"] = nranks
     return out
@@ -224,7 +237,9 @@ def _summarise(args: argparse.Namespace, params: object, td: object, mode: objec
         plot_all(args.out, figure_data(data, frames, exact, summary["window"],
                                        summary["measured"]), frames, summary, exact,
                  f"{label}, k = {args.k:g}, bc = {args.bc}, f = {args.f:g},"
-                 f" gamma = {args.gamma:g}, Delta = {args.Delta:g}, H = {args.H:g}")
+                 f" gamma = {args.gamma:g}, Delta = {args.Delta:g}, H = {args.H:g}"
+                 + (f", mu2 = {params.mu2:g}, rho2 = {params.rho2:g}, H2 = {params.H2:g},"
+                    f" bc2 = {params.bc2}" if params.two_body else ""))
     print(_cli.dumps({"predicted": summary["predicted"], "measured": summary["measured"],
                       "relative_difference": summary["relative_difference"],
                       "end": summary["end"]}, indent=1))

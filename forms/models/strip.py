@@ -254,28 +254,38 @@ def _assemble(strip: StripMesh, params: Params, V: dolfinx.fem.FunctionSpace
 
 
 def explicit_operators(strip: StripMesh, params: Params, V: dolfinx.fem.FunctionSpace
-                       ) -> tuple[PETSc.Mat, PETSc.Vec, PETSc.Vec]:
+                       ) -> dict[str, PETSc.Mat | PETSc.Vec]:
     """The explicit time domain's operators on the one 2D model, unreduced (collective).
 
     The stiffness of :func:`_assemble` (materials of :func:`materials`), the lumped mass (row
-    sums of the mass matrix) and ``int_Gamma w_x ds``; the vectors have their ghosts summed.
+    sums of the mass matrix) and ``int_Gamma w_x ds`` (the slider's side); with two bodies
+    also the slider's own stiffness and lumped mass (its reactions). Vectors have their ghosts
+    summed.
 
     Returns:
-        ``(K, lumped mass, interface load)``; the caller destroys them.
+        ``{"K", "lump", "interface"}`` and with two bodies ``"K1", "lump1"``; the caller
+        destroys them.
     """
     u, w = ufl.TrialFunction(V), ufl.TestFunction(V)
     ds = ufl.Measure("ds", domain=strip.mesh, subdomain_data=strip.facet_tags)
+    dx = ufl.Measure("dx", domain=strip.mesh, subdomain_data=strip.cell_tags)
     mu, lmbda, rho = materials(strip, params)
-    K = dolfinx.fem.petsc.assemble_matrix(
-        dolfinx.fem.form(stiffness_density(ufl.grad(u), ufl.grad(w), lmbda, mu) * ufl.dx))
-    K.assemble()
-    lump = dolfinx.fem.petsc.assemble_vector(
-        dolfinx.fem.form(rho * ufl.inner(ufl.as_vector((1.0, 1.0)), w) * ufl.dx))
-    bvec = dolfinx.fem.petsc.assemble_vector(
-        dolfinx.fem.form(ufl.inner(ufl.as_vector((1.0, 0.0)), w) * ds(INTERFACE)))
-    for v in (lump, bvec):
-        v.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    return K, lump, bvec
+    ones = ufl.as_vector((1.0, 1.0))
+    forms = {"K": stiffness_density(ufl.grad(u), ufl.grad(w), lmbda, mu) * ufl.dx,
+             "lump": rho * ufl.inner(ones, w) * ufl.dx,
+             "interface": ufl.inner(ufl.as_vector((1.0, 0.0)), w) * ds(INTERFACE)}
+    if strip.two_body:
+        forms["K1"] = stiffness_density(ufl.grad(u), ufl.grad(w), lmbda, mu) * dx(SLIDER)
+        forms["lump1"] = ufl.inner(ones, w) * dx(SLIDER)
+    out: dict[str, PETSc.Mat | PETSc.Vec] = {}
+    for name, a in forms.items():
+        if name.startswith("K"):
+            out[name] = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(a))
+            out[name].assemble()
+        else:
+            out[name] = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(a))
+            out[name].ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    return out
 
 
 @dataclass
@@ -283,20 +293,37 @@ class ExplicitStrip:
     """The one 2D model set up for explicit time stepping: P1/Q1, lumped mass, periodic strip.
 
     Same mesh, materials (:func:`explicit_operators`), periodic map
-    (:func:`forms.models.periodic.reduction_map` with phase exactly 1) and constrained rows
-    (those of :func:`build_strip_problem`) as the eigen-model; rigid substrate only.
+    (:func:`forms.models.periodic.reduction_map` with phase exactly 1, and with two bodies the
+    tie ``u_y`` continuous, ``u_x1 = s + u_x2``) and constrained rows (those of
+    :func:`build_strip_problem`) as the eigen-model.
+
+    The reduced lumped mass ``M_r = P^T diag(m) P`` is diagonal except, with two bodies, the
+    ``2 x 2`` block ``[[m1, m1], [m1, m1 + m2]]`` of each interface pair ``(s, u_x2)`` (kinetic
+    energy ``m1 (s' + u_x2')^2 + m2 u_x2'^2``); its inverse has the block
+    ``[[1/m1 + 1/m2, -1/m2], [-1/m2, 1/m2]]``. The two nodes of a pair may be owned by
+    different ranks: ``M_r`` and ``M_r^{-1}`` are distributed matrices.
 
     Attributes:
         V: Vector P1/Q1 space.
-        map: The reduction ``u = P x`` (plain periodicity).
+        map: The reduction ``u = P x``.
         stiffness: Reduced ``P^T K P``.
-        mass: Lumped mass ``P^T m`` of the owned reduced rows (local array).
+        mass: Diagonal of ``M_r`` (``P^T m``) at the owned reduced rows (local array).
         interface_length: Lumped interface length ``P^T B`` of the owned reduced rows.
-        interface_x: Owned global rows of ``u_x`` at the interface nodes, sorted by ``x``.
+        interface_x: Owned global rows of ``u_x`` (the slip with two bodies) at the slider's
+            interface nodes, sorted by ``x``.
         interface_y: Owned global rows of ``u_y`` at the same nodes, in the same order.
         interface_coordinate: ``x`` of those nodes (increasing).
         top_x: Owned global rows of ``u_x`` on the top held by ``bc = velocity`` (else empty).
-        dirichlet: Owned global rows held fixed: ``interface_y`` and ``top_x``.
+        dirichlet: Owned global rows held fixed (one body: ``interface_y``; ``top_x``; with two
+            bodies and ``bc2 = velocity`` the bottom's ``u_x2``).
+        row_bound: Per owned reduced row, the Gershgorin row bound of the generalised problem
+            ``K x = omega^2 M_r x``: ``sum_j |K_ij| / m_i`` in the variables where the lumped
+            mass is diagonal (two bodies: ``u_x1, u_x2`` instead of ``s, u_x2``, i.e. the map
+            ``Q``; the same spectrum).
+        mass_matrix: Two bodies: ``M_r``; ``None``: it is ``diag(mass)``.
+        inverse_mass: Two bodies: ``M_r^{-1}``; ``None``: ``1/mass``.
+        reactions: Two bodies: the slider's reduced ``(K_1, M_1)`` (lumped ``M_1``); ``None``:
+            ``(stiffness, diag(mass))``.
     """
 
     V: dolfinx.fem.FunctionSpace
@@ -309,42 +336,131 @@ class ExplicitStrip:
     interface_coordinate: np.ndarray
     top_x: np.ndarray
     dirichlet: np.ndarray
+    row_bound: np.ndarray
+    mass_matrix: PETSc.Mat | None = None
+    inverse_mass: PETSc.Mat | None = None
+    reactions: tuple[PETSc.Mat, PETSc.Mat] | None = None
 
     def destroy(self) -> None:
         """Free the PETSc objects."""
-        self.stiffness.destroy()
+        for obj in (self.stiffness, self.mass_matrix, self.inverse_mass, *(self.reactions or ())):
+            if obj is not None:
+                obj.destroy()
         self.map.destroy()
 
 
+def _diagonal(template: PETSc.Mat, values: PETSc.Vec) -> PETSc.Mat:
+    """A square AIJ matrix with the row layout of ``template``'s rows holding ``diag(values)``."""
+    n = template.getSizes()[0]
+    D = PETSc.Mat().createAIJ((n, n), nnz=1, comm=template.getComm())
+    D.setDiagonal(values)
+    D.assemble()
+    return D
+
+
+def _transpose_apply(P: PETSc.Mat, full: PETSc.Vec) -> np.ndarray:
+    """``P^T full`` as the local real array of the owned reduced rows."""
+    red = P.createVecRight()
+    P.multTranspose(full, red)
+    out = red.array.real.copy()
+    red.destroy()
+    return out
+
+
+def _row_bound(K: PETSc.Mat, mass: np.ndarray) -> np.ndarray:
+    """``sum_j |K_ij| / m_i`` per owned row (Gershgorin rows of ``m^{-1} K``)."""
+    indptr, _, vals = K.getValuesCSR()
+    rows = np.repeat(np.arange(len(indptr) - 1), np.diff(indptr))
+    return np.bincount(rows, weights=np.abs(vals), minlength=len(indptr) - 1) / mass
+
+
+def _inverse_block_mass(Mr: PETSc.Mat, mass_q: np.ndarray, slip: np.ndarray) -> PETSc.Mat:
+    """``M_r^{-1}`` of the reduced lumped mass with the ``[[m1, m1], [m1, m1 + m2]]`` blocks.
+
+    ``O`` (``M_r`` without its diagonal) holds ``m1`` at ``(s, u_x2)`` and ``(u_x2, s)``; with
+    the diagonal masses ``mass_q`` of ``(u_x1, u_x2)`` (``m1`` in the row of ``s``, ``m2`` in
+    that of ``u_x2``): ``(O 1)_i = m1`` and ``(O mass_q)_s = m1 m2`` in a pair's rows, so every
+    rank finds both masses of its pair rows by two mat-vecs. Then ``M_r^{-1} = diag(d) -
+    diag(1/(m1 m2)) O`` with ``d = 1/m1 + 1/m2`` (``s``), ``1/m2`` (``u_x2``), ``1/m``
+    (other rows).
+    """
+    rstart = Mr.getOwnershipRange()[0]
+    diag = Mr.getDiagonal()
+    off = Mr.copy()
+    zero = diag.duplicate()
+    zero.set(0.0)
+    off.setDiagonal(zero)
+    ones, o1, omq = (diag.duplicate() for _ in range(3))
+    ones.set(1.0)
+    off.mult(ones, o1)
+    zero.array[:] = mass_q
+    off.mult(zero, omq)
+    m1 = o1.array.real.copy()
+    pair = m1 > 0
+    is_s = np.zeros(len(m1), dtype=bool)
+    is_s[np.asarray(slip, dtype=np.int64) - rstart] = True
+    m2 = np.where(is_s, omq.array.real / np.where(pair, m1, 1.0), mass_q)
+    d = np.where(pair, np.where(is_s, 1.0 / np.where(pair, m1, 1.0), 0.0) + 1.0 / m2,
+                 1.0 / diag.array.real)
+    scale = zero
+    scale.array[:] = np.where(pair, -1.0 / np.where(pair, m1 * m2, 1.0), 0.0)
+    off.diagonalScale(L=scale)
+    ones.array[:] = d
+    off.setDiagonal(ones)
+    for v in (diag, o1, omq, scale, ones):
+        v.destroy()
+    return off
+
+
 def explicit_strip(strip: StripMesh, params: Params) -> ExplicitStrip:
-    """Assemble :class:`ExplicitStrip` on a one-body periodic strip (collective).
+    """Assemble :class:`ExplicitStrip` on a periodic strip, one or two bodies (collective).
 
     Args:
-        strip: Mesh from :func:`strip_mesh_for` (triangles: P1, quadrilaterals: Q1).
-        params: Physical parameters (``bc`` chooses the top condition; rigid substrate).
+        strip: Mesh from :func:`strip_mesh_for` (triangles: P1, quadrilaterals: Q1; two bodies:
+            P1).
+        params: Physical parameters (``bc`` chooses the top condition, ``bc2`` the bottom's).
     """
-    if strip.two_body or params.two_body:
-        raise ParameterError(f"mu2 = {params.mu2!r} is outside its allowed range here (the"
-                             " explicit time domain has a rigid substrate: mu2 = inf)")
+    if strip.two_body != params.two_body:
+        raise ParameterError(f"mu2 = {params.mu2!r} does not match the mesh (two bodies:"
+                             f" {strip.two_body}); build it with strip_mesh_for")
     msh = strip.mesh
     V = dolfinx.fem.FunctionSpace(msh, ufl.VectorElement("Lagrange", msh.ufl_cell(), 1))
-    K, lump, bvec = explicit_operators(strip, params, V)
+    ops = explicit_operators(strip, params, V)
     body = node_bodies(strip, V)
     rmap = reduction_map(V, strip, 0.0, body)  # k = 0: phase exactly 1
-    Kr = reduce_matrix(K, rmap.P)
-    K.destroy()
-    lumped = []
-    for full in (lump, bvec):
-        red = Kr.createVecRight()
-        rmap.P.multTranspose(full, red)
-        lumped.append(red.array.real.copy())
-        red.destroy()
-        full.destroy()
+    Kr = reduce_matrix(ops["K"], rmap.P)
+    mass = _transpose_apply(rmap.P, ops["lump"])
+    blen = _transpose_apply(rmap.P, ops["interface"])
     ix, iy, xi, rows = _constrained_rows(strip, params, V, rmap.reduced, body, False, "free")
     order = np.argsort(xi)
-    top_x = np.setdiff1d(rows, iy).astype(PETSc.IntType)  # rigid: the rest are the top's u_x
-    return ExplicitStrip(V, rmap, Kr, lumped[0], lumped[1], ix[order], iy[order], xi[order],
-                         top_x, rows)
+    n_owned = V.dofmap.index_map.size_local
+    xy = V.tabulate_dof_coordinates()[:n_owned, :2]
+    at_top = (np.abs(xy[:, 1] - strip.height) < 1e-10 * (strip.height + strip.depth)) \
+        & (rmap.reduced[:, 0] >= 0)
+    top_x = np.intersect1d(rmap.reduced[at_top, 0], rows).astype(PETSc.IntType)
+    out = ExplicitStrip(V, rmap, Kr, mass, blen, ix[order], iy[order], xi[order], top_x, rows,
+                        _row_bound(Kr, mass))
+    if strip.two_body:
+        _two_body_mass(out, ops)
+    for obj in ops.values():
+        obj.destroy()
+    return out
+
+
+def _two_body_mass(out: ExplicitStrip, ops: dict[str, PETSc.Mat | PETSc.Vec]) -> None:
+    """Fill the two-body fields of ``out``: ``M_r``, ``M_r^{-1}``, reactions, row bound."""
+    P, Q = out.map.P, out.map.Q
+    D = _diagonal(ops["K"], ops["lump"])
+    out.mass_matrix = reduce_matrix(D, P)
+    mass_q = _transpose_apply(Q, ops["lump"])
+    Kq = reduce_matrix(ops["K"], Q)
+    out.row_bound = _row_bound(Kq, mass_q)
+    Kq.destroy()
+    out.inverse_mass = _inverse_block_mass(out.mass_matrix, mass_q, out.interface_x)
+    D1 = _diagonal(ops["K"], ops["lump1"])
+    out.reactions = (reduce_matrix(ops["K1"], P), reduce_matrix(D1, P))
+    D.destroy()
+    D1.destroy()
 
 
 def _reduce(mats: dict[str, PETSc.Mat], rmap: ReductionMap | None) -> dict[str, PETSc.Mat]:

@@ -3,8 +3,9 @@
 Model (issue 10). The periodic strip ``0 < x < L``, ``0 < y < H`` of :mod:`meshes.strip` (``L``
 a whole number of wavelengths ``2 pi / k``), plane-strain elastodynamics with the one
 definition of stress in :mod:`forms.elasticity`, on a rigid substrate: ``u_y = 0`` at ``y = 0``
-and rate-and-state friction there; on top ``sigma_yy = -sigma0`` and either ``du_x/dt = v0``
-(``bc = "velocity"``) or ``sigma_xy = tau0 = f sigma0`` (``bc = "stress"``).
+and rate-and-state friction there (or on a deformable substrate: see **Two deformable
+bodies**); on top ``sigma_yy = -sigma0`` and either ``du_x/dt = v0`` (``bc = "velocity"``) or
+``sigma_xy = tau0 = f sigma0`` (``bc = "stress"``).
 
 **Perturbation frame.** The steady solution ``u0 = (v0 t + tau0 y / mu, -sigma0 y/(lambda +
 2 mu))`` is exact for the continuum and for P1/Q1 elements (it is linear in ``y``), so the
@@ -76,6 +77,23 @@ it is second order in ``dt``. Stable step: Gershgorin bound of ``m^{-1} K`` (fre
 ``dt = cfl * 2 / sqrt(bound)``; the friction rows are implicit in the slip rate (no extra
 limit from the radiation-damping-like direct effect).
 
+**Two deformable bodies** (``params.two_body``, finite ``H2``; P1 on the two-body mesh of
+:func:`forms.models.strip.strip_mesh_for`). The interface nodes are duplicated and tied by the
+model's map (``u_y`` continuous, ``u_x1 = s + u_x2``: the slip ``s`` is a reduced unknown,
+``ix`` its rows). The reduced lumped mass ``M_r = P^T diag(m) P`` has the block ``[[m1, m1],
+[m1, m1 + m2]]`` per pair ``(s, u_x2)`` (``m1``, ``m2`` the lumped masses of the slider's and
+the substrate's node) and is diagonal elsewhere; the scheme is the same with ``m^{-1}``
+replaced by the distributed ``M_r^{-1}`` (block ``[[1/m1 + 1/m2, -1/m2], [-1/m2, 1/m2]]``):
+``v^{n+1/2} = v^{n-1/2} + dt M_r^{-1} (-K w^n + F^n)``, the friction force ``-B dtau`` acting
+on the slip row only, so the implicit solve's coefficient is ``c = dt B (M_r^{-1})_ss / 2``.
+The normal stress is the slider's own reaction (the eigen-model's ``reactions``):
+``B dsigma^n = (K_1 w^n)_y + m1 a_y^n`` with ``a_y^n = (M_r^{-1} (-K w^n))_y`` (``F`` has no
+``y`` part, so ``a_y`` is known before the friction solve). The bottom's rows (``bc2``) are
+the eigen-model's; the steady state is linear in ``y`` in each body (exact for P1), so ``w``
+has homogeneous conditions there too. Stable step: the Gershgorin bound in the variables
+``(u_x1, u_x2)`` where the lumped mass is diagonal (the same spectrum). Every identity below
+holds with ``M_r`` in place of ``m``.
+
 **Energy.** For the perturbation, ``E^{n+1/2} = 1/2 v^{n+1/2} m v^{n+1/2} + 1/2 w^{n+1} K w^n``
 satisfies ``E^{n+1/2} - E^{n-1/2} = dt F^n . v^n`` exactly (central differences), so the budget
 ``E - E(0) = W_friction`` (work of the perturbed friction force on the body; the top does no
@@ -102,7 +120,7 @@ from analytic.law import FrictionLaw
 from analytic.params import ParameterError, Params
 from forms.friction import apply_dirichlet, friction_operator
 from forms.models.periodic import ReductionMap
-from forms.models.strip import explicit_strip
+from forms.models.strip import ExplicitStrip, explicit_strip
 from forms.solvers.slepc import PolynomialSolver
 from meshes.strip import StripMesh
 
@@ -319,6 +337,8 @@ class TimeDomainStrip:
         top_x: Local indices of the top ``w_x`` (Dirichlet for ``bc = velocity``).
         periodic_map: The one 2D model's periodic map (``P``: full strip from reduced
             unknowns), for output.
+        model: The one 2D model's operators (owns ``K`` and the map; with two bodies the
+            block mass ``M_r``, its inverse and the slider's reactions).
         w, vh: Displacement ``w^n`` and velocity ``v^{n-1/2}`` (local, real).
         iface: Interface state.
         step: Current step ``n``.
@@ -341,6 +361,7 @@ class TimeDomainStrip:
     dt_stable: float
     top_x: np.ndarray
     periodic_map: ReductionMap | None = None
+    model: ExplicitStrip | None = None
     friction_theta: float = 0.5
     w: np.ndarray = field(default_factory=lambda: np.zeros(0))
     vh: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -352,6 +373,8 @@ class TimeDomainStrip:
     _rvec: PETSc.Vec | None = None
     _ld_pending: bool = False
     _newton_max: int = 0
+    _slider_mass_y: np.ndarray | None = None
+    _minv_x: np.ndarray | None = None
     _last: tuple | None = None
 
     # ------------------------------------------------------------------ set-up
@@ -372,16 +395,43 @@ class TimeDomainStrip:
 
     def destroy(self) -> None:
         """Free the PETSc objects."""
-        for obj in (self.K, self._wvec, self._rvec, self.periodic_map):
+        owned = (self.model,) if self.model is not None else (self.K, self.periodic_map)
+        for obj in (*owned, self._wvec, self._rvec):
             if obj is not None:
                 obj.destroy()
 
-    def _apply_k(self, x: np.ndarray) -> np.ndarray:
-        """``K_r x`` for a local array (real or complex)."""
+    @property
+    def two_body(self) -> bool:
+        """Slider on a deformable substrate (block mass, the slider's reactions)."""
+        return self.model is not None and self.model.mass_matrix is not None
+
+    def _apply_k(self, x: np.ndarray, A: PETSc.Mat | None = None) -> np.ndarray:
+        """``K_r x`` (or ``A x``) for a local array (real or complex)."""
         self._wvec.array[:] = x
-        self.K.mult(self._wvec, self._rvec)
+        (self.K if A is None else A).mult(self._wvec, self._rvec)
         out = self._rvec.array.copy()
         return out if np.iscomplexobj(x) else out.real.copy()
+
+    def _apply_m(self, x: np.ndarray) -> np.ndarray:
+        """``M_r x``: the lumped mass (two bodies: with its ``(s, u_x2)`` blocks)."""
+        return self._apply_k(x, self.model.mass_matrix) if self.two_body else self.mass * x
+
+    def _apply_minv(self, x: np.ndarray) -> np.ndarray:
+        """``M_r^{-1} x``."""
+        return self._apply_k(x, self.model.inverse_mass) if self.two_body else x / self.mass
+
+    def _normal_stress(self, w: np.ndarray, kw: np.ndarray, acc: np.ndarray) -> np.ndarray:
+        """``dsigma`` at the interface nodes from the slider's normal reaction, over ``B``.
+
+        Rigid substrate: ``(K w)_y`` (the constrained row carries no inertia). Two bodies:
+        ``(K_1 w)_y + m_1 a_y`` with the slider's own stiffness and lumped mass (the
+        eigen-model's ``reactions``); ``acc`` is the acceleration ``a`` (real or complex).
+        """
+        if not self.two_body:
+            return kw[self.iy] / self.b_interface
+        k1, m1 = self.model.reactions
+        m1_y = self._slider_mass_y
+        return (self._apply_k(w, k1)[self.iy] + m1_y * acc[self.iy]) / self.b_interface
 
     def _sum(self, value: float | complex) -> float | complex:
         return self.comm.allreduce(value, op=MPI.SUM)
@@ -400,12 +450,13 @@ class TimeDomainStrip:
         """
         p = self.law.params
         rstart = self.K.getOwnershipRange()[0]
-        diag_m = _diagonal_matrix(self.K, self.mass)
+        diag_m = self.model.mass_matrix if self.two_body else _diagonal_matrix(self.K, self.mass)
         bvals = np.zeros_like(self.mass)
         bvals[self.ix] = self.b_interface
         diag_b = _diagonal_matrix(self.K, bvals)
         op = friction_operator(FrictionLaw.from_params(p), self.K, diag_m, diag_b,
-                               self.ix + rstart, self.iy + rstart)
+                               self.ix + rstart, self.iy + rstart,
+                               reactions=self.model.reactions if self.two_body else None)
         fixed = np.flatnonzero(self.free == 0.0)
         fixed = np.setdiff1d(fixed, self.ix)
         apply_dirichlet(op.matrices, (fixed + rstart).astype(PETSc.IntType), op.constant_term)
@@ -415,7 +466,8 @@ class TimeDomainStrip:
         finally:
             solver.destroy()
             op.destroy()
-            diag_m.destroy()
+            if not self.two_body:
+                diag_m.destroy()
             diag_b.destroy()
         best = None
         for pair in res.pairs:
@@ -445,6 +497,9 @@ class TimeDomainStrip:
         """
         from forms.solvers.continuation import cross_section_mode
 
+        if self.two_body:
+            raise ParameterError("initial = 'cross-section' is outside its allowed values here"
+                                 " (two bodies: lumped)")
         xs = cross_section_mode(self.law.params, self.k, target, degree=degree)
         if xs is None:
             raise ParameterError(f"branch: the cross-section model found no mode near {target}")
@@ -486,7 +541,7 @@ class TimeDomainStrip:
         self.w = u.real * self.free
         self.vh = (lam * u * np.exp(-0.5 * lam * self.dt)).real * self.free
         ku = self._apply_k(u.astype(complex))
-        dsig_hat = ku[self.iy] / self.b_interface
+        dsig_hat = self._normal_stress(u.astype(complex), ku, lam**2 * u)
         dv_hat = lam * u[self.ix] / law.v0
         p = law.params
         alpha_ld_b = p.alpha_ld / law.b if p.alpha_ld > 0 else 0.0
@@ -515,7 +570,7 @@ class TimeDomainStrip:
         self._ld_pending = False
         self._last = None
         wm1 = self.w - self.dt * self.vh  # E^{-1/2} with w^{-1} = w^0 - dt v^{-1/2}
-        self.energy0 = self._sum(0.5 * float(np.dot(self.vh * self.mass, self.vh))
+        self.energy0 = self._sum(0.5 * float(np.dot(self._apply_m(self.vh), self.vh))
                                  + 0.5 * float(np.dot(self.w, self._apply_k(wm1))))
 
     # ------------------------------------------------------------------ step
@@ -611,7 +666,8 @@ class TimeDomainStrip:
         p = law.params
         kw = self._apply_k(self.w)
         r = -kw
-        dsig = kw[self.iy] / self.b_interface
+        acc = self._apply_minv(r) * self.free  # acceleration without the friction force
+        dsig = self._normal_stress(self.w, kw, acc)
         if self._ld_pending:  # state over [n-1, n]: LD half jump, aging at v^{n-1/2}, half jump
             dv_half = self.vh[self.ix] / law.v0
             half = None
@@ -623,11 +679,10 @@ class TimeDomainStrip:
             if half is not None:
                 st.dtheta = st.dtheta * (1.0 + half) + half
         st.dsigma = dsig
-        m_x = self.mass[self.ix]
         vh_x = self.vh[self.ix]
         th = self.friction_theta
-        c = th * dt * self.b_interface / m_x
-        vfree = vh_x + th * dt * r[self.ix] / m_x
+        c = th * dt * self.b_interface * self._minv_x  # (M_r^{-1})_ss: 1/m, or 1/m1 + 1/m2
+        vfree = vh_x + th * dt * acc[self.ix]
         psi = np.log1p(st.dtheta)
         if law.kind == "none":
             dv = vfree / law.v0
@@ -653,7 +708,10 @@ class TimeDomainStrip:
         # rate up to the solver's residual: the work uses v^n (exact energy identity), the
         # state and the diagnostics the solved slip rate (consistent with the friction law;
         # near arrest vh ~ 1e-12 is below that residual and its sign is the law's).
-        vh_new = (self.vh + dt * (r + force) / self.mass) * self.free
+        if self.two_body:
+            vh_new = (self.vh + dt * (acc + self._apply_minv(force))) * self.free
+        else:
+            vh_new = (self.vh + dt * (r + force) / self.mass) * self.free
         v_n = 0.5 * (vh_x + vh_new[self.ix])
         st.dv, st.dtau = dv, dtau
         self.work_friction += dt * float(np.dot(force[self.ix], v_n))
@@ -675,8 +733,8 @@ class TimeDomainStrip:
         v_n = 0.5 * (vh_old + vh_new)
         c_loc = complex(np.sum(self.b_interface * st.dv * np.exp(1j * self.k * self.x_interface)))
         loc = np.array([
-            0.5 * np.dot(v_n * self.mass, v_n) + 0.5 * np.dot(w_n, kw),
-            0.5 * np.dot(vh_new * self.mass, vh_new) + 0.5 * np.dot(self.w, kw),
+            0.5 * np.dot(self._apply_m(v_n), v_n) + 0.5 * np.dot(w_n, kw),
+            0.5 * np.dot(self._apply_m(vh_new), vh_new) + 0.5 * np.dot(self.w, kw),
             self.work_friction, c_loc.real, c_loc.imag, float(np.sum(kw[self.top_x])),
         ])
         tot = np.zeros(6)
@@ -756,13 +814,17 @@ def _diagonal_matrix(like: PETSc.Mat, values: np.ndarray) -> PETSc.Mat:
     return d
 
 
-def _gershgorin(K: PETSc.Mat, mass: np.ndarray, free: np.ndarray) -> float:
-    """Upper bound of the spectrum of ``m^{-1} K`` on the free dofs (Gershgorin, rows)."""
-    indptr, _, vals = K.getValuesCSR()
-    rows = np.repeat(np.arange(len(indptr) - 1), np.diff(indptr))
-    sums = np.bincount(rows, weights=np.abs(vals), minlength=len(indptr) - 1)
-    local = float(np.max(sums / mass * free, initial=0.0))
-    return K.getComm().tompi4py().allreduce(local, op=MPI.MAX)
+def _local_diagonal(A: PETSc.Mat) -> np.ndarray:
+    """The owned rows' diagonal of ``A`` (real part)."""
+    d = A.getDiagonal()
+    out = d.array.real.copy()
+    d.destroy()
+    return out
+
+
+def _gershgorin(comm: MPI.Comm, row_bound: np.ndarray, free: np.ndarray) -> float:
+    """Upper bound of the spectrum of ``M_r^{-1} K`` on the free dofs (Gershgorin, rows)."""
+    return comm.allreduce(float(np.max(row_bound * free, initial=0.0)), op=MPI.MAX)
 
 
 def build_time_domain(strip: StripMesh, law: NonlinearLaw, k: float, cfl: float = 0.9,
@@ -802,17 +864,22 @@ def build_time_domain(strip: StripMesh, law: NonlinearLaw, k: float, cfl: float 
                      (model.interface_x, model.interface_y, model.top_x))
     free = np.ones_like(mass)
     free[model.dirichlet - rstart] = 0.0
-    bound = _gershgorin(Kr, mass, free)
+    bound = _gershgorin(strip.comm, model.row_bound, free)
     dt_stable = 2.0 / math.sqrt(bound)
     if dt is None:
         dt = cfl * dt_stable
     elif not (math.isfinite(dt) and 0 < dt <= dt_stable):
+        model.destroy()
         raise ParameterError(f"dt = {dt!r} is outside its allowed range 0 < dt <= {dt_stable:.6g}"
                              " (stable step of this mesh)")
     td = TimeDomainStrip(strip, law, float(k), model.V, Kr, mass, ix, iy,
                          model.interface_coordinate, model.interface_length[ix].copy(), free,
-                         float(dt), dt_stable, top_x, model.map)
+                         float(dt), dt_stable, top_x, model.map, model)
     td.friction_theta = float(friction_theta)
+    td._minv_x = 1.0 / mass[ix]
+    if td.two_body:
+        td._minv_x = _local_diagonal(model.inverse_mass)[ix]
+        td._slider_mass_y = _local_diagonal(model.reactions[1])[iy]
     td._wvec, td._rvec = Kr.createVecs()
     n = len(mass)
     td.set_initial_fields(np.zeros(n), np.zeros(n))

@@ -64,13 +64,14 @@ def setup_strip(comm: object, law: NonlinearLaw, k: float, exact: complex, *, wa
 
     Args:
         comm: Communicator of the mesh.
-        law: Friction law (holds the linear parameters; ``H`` is the strip's height).
+        law: Friction law (holds the linear parameters; ``H`` is the strip's height, with
+            two bodies ``H2`` the substrate's depth).
         k: Wavenumber of the excited mode.
         exact: Its exact eigenvalue (target of the semi-discrete eigenvalue solve).
         wavelengths: Strip length in wavelengths ``2 pi / k``.
         cells_per_wavelength: Cells along ``x`` per wavelength.
-        ny: Cells along ``y``.
-        cell: ``"quadrilateral"`` (Q1) or ``"triangle"`` (P1).
+        ny: Cells along ``y`` (in each body: the substrate has as many).
+        cell: ``"quadrilateral"`` (Q1) or ``"triangle"`` (P1; two bodies: triangles only).
         cfl: Time step as a fraction of the stable step.
         dt: Explicit time step (overrides ``cfl``), or ``None``.
         initial: ``"lumped"`` (the linearised lumped system's eigenvector) or
@@ -217,7 +218,8 @@ def run_record(td: TimeDomainStrip, mode: Mode, label: str, exact: complex,
         "command": command,
         "branch": label, "k": td.k,
         "predicted": {"re_lambda": exact.real, "im_lambda": exact.imag, "source":
-                      "analytic.follow_branch (exact root of det M)"},
+                      "analytic.follow_branch (exact root of det M; two bodies: of"
+                      " analytic.physics.twobody.det_twobody)"},
         "measured": analysis["measured"],
         "relative_difference": analysis["relative_difference"],
         "semi_discrete": {"re_lambda": mode.eigenvalue.real, "im_lambda": mode.eigenvalue.imag,
@@ -227,7 +229,8 @@ def run_record(td: TimeDomainStrip, mode: Mode, label: str, exact: complex,
                                   " error, this - predicted the spatial error"},
         "window": analysis["window"],
         "mesh": {"cell": cell, "nx": nx, "ny": ny, "length": td.strip.length,
-                 "height": law.params.H, "unknowns": td.num_dofs},
+                 "height": law.params.H, "unknowns": td.num_dofs,
+                 "substrate_depth": law.params.H2 if td.two_body else 0.0},
         "dt": td.dt, "dt_stable": td.dt_stable,
         "friction_theta": {"linear_window": 0.5, "after": friction_theta,
                            "switched_at_t": outcome.theta_switch},

@@ -25,6 +25,9 @@ depends on an exact root; the eigenpairs are still polished by the banded Newton
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.linalg as sla
 
@@ -33,6 +36,52 @@ from forms.solvers.banded import BandedOperator
 
 #: Points per vectorised block (memory: points x n x columns).
 BLOCK = 256
+#: Truncation of the far modes' power series (relative, per mode): below the rounding level.
+SERIES_EPS = 2.0 ** -60
+#: Candidate ratios ``rho = |z|^2 / |w_j|`` bounding the far modes; the one with the fewest
+#: near modes plus series terms is taken.
+SERIES_RATIOS = (1 / 4, 1 / 8, 1 / 16, 1 / 64, 1 / 256)
+
+
+@dataclass
+class _Far:
+    """The modes ``j >= j0`` (``|w_j| >= scale / rho``) as power series in ``zeta = z^2/scale``.
+
+    For ``|z|^2 <= scale``: ``1/(z^2 + w_j) = sum_{l < terms} (-zeta)^l weights[l, j]``
+    (``weights[l, j] = scale^l / w_j^(l + 1)``) and ``log(z^2 + w_j) = log w_j +
+    sum_{1 <= l <= terms} (-1)^(l+1) zeta^l (scale/w_j)^l / l``, each truncated after a term of
+    relative size ``rho^terms <= SERIES_EPS``. A sum over the far modes is then a sum over
+    ``terms`` coefficients, precomputed once per ``scale``, instead of one per mode and point.
+
+    Attributes:
+        j0: First far mode (modes sorted by ``|w_j|``); ``terms = 0``: none.
+        terms: Series terms.
+        scale: The bound on ``|z|^2`` (a power of 2).
+        weights: ``(terms, modes - j0)``.
+        s_coef: ``weights @ R`` (the far part of ``S(z)``), ``(terms, powers b b)``.
+        log_const: ``sum_j log w_j``.
+        log_coef: ``(-1)^(l+1)/l sum_j (scale/w_j)^l``, ``l = 1 .. terms``.
+    """
+
+    j0: int
+    terms: int
+    scale: float
+    weights: np.ndarray
+    s_coef: np.ndarray
+    log_const: complex
+    log_coef: np.ndarray
+
+    def zeta_powers(self, z: np.ndarray) -> np.ndarray:
+        """``zeta^l`` for ``l = 0 .. terms`` (points x terms + 1)."""
+        return np.vander(z * z / self.scale, self.terms + 1, increasing=True)
+
+    def series(self, zpow: np.ndarray) -> np.ndarray:
+        """``(-zeta)^l``, ``l < terms``, from :meth:`zeta_powers`."""
+        return zpow[:, :self.terms] * (-1.0) ** np.arange(self.terms)
+
+    def log_sum(self, zpow: np.ndarray) -> np.ndarray:
+        """``sum_{j >= j0} log(z^2 + w_j)`` from :meth:`zeta_powers`."""
+        return self.log_const + zpow[:, 1:] @ self.log_coef
 
 
 class CondensedOperator:
@@ -68,14 +117,43 @@ class CondensedOperator:
         kmat = sum((m for q, m in zip(powers, mats, strict=True) if q == 0), 0 * mass)
         k_ii = kmat[ii][:, ii].toarray()
         m_ii = mass[ii][:, ii].toarray()
-        self.w, phi, psi_h, self.logdet_m = _decompose(k_ii, m_ii)
+        w, phi, psi_h, self.logdet_m = _decompose(k_ii, m_ii)
+        order = np.argsort(np.abs(w), kind="stable")  # near (small |w_j|) modes first
+        self.w, phi, psi_h = w[order], phi[:, order], psi_h[order]
         self.phi = phi
         self.a_bb = np.stack([m[bi][:, bi].toarray() for m in mats])  # (f, b, b)
         self.g = np.stack([m[bi][:, ii].toarray() @ phi for m in mats])  # (f, b, m)
         self.h = np.stack([psi_h @ m[ii][:, bi].toarray() for m in mats])  # (f, m, b)
         self.psi_h = psi_h
         self._s_form()
+        self._fars: dict[float, _Far] = {}
         self.evaluations = 0  #: points evaluated so far (cost measure)
+
+    def _far(self, z: np.ndarray) -> _Far:
+        """The far modes' series for points ``z`` (cached per power of 2 above ``max |z|^2``).
+
+        The split minimises near modes plus series terms over :data:`SERIES_RATIOS`.
+        """
+        z2 = float(np.max(np.abs(z))) ** 2 if z.size else 0.0
+        scale = 2.0 ** math.ceil(math.log2(max(z2, 2.0 ** -60)))
+        if scale not in self._fars:
+            aw, m = np.abs(self.w), self.w.size
+            j0, terms = m, 0
+            for rho in SERIES_RATIOS:
+                j = int(np.searchsorted(aw, scale / rho))
+                t = math.ceil(math.log(SERIES_EPS) / math.log(rho))
+                if j + t < j0 + terms:
+                    j0, terms = j, t
+            wf = self.w[j0:]
+            ratio = scale / wf
+            powers = ratio[None, :] ** np.arange(terms + 1)[:, None]  # (terms + 1, far)
+            weights = powers[:terms] / wf[None, :]
+            signs = (-1.0) ** np.arange(terms)  # (-1)^(l+1) for l = 1 .. terms
+            self._fars[scale] = _Far(
+                j0, terms, scale, weights, weights @ self._s_r[j0:],
+                complex(np.sum(np.log(wf.astype(complex)))),
+                signs / np.arange(1, terms + 1) * powers[1:].sum(axis=1))
+        return self._fars[scale]
 
     def _s_form(self) -> None:
         """``S(z) = sum_e z^e (A_e - D(z) R_e)``: the Schur complement as one matrix product.
@@ -100,23 +178,32 @@ class CondensedOperator:
         self._s_a = a.reshape(len(es), nb * nb)
         self._s_r = r.transpose(1, 0, 2, 3).reshape(nm, len(es) * nb * nb)
 
-    def _d_and_s(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``d = 1/(z^2 + w)`` (points x modes) and ``S(z)`` (points x b x b)."""
-        nb, ne = self.b_idx.size, self._s_exp.size
-        d = 1.0 / (z[:, None] ** 2 + self.w[None, :])
+    def _d_and_s(self, z: np.ndarray, far: _Far) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Near ``d = 1/(z^2 + w)`` (points x j0), ``S(z)``, the far modes' ``zeta`` powers.
+
+        ``S(z)``: points x b x b; the powers: :meth:`_Far.zeta_powers`.
+        """
+        nb, ne, j0 = self.b_idx.size, self._s_exp.size, far.j0
+        d = 1.0 / (z[:, None] ** 2 + self.w[None, :j0])
         zp = z[:, None] ** self._s_exp[None, :]
-        x = (d @ self._s_r).reshape(z.size, ne, nb * nb)
+        x = d @ self._s_r[:j0]
+        zpow = far.zeta_powers(z)
+        if far.terms:
+            x += far.series(zpow) @ far.s_coef
+        x = x.reshape(z.size, ne, nb * nb)
         s = zp @ self._s_a - np.einsum("pe,pex->px", zp, x)
-        return d, s.reshape(z.size, nb, nb)
+        return d, s.reshape(z.size, nb, nb), zpow
 
     def log_det_many(self, z: np.ndarray) -> np.ndarray:
         """``log det T(z)`` at every point (some branch of the argument), vectorised."""
         flat = np.ravel(np.asarray(z, dtype=complex))
         out = np.empty(flat.size, dtype=complex)
+        far = self._far(flat)
         for lo in range(0, flat.size, BLOCK):
-            d, s = self._d_and_s(flat[lo:lo + BLOCK])
+            d, s, zpow = self._d_and_s(flat[lo:lo + BLOCK], far)
             sign, logabs = np.linalg.slogdet(s)
-            out[lo:lo + BLOCK] = (self.logdet_m - _sum_log(d) + logabs + 1j * np.angle(sign))
+            out[lo:lo + BLOCK] = (self.logdet_m - _sum_log(d) + far.log_sum(zpow) + logabs
+                                  + 1j * np.angle(sign))
             bad = (sign == 0) | ~np.isfinite(out[lo:lo + BLOCK])
             out[lo:lo + BLOCK][bad] = -np.inf
         self.evaluations += flat.size
@@ -141,33 +228,50 @@ class CondensedOperator:
         ``T^{-1} v`` by the block elimination ``x_B = S^{-1}(v_B - T_BI T_II^{-1} v_I)``,
         ``x_I = T_II^{-1}(v_I - T_IB x_B)`` with ``T_II^{-1}`` diagonal in the eigenbasis; the
         interior part is summed in that basis and mapped back once (banded order, as ``v``).
-        Every product over the modes is one dense matrix product per block of points
+        Every product over the near modes is one dense matrix product per block of points
         (``T_BI Phi diag(d) Psi^H v_I``: ``d`` times ``g_f[i, j] (Psi^H v_I)[j, c]``;
-        ``Psi^H T_IB x_B``: ``[h_f] (z^q_f x_B)``).
+        ``Psi^H T_IB x_B``: ``[h_f] (z^q_f x_B)``); the far modes' ``d_j`` are the power series
+        of :class:`_Far`, so their sums over the points are taken once per series term.
         """
         bi, ii = self.b_idx, self.i_idx
         nf, nb, nm = self.g.shape
         cols, nq = v.shape[1], weights.shape[1]
+        far = self._far(z)
+        j0, nt = far.j0, far.terms
         wv = self.psi_h @ v[ii]  # (m, c)
         gw = (self.g[:, :, :, None] * wv[None, None]).transpose(2, 0, 1, 3).reshape(nm, -1)
+        gw = np.concatenate([gw[:j0], far.weights @ gw[j0:]])  # near modes, series terms
         hcat = self.h.transpose(1, 0, 2).reshape(nm, nf * nb)  # [h_0 h_1 ...]  (m, f b)
         acc_b = np.zeros((nq, nb, cols), dtype=complex)
-        acc_i = np.zeros((nq, cols, nm), dtype=complex)
+        acc_i = np.zeros((nq, cols, j0), dtype=complex)
+        e_far = np.zeros((nq * nt, cols * nf * nb), dtype=complex)
+        wu_far = np.zeros(nq * nt, dtype=complex)
         for lo in range(0, z.size, BLOCK):
             zz, wt = z[lo:lo + BLOCK], weights[lo:lo + BLOCK]
             npt = zz.size
-            d, sm = self._d_and_s(zz)
+            d, sm, zpow = self._d_and_s(zz, far)
+            u = far.series(zpow)  # (P, terms)
             zp = zz[:, None] ** self.powers[None, :]  # (P, f)
-            y = (d @ gw).reshape(npt, nf, nb, cols)
+            y = (np.concatenate([d, u], axis=1) @ gw).reshape(npt, nf, nb, cols)
             r = v[bi][None] - np.einsum("pf,pfic->pic", zp, y)
             xb = np.linalg.solve(sm, r)  # (P, b, c)
             acc_b += np.tensordot(wt, xb, axes=(0, 0))
-            xbf = (zp[:, :, None, None] * xb[:, None]).reshape(npt, nf * nb, cols)
-            qx = (xbf.transpose(0, 2, 1).reshape(npt * cols, nf * nb) @ hcat.T).reshape(
-                npt, cols, nm)  # Psi^H T_IB x_B per point, (P, c, m)
-            xi = d[:, None, :] * (wv.T[None] - qx)  # T_II^{-1}(...) in the eigenbasis
+            xbf = (zp[:, :, None, None] * xb[:, None]).reshape(npt, nf * nb, cols).transpose(
+                0, 2, 1).reshape(npt, cols * nf * nb)  # z^q_f x_B per point, (P, c f b)
+            qx = (xbf.reshape(npt * cols, nf * nb) @ hcat[:j0].T).reshape(
+                npt, cols, j0)  # Psi^H T_IB x_B per point, (P, c, j0)
+            xi = d[:, None, :] * (wv[:j0].T[None] - qx)  # T_II^{-1}(...) in the eigenbasis
             acc_i += np.tensordot(wt, xi, axes=(0, 0))
+            wu = (wt[:, :, None] * u[:, None, :]).reshape(npt, nq * nt)
+            e_far += wu.T @ xbf
+            wu_far += wu.sum(axis=0)
         self.evaluations += z.size
+        if nt:  # the far modes: sum_l weights[l, j] (WU[q, l] wv[j, c] - h_j . E[q, l, c])
+            he = (hcat[j0:] @ e_far.reshape(nq * nt * cols, nf * nb).T).reshape(
+                nm - j0, nq, nt, cols)
+            acc_far = (np.einsum("lj,ql,jc->qcj", far.weights, wu_far.reshape(nq, nt), wv[j0:])
+                       - np.einsum("lj,jqlc->qcj", far.weights, he))
+            acc_i = np.concatenate([acc_i, acc_far], axis=2)
         out = np.empty((nq, self.bop.n, cols), dtype=complex)
         out[:, bi] = acc_b
         out[:, ii] = self.phi[None] @ acc_i.transpose(0, 2, 1)
@@ -181,6 +285,8 @@ def _sum_log(d: np.ndarray, group: int = 8) -> np.ndarray:
     one logarithm at a time. The count uses only the wrapped increments of the argument.
     """
     rows, cols = d.shape
+    if cols == 0:
+        return np.zeros(rows, dtype=d.dtype)
     pad = (-cols) % group
     e = np.concatenate([d, np.ones((rows, pad), dtype=d.dtype)], axis=1) if pad else d
     prods = e.reshape(rows, -1, group).prod(axis=2)

@@ -498,6 +498,12 @@ class BandedModel:
             r, c = lin // n, lin % n
             self._bands[:, f, c * nrow + self.kl + self.ku + r - c] = vals
 
+    def part_matrices(self) -> list[list[sp.csr_matrix]]:
+        """``[T0, T1, T2]``, each the list of its matrices ``A_i`` in band order (CSR)."""
+        return [[sp.csr_matrix((vals[j], (lin % self.n).astype(np.int32), indptr),
+                               shape=(self.n, self.n)) for lin, vals, indptr in self._pattern]
+                for j in range(len(self.parts))]
+
     def operator(self, k: float) -> BandedOperator:
         """The banded ``T(z; k)``."""
         k = float(k)

@@ -26,10 +26,13 @@ depends on an exact root; the eigenpairs are still polished by the banded Newton
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
+from scipy.linalg import lapack
 
 from analytic.numerics.roots import Box, winding_numbers
 from forms.solvers.banded import BandedOperator
@@ -95,36 +98,18 @@ class CondensedOperator:
             ``M`` nonsingular.
     """
 
-    def __init__(self, bop: BandedOperator) -> None:
+    def __init__(self, bop: BandedOperator, modes: _Modes | None = None) -> None:
         powers = [fn.power_index for fn in bop.functions]
         if any(q is None for q in powers) or 2 not in powers:
             raise NotImplementedError("the condensed form needs a polynomial with a z^2 term")
         self.bop, self.powers = bop, np.array(powers, dtype=float)
-        n, mats = bop.n, [m.tocsr() for m in bop.mats]
-        mass = mats[powers.index(2)]
-        b = np.zeros(n, dtype=bool)
-        for q, m in zip(powers, mats, strict=True):
-            if q not in (0, 2):
-                c = m.tocoo()
-                nz = c.data != 0
-                b[c.row[nz]] = True
-        b |= np.asarray(abs(mass).sum(axis=1)).ravel() == 0
-        self.b_idx, self.i_idx = np.flatnonzero(b), np.flatnonzero(~b)
-        bi, ii = self.b_idx, self.i_idx
-        for q, m in zip(powers, mats, strict=True):
-            if q not in (0, 2) and m[ii][:, ii].count_nonzero():
-                raise NotImplementedError("a matrix of power other than 0, 2 in the interior")
-        kmat = sum((m for q, m in zip(powers, mats, strict=True) if q == 0), 0 * mass)
-        k_ii = kmat[ii][:, ii].toarray()
-        m_ii = mass[ii][:, ii].toarray()
-        w, phi, psi_h, self.logdet_m = _decompose(k_ii, m_ii)
-        order = np.argsort(np.abs(w), kind="stable")  # near (small |w_j|) modes first
-        self.w, phi, psi_h = w[order], phi[:, order], psi_h[order]
-        self.phi = phi
-        self.a_bb = np.stack([m[bi][:, bi].toarray() for m in mats])  # (f, b, b)
-        self.g = np.stack([m[bi][:, ii].toarray() @ phi for m in mats])  # (f, b, m)
-        self.h = np.stack([psi_h @ m[ii][:, bi].toarray() for m in mats])  # (f, m, b)
-        self.psi_h = psi_h
+        modes = modes if modes is not None else _modes_of(bop.n, bop.mats, powers)
+        self.b_idx, self.i_idx, self.logdet_m = modes.b_idx, modes.i_idx, modes.logdet_m
+        order = np.argsort(np.abs(modes.w), kind="stable")  # near (small |w_j|) modes first
+        self.w = modes.w[order]
+        self.a_bb, self.g, self.h = modes.a_bb, modes.g[:, :, order], modes.h[:, order]
+        self._to_modes = lambda x: modes.to_modes(x)[order]
+        self._from_modes = lambda a: modes.from_modes(a[np.argsort(order)])
         self._s_form()
         self._fars: dict[float, _Far] = {}
         self.evaluations = 0  #: points evaluated so far (cost measure)
@@ -238,7 +223,7 @@ class CondensedOperator:
         cols, nq = v.shape[1], weights.shape[1]
         far = self._far(z)
         j0, nt = far.j0, far.terms
-        wv = self.psi_h @ v[ii]  # (m, c)
+        wv = self._to_modes(v[ii])  # Psi^H v_I, (m, c)
         gw = (self.g[:, :, :, None] * wv[None, None]).transpose(2, 0, 1, 3).reshape(nm, -1)
         gw = np.concatenate([gw[:j0], far.weights @ gw[j0:]])  # near modes, series terms
         hcat = self.h.transpose(1, 0, 2).reshape(nm, nf * nb)  # [h_0 h_1 ...]  (m, f b)
@@ -274,8 +259,222 @@ class CondensedOperator:
             acc_i = np.concatenate([acc_i, acc_far], axis=2)
         out = np.empty((nq, self.bop.n, cols), dtype=complex)
         out[:, bi] = acc_b
-        out[:, ii] = self.phi[None] @ acc_i.transpose(0, 2, 1)
+        back = self._from_modes(acc_i.transpose(2, 0, 1).reshape(nm, nq * cols))  # Phi acc
+        out[:, ii] = back.reshape(-1, nq, cols).transpose(1, 0, 2)
         return out
+
+
+@dataclass
+class _Modes:
+    """The interior eigendecomposition of ``T`` at one ``k`` and its couplings to ``B``.
+
+    Attributes:
+        b_idx: The rows of ``B`` (banded order).
+        i_idx: The interior rows ``I``.
+        w: ``K phi_j = w_j M phi_j`` (any order).
+        logdet_m: ``log det M_II``.
+        a_bb: ``(f, b, b)``: ``A_f[B, B]``.
+        g: ``(f, b, m)``: ``A_f[B, I] Phi``.
+        h: ``(f, m, b)``: ``Psi^H A_f[I, B]``.
+        to_modes: ``x -> Psi^H x`` (interior vectors, columns).
+        from_modes: ``a -> Phi a``.
+    """
+
+    b_idx: np.ndarray
+    i_idx: np.ndarray
+    w: np.ndarray
+    logdet_m: complex
+    a_bb: np.ndarray
+    g: np.ndarray
+    h: np.ndarray
+    to_modes: Callable[[np.ndarray], np.ndarray]
+    from_modes: Callable[[np.ndarray], np.ndarray]
+
+
+def _split_rows(n: int, parts: list[list[sp.csr_matrix]], powers: list[int]
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """``(B, I)``: rows where a matrix of power not 0 or 2 is nonzero, or the mass vanishes.
+
+    ``parts[j][f]``: the matrices (one list, or one per power of ``k``; the mass is that of
+    ``parts[0]``).
+
+    Raises:
+        NotImplementedError: A matrix of power other than 0, 2 in the interior.
+    """
+    b = np.zeros(n, dtype=bool)
+    for mats in parts:
+        for q, m in zip(powers, mats, strict=True):
+            if q not in (0, 2):
+                c = m.tocoo()
+                b[c.row[c.data != 0]] = True
+    b |= np.asarray(abs(parts[0][powers.index(2)]).sum(axis=1)).ravel() == 0
+    bi, ii = np.flatnonzero(b), np.flatnonzero(~b)
+    for mats in parts:
+        for q, m in zip(powers, mats, strict=True):
+            if q not in (0, 2) and m[ii][:, ii].count_nonzero():
+                raise NotImplementedError("a matrix of power other than 0, 2 in the interior")
+    return bi, ii
+
+
+def _modes_of(n: int, mats: list[sp.csr_matrix], powers: list[int]) -> _Modes:
+    """:class:`_Modes` of one operator's matrices (:func:`_decompose` of its interior)."""
+    mats = [m.tocsr() for m in mats]
+    bi, ii = _split_rows(n, [mats], powers)
+    mass = mats[powers.index(2)]
+    kmat = sum((m for q, m in zip(powers, mats, strict=True) if q == 0), 0 * mass)
+    w, phi, psi_h, logdet_m = _decompose(kmat[ii][:, ii].toarray(), mass[ii][:, ii].toarray())
+    return _Modes(bi, ii, w, logdet_m, np.stack([m[bi][:, bi].toarray() for m in mats]),
+                  np.stack([m[bi][:, ii].toarray() @ phi for m in mats]),
+                  np.stack([psi_h @ m[ii][:, bi].toarray() for m in mats]),
+                  lambda x: psi_h @ x, lambda a: phi @ a)
+
+
+class CondensedModel:
+    """The ``k``-independent half of the condensed form, for every ``k`` of a banded model.
+
+    ``T(z; k) = T0 + k T1 + k^2 T2`` (:class:`forms.solvers.banded.BandedModel`) with a mass
+    ``M`` that does not depend on ``k`` and a real form ``D^H (.) D`` (diagonal phases ``D``,
+    :func:`_real_phases`) of the interior blocks of every part: then ``M = U^T U`` (banded
+    Cholesky), ``C_j = U^-T D^H K_j D U^-1`` and the couplings ``A_f[B, I] D U^-1``,
+    ``U^-T D^H A_f[I, B]`` are computed once, and each ``k`` costs one dense ``eigh`` of
+    ``C_0 + k C_1 + k^2 C_2`` (``Phi = D U^-1 Y``) and products with ``Y`` (the decomposition of
+    :func:`_real_banded_eigh`, its sparse extraction, phases and banded solves no longer per ``k``).
+
+    Args:
+        banded: The banded model.
+
+    Raises:
+        NotImplementedError: No such form (the caller condenses each ``k`` on its own).
+    """
+
+    def __init__(self, banded: object) -> None:
+        powers = [fn.power_index for fn in banded.functions]
+        if any(q is None for q in powers) or 2 not in powers:
+            raise NotImplementedError("the condensed form needs a polynomial with a z^2 term")
+        parts = banded.part_matrices()
+        f2 = powers.index(2)
+        if any(part[f2].count_nonzero() for part in parts[1:]):
+            raise NotImplementedError("the mass depends on k")
+        self.b_idx, self.i_idx = bi, ii = _split_rows(banded.n, parts, powers)
+        k_parts = [sum((m for q, m in zip(powers, part, strict=True) if q == 0),
+                       0 * part[f2])[ii][:, ii].tocsr() for part in parts]
+        m_ii = parts[0][f2][ii][:, ii].tocsr()
+        if not all(_hermitian(x) for x in [*k_parts, m_ii]):
+            raise NotImplementedError("an interior block is not Hermitian")
+        ph = _sparse_real_phases(sum(k_parts), m_ii)
+        if ph is None or any(_not_real(ph, x) for x in [*k_parts, m_ii]):
+            raise NotImplementedError("no real form of every part")
+        self.phases = ph
+        try:
+            self._u, _, self._bw, logdet = _banded_cholesky(_real(ph, m_ii).toarray())
+        except np.linalg.LinAlgError as err:
+            raise NotImplementedError("the interior mass is not positive definite") from err
+        self.logdet_m = complex(logdet)
+        self._c = []
+        for x in k_parts:
+            a = self._solve_ut(self._solve_ut(_real(ph, x).toarray()).T)  # U^-T K U^-1
+            self._c.append(0.5 * (a + a.T))
+        self._a_bb = np.array([[m[bi][:, bi].toarray() for m in part] for part in parts])
+        # (A_f[B, I] D U^-1)^T = U^-T D A_f[B, I]^T, and U^-T D^H A_f[I, B]: (part, m, f b)
+        self._gt = np.array([self._solve_ut(ph[:, None] * np.concatenate(
+            [m[bi][:, ii].toarray().T for m in part], axis=1)) for part in parts])
+        self._h = np.array([self._solve_ut(ph.conj()[:, None] * np.concatenate(
+            [m[ii][:, bi].toarray() for m in part], axis=1)) for part in parts])
+        self.nf, self.nb = len(powers), bi.size
+
+    def _solve_ut(self, x: np.ndarray) -> np.ndarray:
+        """``U^-T x``."""
+        return _triangular(self._u, x, "T")
+
+    def modes(self, k: float) -> _Modes:
+        """The decomposition at ``k`` (for :class:`CondensedOperator`)."""
+        k = float(k)
+
+        def at(x: np.ndarray) -> np.ndarray:
+            return x[0] + k * x[1] + (k * k) * x[2]
+
+        w, y = sla.eigh(at(self._c), driver="evd", overwrite_a=True, check_finite=False)
+        nf, nb, m = self.nf, self.nb, w.size
+        g = _real_times(y.T, at(self._gt)).T.reshape(nf, nb, m)  # A_f[B, I] Phi
+        h = _real_times(y.T, at(self._h)).reshape(m, nf, nb).transpose(1, 0, 2)  # Psi^H A_f[I, B]
+        ph, u = self.phases, self._u
+        return _Modes(self.b_idx, self.i_idx, w.astype(complex), self.logdet_m, at(self._a_bb),
+                      g, h, lambda x: _real_times(y.T, self._solve_ut(ph.conj()[:, None] * x)),
+                      lambda a: ph[:, None] * _triangular(u, _real_times(y, a), "N"))
+
+    def operator(self, bop: BandedOperator, k: float) -> CondensedOperator:
+        """The condensed form of ``bop``, the banded operator of this model at ``k``."""
+        return CondensedOperator(bop, self.modes(k))
+
+
+def _real_times(y: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``y @ x`` for real ``y`` and complex ``x`` in real arithmetic (columns as re/im pairs)."""
+    x = np.ascontiguousarray(x, dtype=complex)
+    return np.ascontiguousarray(y @ x.view(np.float64)).view(complex)
+
+
+def _triangular(u: np.ndarray, x: np.ndarray, trans: str) -> np.ndarray:
+    """``U^-1 x`` (``trans = "N"``) or ``U^-T x`` (``"T"``) by LAPACK ``dtbtrs``.
+
+    ``U`` is real, upper banded; a complex ``x`` is solved as its real and imaginary columns.
+    """
+    xr = np.ascontiguousarray(x)
+    cplx = np.iscomplexobj(xr)
+    if cplx:
+        xr = xr.view(np.float64)
+    out, info = lapack.dtbtrs(u, xr.reshape(xr.shape[0], -1), uplo="U", trans=trans)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"dtbtrs: info = {info}")
+    out = np.ascontiguousarray(out).reshape(xr.shape)
+    return out.view(complex) if cplx else out
+
+
+def _hermitian(x: sp.csr_matrix) -> bool:
+    """``x`` Hermitian to ``1e-12`` of its largest entry."""
+    return bool(abs(x - x.conj().T).max() <= 1e-12 * max(abs(x).max(), 1e-300))
+
+
+def _real(ph: np.ndarray, x: sp.csr_matrix) -> sp.csr_matrix:
+    """``D^H x D`` (real part)."""
+    c = x.tocoo()
+    return sp.csr_matrix(((ph.conj()[c.row] * c.data * ph[c.col]).real, (c.row, c.col)),
+                         shape=x.shape)
+
+
+def _not_real(ph: np.ndarray, x: sp.csr_matrix, tol: float = 1e-13) -> bool:
+    """``D^H x D`` not real to ``tol`` of its largest entry (the test of :func:`_real_phases`)."""
+    c = x.tocoo()
+    y = ph.conj()[c.row] * c.data * ph[c.col]
+    return bool(y.size and np.abs(y.imag).max() > tol * max(np.abs(y).max(), 1e-300))
+
+
+def _sparse_real_phases(k: sp.csr_matrix, m: sp.csr_matrix) -> np.ndarray | None:
+    """:func:`_real_phases` of sparse ``K``, ``M`` (the phases only; the caller tests them)."""
+    from scipy.sparse.csgraph import breadth_first_order
+
+    kc, mc = k.tocoo(), m.tocoo()
+    n = k.shape[0]
+    knz = kc.data != 0
+    klin = kc.row[knz].astype(np.int64) * n + kc.col[knz]
+    mlin = mc.row.astype(np.int64) * n + mc.col
+    mine = ~np.isin(mlin, klin)  # where K is zero, M's entry (as np.where(k != 0, k, m))
+    a = sp.csr_matrix((np.concatenate([kc.data[knz], mc.data[mine]]),
+                       (np.concatenate([kc.row[knz], mc.row[mine]]),
+                        np.concatenate([kc.col[knz], mc.col[mine]]))), shape=(n, n))
+    a.eliminate_zeros()
+    graph = abs(a)
+    d = np.zeros(n, dtype=complex)
+    for start in range(n):
+        if d[start] != 0:
+            continue
+        order, pred = breadth_first_order(graph, start, directed=False)
+        rest = order[1:]
+        steps = np.exp(-1j * np.angle(np.asarray(a[pred[rest], rest]).ravel())).tolist()
+        phase = {int(start): 1.0 + 0j}
+        for c, r, u in zip(rest.tolist(), pred[rest].tolist(), steps, strict=True):
+            phase[c] = phase[r] * u
+        d[list(phase)] = list(phase.values())
+    return d
 
 
 def _sum_log(d: np.ndarray, group: int = 8) -> np.ndarray:
@@ -351,6 +550,23 @@ def _real_banded_eigh(k: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndar
     Raises:
         numpy.linalg.LinAlgError: ``M`` not positive definite.
     """
+    u, lower, bw, logdet = _banded_cholesky(m)
+    x = sla.solve_banded((bw, 0), lower, k)  # U^-T K
+    a = sla.solve_banded((bw, 0), lower, x.T)  # U^-T K U^-1 (K symmetric)
+    w, y = sla.eigh(0.5 * (a + a.T), driver="evd")
+    phi = sla.solve_banded((0, bw), u, y)
+    return w, phi, logdet
+
+
+def _banded_cholesky(m: np.ndarray) -> tuple[np.ndarray, np.ndarray, int, float]:
+    """``M = U^T U`` of a banded real symmetric ``M > 0``.
+
+    Returns:
+        ``(U in upper band storage, U^T in lower band storage, bandwidth, log det M)``.
+
+    Raises:
+        numpy.linalg.LinAlgError: ``M`` not positive definite.
+    """
     n = m.shape[0]
     rows, cols = np.nonzero(m)
     bw = int(np.max(np.abs(rows - cols))) if rows.size else 0
@@ -361,11 +577,7 @@ def _real_banded_eigh(k: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndar
     lower = np.zeros((bw + 1, n))  # U^T in lower band storage
     for d in range(bw + 1):
         lower[d, :n - d] = u[bw - d, d:]
-    x = sla.solve_banded((bw, 0), lower, k)  # U^-T K
-    a = sla.solve_banded((bw, 0), lower, x.T)  # U^-T K U^-1 (K symmetric)
-    w, y = sla.eigh(0.5 * (a + a.T), driver="evd")
-    phi = sla.solve_banded((0, bw), u, y)
-    return w, phi, float(2.0 * np.sum(np.log(u[bw])))
+    return u, lower, bw, float(2.0 * np.sum(np.log(u[bw])))
 
 
 def _real_phases(k: np.ndarray, m: np.ndarray, tol: float = 1e-13) -> np.ndarray | None:

@@ -115,11 +115,18 @@ class CondensedOperator:
         self.evaluations = 0  #: points evaluated so far (cost measure)
 
     def _far(self, z: np.ndarray) -> _Far:
-        """The far modes' series for points ``z`` (cached per power of 2 above ``max |z|^2``).
+        """The far modes' series for points ``z`` (made per power of 2 above ``max |z|^2``).
+
+        A series made for a larger bound is reused (the smallest such): :meth:`count_and_samples`
+        makes the one of its rectangle first, so every point of a count and of the moments on
+        its contour is evaluated with the same split.
 
         The split minimises near modes plus series terms over :data:`SERIES_RATIOS`.
         """
         z2 = float(np.max(np.abs(z))) ** 2 if z.size else 0.0
+        held = [s for s in self._fars if s >= z2]  # any series made for a larger |z| holds
+        if held:
+            return self._fars[min(held)]
         scale = 2.0 ** math.ceil(math.log2(max(z2, 2.0 ** -60)))
         if scale not in self._fars:
             aw, m = np.abs(self.w), self.w.size
@@ -203,6 +210,7 @@ class CondensedOperator:
         Raises:
             ContourError: An eigenvalue on or too near the contour (move the box edge).
         """
+        self._far(np.array([complex(x, y) for x in box[:2] for y in box[2:]]))  # box's series
         counts, t = winding_numbers(lambda z: self.log_det_many(z)[None, :], box, 1,
                                     n_initial=n_initial, log=True, samples=True)
         return counts[0], t

@@ -344,6 +344,9 @@ class BandedOperator:
 
     def _apply(self, coeffs: np.ndarray, x: np.ndarray) -> np.ndarray:
         """``sum_i coeffs[i] A_i x`` (band order) by one banded matrix-vector product."""
+        if self.n < self.rows:  # zgbmv wants n >= its band's rows: tiny models, sparse products
+            return sum((c * (m @ x) for c, m in zip(coeffs, self.mats, strict=True) if c != 0),
+                       np.zeros(self.n, dtype=complex))
         # the band's top kl rows are zero: zgbmv sees an upper bandwidth of kl + ku
         return blas.zgbmv(self.n, self.n, self.kl, self.kl + self.ku, 1.0,
                           self._combine(coeffs), x)

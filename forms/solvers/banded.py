@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.linalg import lapack
+from scipy.linalg import blas, lapack
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from analytic.numerics.roots import Box, ContourError, _perimeter_point, winding_numbers
@@ -37,6 +37,12 @@ from forms.friction import FrictionOperator, ScalarFunction
 
 #: Points whose band matrices are assembled in one matrix product (memory: rows x n x CHUNK).
 CHUNK = 32
+#: :meth:`BandedOperator.newton` without a start vector: a first step below this (relative)
+#: ends the iteration. The start vector is one inverse iteration at ``z0``, so the first step is
+#: a Newton step from an eigenvector accurate to ``|z0 - Lambda| / gap``: its error is
+#: ``O(s_1^2)``. (The P(p+1) estimate starts at the P(p) value; where the two agree to the
+#: rounding level the steps stall there instead of falling below ``tol``.)
+START_STEP = 1e-10
 
 
 @dataclass
@@ -94,28 +100,75 @@ class BandedOperator:
     def _setup(self, mats: list[sp.csr_matrix], perm: np.ndarray) -> None:
         n = self.n
         self.perm = perm
-        self.mats = [m[self.perm][:, self.perm].tocsr() for m in mats]
+        mats = [m[perm][:, perm].tocsr() for m in mats]
+        coo = [m.tocoo() for m in mats]
         # stored entries of every matrix (explicit zeros included: they are pattern too)
-        offsets = np.concatenate([m.tocoo().row - m.tocoo().col for m in self.mats])
-        self.kl = int(max(np.max(offsets), 0))
-        self.ku = int(max(-np.min(offsets), 0))
-        kl, ku = self.kl, self.ku
-        # zgbtrf storage: A[i, j] at ab[kl + ku + i - j, j] (the top kl rows are LU workspace)
-        self.bands = []
-        for m in self.mats:
-            c = m.tocoo()
-            ab = np.zeros((2 * kl + ku + 1, n), dtype=complex)
-            ab[kl + ku + c.row - c.col, c.col] = c.data
-            self.bands.append(ab)
-        self._stack = np.stack(self.bands).reshape(len(self.bands), -1)  # for _bands_many
-        self.norms = np.array([sp.linalg.norm(m) for m in self.mats])
+        offsets = np.concatenate([c.row - c.col for c in coo])
+        kl, ku = int(max(np.max(offsets), 0)), int(max(-np.min(offsets), 0))
+        rows = 2 * kl + ku + 1
+        stack = np.zeros((len(mats), n * rows), dtype=complex)
+        for f, c in enumerate(coo):
+            stack[f, c.col * rows + kl + ku + c.row - c.col] = c.data
+        self._init_bands(stack, kl, ku, np.array([sp.linalg.norm(m) for m in mats]))
+        self._mats = mats
+
+    def _init_bands(self, stack: np.ndarray, kl: int, ku: int, norms: np.ndarray) -> None:
+        """Band storage of every matrix, one row of ``stack`` each (see :attr:`_stack`)."""
+        self.kl, self.ku = kl, ku
+        self.rows = 2 * kl + ku + 1
+        # zgbtrf storage: A[i, j] at ab[kl + ku + i - j, j] (the top kl rows are LU workspace);
+        # row f of _stack holds matrix f's ab in Fortran order (column j at j * rows), so a
+        # combination phi @ _stack reshaped is the Fortran-ordered band zgbtrf works on in place
+        self._stack = stack
+        self.norms = norms
+        self.power = np.array([fn.power_index if fn.power_index is not None else -1
+                               for fn in self.functions])
+        self.polynomial = bool(np.all(self.power >= 0))
         self.factorizations = 0  #: banded LU factorisations so far (cost measure)
 
+    @classmethod
+    def from_bands(cls, functions: list[ScalarFunction], perm: np.ndarray, stack: np.ndarray,
+                   kl: int, ku: int, mats: Callable[[], list[sp.csr_matrix]]
+                   ) -> BandedOperator:
+        """An operator from its band storage (:class:`BandedModel`): no sparse work.
+
+        Args:
+            functions: The scalar functions ``phi_i``.
+            perm: The band (reverse Cuthill-McKee) order of the dofs.
+            stack: Band storage of every ``A_i`` (layout of :attr:`_stack`).
+            kl: Lower half-bandwidth.
+            ku: Upper half-bandwidth.
+            mats: Builds the permuted CSR matrices ``A_i`` when :attr:`mats` is first read.
+        """
+        self = cls.__new__(cls)
+        self.functions, self.perm = list(functions), perm
+        self.n = perm.size
+        self._mats, self._make_mats = None, mats
+        # the Frobenius norm of A_i is that of its band entries (each stored once)
+        self._init_bands(stack, kl, ku, np.linalg.norm(stack, axis=1))
+        return self
+
+    @property
+    def mats(self) -> list[sp.csr_matrix]:
+        """The matrices ``A_i`` in band order, CSR."""
+        if self._mats is None:
+            self._mats = self._make_mats()
+        return self._mats
+
+    def _phi_and_derivative(self, z: complex) -> tuple[np.ndarray, np.ndarray]:
+        """``phi_i(z)`` and ``phi_i'(z)`` of every scalar function."""
+        if self.polynomial:
+            j = self.power
+            return z ** j, np.where(j > 0, j * z ** np.maximum(j - 1, 0), 0)
+        pairs = [fn.value_and_derivative(z) for fn in self.functions]
+        return np.array([a for a, _ in pairs], complex), np.array([b for _, b in pairs], complex)
+
+    def _combine(self, coeffs: np.ndarray) -> np.ndarray:
+        """Band storage (Fortran order) of ``sum_i coeffs[i] A_i``."""
+        return (np.asarray(coeffs, dtype=complex) @ self._stack).reshape(self.n, self.rows).T
+
     def _band(self, z: complex) -> np.ndarray:
-        ab = np.zeros_like(self.bands[0])
-        for fn, b in zip(self.functions, self.bands, strict=True):
-            ab += fn.value_and_derivative(z)[0] * b
-        return ab
+        return self._combine(self._phi_and_derivative(z)[0])
 
     def _phis(self, z: np.ndarray) -> np.ndarray:
         """``phi_i(z_j)`` for every point (rows) and scalar function (columns), vectorised."""
@@ -127,13 +180,16 @@ class BandedOperator:
         return np.stack(cols, axis=1)
 
     def _bands_many(self, z: np.ndarray) -> np.ndarray:
-        """Band storage of ``T(z_j)`` for every point at once, shape ``(len(z), rows, n)``."""
-        rows = self.bands[0].shape[0]
-        return (self._phis(z) @ self._stack).reshape(len(z), rows, self.n)
+        """Band storage of ``T(z_j)`` for every point at once, shape ``(len(z), rows, n)``.
+
+        Each ``[j]`` is Fortran-ordered (``zgbtrf`` overwrites it in place).
+        """
+        return (self._phis(z) @ self._stack).reshape(len(z), self.n, self.rows).transpose(
+            0, 2, 1)
 
     def _factor(self, z: complex) -> tuple[np.ndarray, np.ndarray, int]:
         self.factorizations += 1
-        lu, piv, info = lapack.zgbtrf(self._band(z), self.kl, self.ku)
+        lu, piv, info = lapack.zgbtrf(self._band(z), self.kl, self.ku, overwrite_ab=True)
         return lu, piv, int(info)
 
     def log_det(self, z: complex) -> complex:
@@ -287,16 +343,21 @@ class BandedOperator:
         return found
 
     def _apply(self, coeffs: np.ndarray, x: np.ndarray) -> np.ndarray:
-        y = np.zeros(self.n, dtype=complex)
-        for c, m in zip(coeffs, self.mats, strict=True):
-            if c != 0:
-                y += c * (m @ x)
-        return y
+        """``sum_i coeffs[i] A_i x`` (band order) by one banded matrix-vector product."""
+        if self.n < self.rows:  # zgbmv wants n >= its band's rows: tiny models, sparse products
+            return sum((c * (m @ x) for c, m in zip(coeffs, self.mats, strict=True) if c != 0),
+                       np.zeros(self.n, dtype=complex))
+        # the band's top kl rows are zero: zgbmv sees an upper bandwidth of kl + ku
+        return blas.zgbmv(self.n, self.n, self.kl, self.kl + self.ku, 1.0,
+                          self._combine(coeffs), x)
 
     def residual(self, z: complex, x: np.ndarray) -> float:
         """Relative residual of ``(z, x)`` (``x`` in the operator's original order)."""
-        xp = np.asarray(x, dtype=complex)[self.perm]
-        phi = np.array([fn.value_and_derivative(z)[0] for fn in self.functions])
+        return self._residual(z, np.asarray(x, dtype=complex)[self.perm])
+
+    def _residual(self, z: complex, xp: np.ndarray) -> float:
+        """:meth:`residual` of ``xp`` in band order."""
+        phi = self._phi_and_derivative(z)[0]
         den = float(np.sum(np.abs(phi) * self.norms)) * np.linalg.norm(xp)
         return float(np.linalg.norm(self._apply(phi, xp)) / den) if den > 0 else math.inf
 
@@ -306,8 +367,16 @@ class BandedOperator:
 
         ``u = T(z)^{-1} T'(z) x``, ``z <- z - (v^H x)/(v^H u)``, ``x <- u/(v^H u)`` with a fixed
         normalisation vector ``v``: one banded factorisation per step, quadratic convergence to
-        the simple eigenvalue nearest ``z0`` (Ruhe 1973). Without ``x0`` a fixed pseudo-random
-        start vector is used, so results do not depend on the run.
+        the simple eigenvalue nearest ``z0`` (Ruhe 1973). Without ``x0`` the start vector is one
+        inverse iteration ``T(z0)^{-1} T'(z0) r`` of a fixed pseudo-random ``r`` (results do not
+        depend on the run), with the factorisation of the first step.
+
+        Stops when the step ``s_j`` is below ``tol``, or when the error of the new value
+        predicted by quadratic convergence from the last two steps, ``s_j^3 / s_{j-1}^2``, is
+        (relative to ``max(|z|, 1)``), or, started by inverse iteration, when the first step is
+        below :data:`START_STEP` (its error is then of order ``s_1^2``): near convergence the
+        steps stall at the rounding level of ``z`` (``1e-14`` to ``1e-12`` relative) and the
+        first rule alone would run to ``maxit``.
 
         Args:
             z0: Predictor of the eigenvalue.
@@ -316,29 +385,36 @@ class BandedOperator:
             maxit: Maximum number of steps.
         """
         z = complex(z0)
+        lu = None
         if x0 is None:
             rng = np.random.default_rng(12345)
             x = rng.standard_normal(self.n) + 1j * rng.standard_normal(self.n)
+            lu = self._factor(z)
+            if lu[2] == 0:
+                x = lapack.zgbtrs(lu[0], self.kl, self.ku,
+                                  self._apply(self._phi_and_derivative(z)[1], x), lu[1])[0]
         else:
             x = np.asarray(x0, dtype=complex)[self.perm].copy()
         v = x / np.vdot(x, x)
         x = x / np.vdot(v, x)
-        step, it, converged = math.inf, 0, False
+        step, prev, it, converged = math.inf, math.inf, 0, False
         for it in range(1, maxit + 1):  # noqa: B007 - it is reported
-            lu, piv, info = self._factor(z)
+            lu_, piv, info = lu if lu is not None else self._factor(z)
+            lu = None
             if info > 0:  # exactly singular: z is an eigenvalue to rounding
                 step = 0.0
                 break
-            dphi = np.array([fn.value_and_derivative(z)[1] for fn in self.functions])
-            rhs = self._apply(dphi, x)
-            u, info2 = lapack.zgbtrs(lu, self.kl, self.ku, rhs, piv)
+            rhs = self._apply(self._phi_and_derivative(z)[1], x)
+            u, info2 = lapack.zgbtrs(lu_, self.kl, self.ku, rhs, piv)
             den = np.vdot(v, u)
             if info2 != 0 or den == 0 or not np.isfinite(den):
                 break
             dz = -np.vdot(v, x) / den
             z, x = z + dz, u / den
-            step = abs(dz)
-            if step <= tol * max(abs(z), 1.0):
+            prev, step = step, abs(dz)
+            scale = tol * max(abs(z), 1.0)
+            if step <= scale or (it > 1 and step ** 3 <= scale * prev ** 2) or (
+                    it == 1 and x0 is None and step <= START_STEP * max(abs(z), 1.0)):
                 converged = True
                 break
         out = np.empty(self.n, dtype=complex)
@@ -388,7 +464,9 @@ class BandedModel:
     """Banded operators ``T(z; k)`` of a model with k-blocks, without PETSc work per ``k``.
 
     ``T(z; k) = T0(z) + k T1(z) + k^2 T2(z)`` (:meth:`forms.models.cross_section.CrossSectionModel.
-    k_blocks`): the three parts are copied once; :meth:`operator` combines them in scipy.
+    k_blocks`): the three parts are copied once, put in the band order of ``T0``'s pattern and
+    in LAPACK band storage; :meth:`operator` combines the three band stores (no sparse work
+    per ``k``; the same numbers as adding the parts in scipy, ``a + k b + (k k) c``).
 
     Args:
         model: A model with ``k_blocks()`` on ``MPI.COMM_SELF``.
@@ -399,13 +477,57 @@ class BandedModel:
         self.functions = list(parts[0].functions)
         self.parts = [[_csr(a) for a in part.matrices] for part in parts]
         first = BandedOperator(mats=self.parts[0], functions=self.functions)
-        self.perm = first.perm
+        self.perm = perm = first.perm
+        n = self.n = perm.size
+        # per function: the union of the parts' stored entries (band order, row-major sorted,
+        # i.e. canonical CSR order) and each part's values on it
+        self._pattern: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        lins = []
+        for f in range(len(self.functions)):
+            coo = [part[f][perm][:, perm].tocoo() for part in self.parts]
+            lin = np.unique(np.concatenate([c.row.astype(np.int64) * n + c.col for c in coo]))
+            vals = np.zeros((len(coo), lin.size), dtype=complex)
+            for j, c in enumerate(coo):
+                np.add.at(vals[j], np.searchsorted(lin, c.row.astype(np.int64) * n + c.col),
+                          c.data)
+            self._pattern.append((lin, vals, _indptr(lin // n, n)))
+            lins.append(lin)
+        rows, cols = np.concatenate(lins) // n, np.concatenate(lins) % n
+        self.kl = int(max(np.max(rows - cols), 0))
+        self.ku = int(max(np.max(cols - rows), 0))
+        nrow = 2 * self.kl + self.ku + 1
+        self._bands = np.zeros((len(self.parts), len(self.functions), n * nrow), dtype=complex)
+        for f, (lin, vals, _) in enumerate(self._pattern):
+            r, c = lin // n, lin % n
+            self._bands[:, f, c * nrow + self.kl + self.ku + r - c] = vals
+
+    def part_matrices(self) -> list[list[sp.csr_matrix]]:
+        """``[T0, T1, T2]``, each the list of its matrices ``A_i`` in band order (CSR)."""
+        return [[sp.csr_matrix((vals[j], (lin % self.n).astype(np.int32), indptr),
+                               shape=(self.n, self.n)) for lin, vals, indptr in self._pattern]
+                for j in range(len(self.parts))]
 
     def operator(self, k: float) -> BandedOperator:
         """The banded ``T(z; k)``."""
         k = float(k)
-        mats = [a + k * b + (k * k) * c for a, b, c in zip(*self.parts, strict=True)]
-        return BandedOperator(mats=mats, functions=self.functions, perm=self.perm)
+        b = self._bands
+        stack = b[0] + k * b[1] + (k * k) * b[2]
+
+        def mats() -> list[sp.csr_matrix]:
+            out = []
+            for lin, vals, indptr in self._pattern:
+                data = vals[0] + k * vals[1] + (k * k) * vals[2]
+                out.append(sp.csr_matrix((data, (lin % self.n).astype(np.int32), indptr),
+                                         shape=(self.n, self.n)))
+            return out
+
+        return BandedOperator.from_bands(self.functions, self.perm, stack, self.kl, self.ku,
+                                         mats)
+
+
+def _indptr(rows: np.ndarray, n: int) -> np.ndarray:
+    """CSR row pointers of sorted row indices."""
+    return np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n))]).astype(np.int32)
 
 
 def count_or_none(bop: BandedOperator, box: Box) -> tuple[int | None, str]:

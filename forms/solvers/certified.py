@@ -52,7 +52,7 @@ from analytic.params import Params
 from forms.models.profiles import SliderMaterial
 from forms.models.section import SectionModel, section_stack
 from forms.solvers.banded import BandedModel, BandedOperator, Eigen
-from forms.solvers.condensed import CondensedOperator
+from forms.solvers.condensed import CondensedModel, CondensedOperator
 
 #: Columns of one spectrum row, in CSV order.
 ROW_FIELDS = ("k", "label", "re_lambda", "im_lambda", "re_lambda_exact", "im_lambda_exact",
@@ -144,10 +144,14 @@ def _moments_in(fe: BandedOperator, box: Box, count: int, t: np.ndarray,
     return found
 
 
-def _condensed(fe: BandedOperator) -> CondensedOperator | None:
-    """The condensed form of ``fe``, or ``None`` (banded fallback) if it has none."""
+def _condensed(fe: BandedOperator, model: CondensedModel | None = None, k: float = 0.0
+               ) -> CondensedOperator | None:
+    """The condensed form of ``fe`` (``model``'s at ``k`` if given), or ``None``.
+
+    ``None``: ``fe`` has none (the banded fallback).
+    """
     try:
-        return CondensedOperator(fe)
+        return model.operator(fe, k) if model is not None else CondensedOperator(fe)
     except NotImplementedError:
         return None
 
@@ -272,7 +276,20 @@ class CertifiedSolver:
         self.models = [SectionModel(MPI.COMM_SELF, stack, params, degree=d)
                        for d in (degree, degree + 1)]
         self.banded = [BandedModel(m) for m in self.models]
+        self._cmodel: CondensedModel | bool | None = None
         self.degree, self.cells, self.ratio = degree, cells, ratio
+
+    def _condensed_model(self) -> CondensedModel | None:
+        """The ``k``-independent condensed form of the degree-``p`` model (built once).
+
+        ``None``: the model has none (:class:`CondensedModel`); each ``k`` is condensed alone.
+        """
+        if self._cmodel is None:
+            try:
+                self._cmodel = CondensedModel(self.banded[0])
+            except NotImplementedError:
+                self._cmodel = False
+        return self._cmodel or None
 
     @property
     def unknowns(self) -> int:
@@ -305,7 +322,7 @@ class CertifiedSolver:
             except ContourError as err:
                 out.note = f"exact count failed: {err}"
         fe, fine = (b.operator(k) for b in self.banded)
-        cond = _condensed(fe) if self.count == "condensed" else None
+        cond = _condensed(fe, self._condensed_model(), k) if self.count == "condensed" else None
         counter = cond.count_and_samples if cond is not None else fe.count_and_samples
         sums = cond.moment_sums if cond is not None else None
         want = box if box is not None else (exact_box or region.box(p, k))

@@ -25,14 +25,66 @@ depends on an exact root; the eigenpairs are still polished by the banded Newton
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
+from scipy.linalg import lapack
 
 from analytic.numerics.roots import Box, winding_numbers
 from forms.solvers.banded import BandedOperator
 
 #: Points per vectorised block (memory: points x n x columns).
 BLOCK = 256
+#: Truncation of the far modes' power series (relative, per mode): below the rounding level.
+SERIES_EPS = 2.0 ** -60
+#: Candidate ratios ``rho = |z|^2 / |w_j|`` bounding the far modes; the one with the fewest
+#: near modes plus series terms is taken.
+SERIES_RATIOS = (1 / 4, 1 / 8, 1 / 16, 1 / 64, 1 / 256)
+
+
+@dataclass
+class _Far:
+    """The modes ``j >= j0`` (``|w_j| >= scale / rho``) as power series in ``zeta = z^2/scale``.
+
+    For ``|z|^2 <= scale``: ``1/(z^2 + w_j) = sum_{l < terms} (-zeta)^l weights[l, j]``
+    (``weights[l, j] = scale^l / w_j^(l + 1)``) and ``log(z^2 + w_j) = log w_j +
+    sum_{1 <= l <= terms} (-1)^(l+1) zeta^l (scale/w_j)^l / l``, each truncated after a term of
+    relative size ``rho^terms <= SERIES_EPS``. A sum over the far modes is then a sum over
+    ``terms`` coefficients, precomputed once per ``scale``, instead of one per mode and point.
+
+    Attributes:
+        j0: First far mode (modes sorted by ``|w_j|``); ``terms = 0``: none.
+        terms: Series terms.
+        scale: The bound on ``|z|^2`` (a power of 2).
+        weights: ``(terms, modes - j0)``.
+        s_coef: ``weights @ R`` (the far part of ``S(z)``), ``(terms, powers b b)``.
+        log_const: ``sum_j log w_j``.
+        log_coef: ``(-1)^(l+1)/l sum_j (scale/w_j)^l``, ``l = 1 .. terms``.
+    """
+
+    j0: int
+    terms: int
+    scale: float
+    weights: np.ndarray
+    s_coef: np.ndarray
+    log_const: complex
+    log_coef: np.ndarray
+
+    def zeta_powers(self, z: np.ndarray) -> np.ndarray:
+        """``zeta^l`` for ``l = 0 .. terms`` (points x terms + 1)."""
+        return np.vander(z * z / self.scale, self.terms + 1, increasing=True)
+
+    def series(self, zpow: np.ndarray) -> np.ndarray:
+        """``(-zeta)^l``, ``l < terms``, from :meth:`zeta_powers`."""
+        return zpow[:, :self.terms] * (-1.0) ** np.arange(self.terms)
+
+    def log_sum(self, zpow: np.ndarray) -> np.ndarray:
+        """``sum_{j >= j0} log(z^2 + w_j)`` from :meth:`zeta_powers`."""
+        return self.log_const + zpow[:, 1:] @ self.log_coef
 
 
 class CondensedOperator:
@@ -46,36 +98,54 @@ class CondensedOperator:
             ``M`` nonsingular.
     """
 
-    def __init__(self, bop: BandedOperator) -> None:
+    def __init__(self, bop: BandedOperator, modes: _Modes | None = None) -> None:
         powers = [fn.power_index for fn in bop.functions]
         if any(q is None for q in powers) or 2 not in powers:
             raise NotImplementedError("the condensed form needs a polynomial with a z^2 term")
         self.bop, self.powers = bop, np.array(powers, dtype=float)
-        n, mats = bop.n, [m.tocsr() for m in bop.mats]
-        mass = mats[powers.index(2)]
-        b = np.zeros(n, dtype=bool)
-        for q, m in zip(powers, mats, strict=True):
-            if q not in (0, 2):
-                c = m.tocoo()
-                nz = c.data != 0
-                b[c.row[nz]] = True
-        b |= np.asarray(abs(mass).sum(axis=1)).ravel() == 0
-        self.b_idx, self.i_idx = np.flatnonzero(b), np.flatnonzero(~b)
-        bi, ii = self.b_idx, self.i_idx
-        for q, m in zip(powers, mats, strict=True):
-            if q not in (0, 2) and m[ii][:, ii].count_nonzero():
-                raise NotImplementedError("a matrix of power other than 0, 2 in the interior")
-        kmat = sum((m for q, m in zip(powers, mats, strict=True) if q == 0), 0 * mass)
-        k_ii = kmat[ii][:, ii].toarray()
-        m_ii = mass[ii][:, ii].toarray()
-        self.w, phi, psi_h, self.logdet_m = _decompose(k_ii, m_ii)
-        self.phi = phi
-        self.a_bb = np.stack([m[bi][:, bi].toarray() for m in mats])  # (f, b, b)
-        self.g = np.stack([m[bi][:, ii].toarray() @ phi for m in mats])  # (f, b, m)
-        self.h = np.stack([psi_h @ m[ii][:, bi].toarray() for m in mats])  # (f, m, b)
-        self.psi_h = psi_h
+        modes = modes if modes is not None else _modes_of(bop.n, bop.mats, powers)
+        self.b_idx, self.i_idx, self.logdet_m = modes.b_idx, modes.i_idx, modes.logdet_m
+        order = np.argsort(np.abs(modes.w), kind="stable")  # near (small |w_j|) modes first
+        self.w = modes.w[order]
+        self.a_bb, self.g, self.h = modes.a_bb, modes.g[:, :, order], modes.h[:, order]
+        self._to_modes = lambda x: modes.to_modes(x)[order]
+        self._from_modes = lambda a: modes.from_modes(a[np.argsort(order)])
         self._s_form()
+        self._fars: dict[float, _Far] = {}
         self.evaluations = 0  #: points evaluated so far (cost measure)
+
+    def _far(self, z: np.ndarray) -> _Far:
+        """The far modes' series for points ``z`` (made per power of 2 above ``max |z|^2``).
+
+        A series made for a larger bound is reused (the smallest such): :meth:`count_and_samples`
+        makes the one of its rectangle first, so every point of a count and of the moments on
+        its contour is evaluated with the same split.
+
+        The split minimises near modes plus series terms over :data:`SERIES_RATIOS`.
+        """
+        z2 = float(np.max(np.abs(z))) ** 2 if z.size else 0.0
+        held = [s for s in self._fars if s >= z2]  # any series made for a larger |z| holds
+        if held:
+            return self._fars[min(held)]
+        scale = 2.0 ** math.ceil(math.log2(max(z2, 2.0 ** -60)))
+        if scale not in self._fars:
+            aw, m = np.abs(self.w), self.w.size
+            j0, terms = m, 0
+            for rho in SERIES_RATIOS:
+                j = int(np.searchsorted(aw, scale / rho))
+                t = math.ceil(math.log(SERIES_EPS) / math.log(rho))
+                if j + t < j0 + terms:
+                    j0, terms = j, t
+            wf = self.w[j0:]
+            ratio = scale / wf
+            powers = ratio[None, :] ** np.arange(terms + 1)[:, None]  # (terms + 1, far)
+            weights = powers[:terms] / wf[None, :]
+            signs = (-1.0) ** np.arange(terms)  # (-1)^(l+1) for l = 1 .. terms
+            self._fars[scale] = _Far(
+                j0, terms, scale, weights, weights @ self._s_r[j0:],
+                complex(np.sum(np.log(wf.astype(complex)))),
+                signs / np.arange(1, terms + 1) * powers[1:].sum(axis=1))
+        return self._fars[scale]
 
     def _s_form(self) -> None:
         """``S(z) = sum_e z^e (A_e - D(z) R_e)``: the Schur complement as one matrix product.
@@ -100,23 +170,32 @@ class CondensedOperator:
         self._s_a = a.reshape(len(es), nb * nb)
         self._s_r = r.transpose(1, 0, 2, 3).reshape(nm, len(es) * nb * nb)
 
-    def _d_and_s(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``d = 1/(z^2 + w)`` (points x modes) and ``S(z)`` (points x b x b)."""
-        nb, ne = self.b_idx.size, self._s_exp.size
-        d = 1.0 / (z[:, None] ** 2 + self.w[None, :])
+    def _d_and_s(self, z: np.ndarray, far: _Far) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Near ``d = 1/(z^2 + w)`` (points x j0), ``S(z)``, the far modes' ``zeta`` powers.
+
+        ``S(z)``: points x b x b; the powers: :meth:`_Far.zeta_powers`.
+        """
+        nb, ne, j0 = self.b_idx.size, self._s_exp.size, far.j0
+        d = 1.0 / (z[:, None] ** 2 + self.w[None, :j0])
         zp = z[:, None] ** self._s_exp[None, :]
-        x = (d @ self._s_r).reshape(z.size, ne, nb * nb)
+        x = d @ self._s_r[:j0]
+        zpow = far.zeta_powers(z)
+        if far.terms:
+            x += far.series(zpow) @ far.s_coef
+        x = x.reshape(z.size, ne, nb * nb)
         s = zp @ self._s_a - np.einsum("pe,pex->px", zp, x)
-        return d, s.reshape(z.size, nb, nb)
+        return d, s.reshape(z.size, nb, nb), zpow
 
     def log_det_many(self, z: np.ndarray) -> np.ndarray:
         """``log det T(z)`` at every point (some branch of the argument), vectorised."""
         flat = np.ravel(np.asarray(z, dtype=complex))
         out = np.empty(flat.size, dtype=complex)
+        far = self._far(flat)
         for lo in range(0, flat.size, BLOCK):
-            d, s = self._d_and_s(flat[lo:lo + BLOCK])
+            d, s, zpow = self._d_and_s(flat[lo:lo + BLOCK], far)
             sign, logabs = np.linalg.slogdet(s)
-            out[lo:lo + BLOCK] = (self.logdet_m - _sum_log(d) + logabs + 1j * np.angle(sign))
+            out[lo:lo + BLOCK] = (self.logdet_m - _sum_log(d) + far.log_sum(zpow) + logabs
+                                  + 1j * np.angle(sign))
             bad = (sign == 0) | ~np.isfinite(out[lo:lo + BLOCK])
             out[lo:lo + BLOCK][bad] = -np.inf
         self.evaluations += flat.size
@@ -131,6 +210,7 @@ class CondensedOperator:
         Raises:
             ContourError: An eigenvalue on or too near the contour (move the box edge).
         """
+        self._far(np.array([complex(x, y) for x in box[:2] for y in box[2:]]))  # box's series
         counts, t = winding_numbers(lambda z: self.log_det_many(z)[None, :], box, 1,
                                     n_initial=n_initial, log=True, samples=True)
         return counts[0], t
@@ -141,37 +221,268 @@ class CondensedOperator:
         ``T^{-1} v`` by the block elimination ``x_B = S^{-1}(v_B - T_BI T_II^{-1} v_I)``,
         ``x_I = T_II^{-1}(v_I - T_IB x_B)`` with ``T_II^{-1}`` diagonal in the eigenbasis; the
         interior part is summed in that basis and mapped back once (banded order, as ``v``).
-        Every product over the modes is one dense matrix product per block of points
+        Every product over the near modes is one dense matrix product per block of points
         (``T_BI Phi diag(d) Psi^H v_I``: ``d`` times ``g_f[i, j] (Psi^H v_I)[j, c]``;
-        ``Psi^H T_IB x_B``: ``[h_f] (z^q_f x_B)``).
+        ``Psi^H T_IB x_B``: ``[h_f] (z^q_f x_B)``); the far modes' ``d_j`` are the power series
+        of :class:`_Far`, so their sums over the points are taken once per series term.
         """
         bi, ii = self.b_idx, self.i_idx
         nf, nb, nm = self.g.shape
         cols, nq = v.shape[1], weights.shape[1]
-        wv = self.psi_h @ v[ii]  # (m, c)
+        far = self._far(z)
+        j0, nt = far.j0, far.terms
+        wv = self._to_modes(v[ii])  # Psi^H v_I, (m, c)
         gw = (self.g[:, :, :, None] * wv[None, None]).transpose(2, 0, 1, 3).reshape(nm, -1)
+        gw = np.concatenate([gw[:j0], far.weights @ gw[j0:]])  # near modes, series terms
         hcat = self.h.transpose(1, 0, 2).reshape(nm, nf * nb)  # [h_0 h_1 ...]  (m, f b)
         acc_b = np.zeros((nq, nb, cols), dtype=complex)
-        acc_i = np.zeros((nq, cols, nm), dtype=complex)
+        acc_i = np.zeros((nq, cols, j0), dtype=complex)
+        e_far = np.zeros((nq * nt, cols * nf * nb), dtype=complex)
+        wu_far = np.zeros(nq * nt, dtype=complex)
         for lo in range(0, z.size, BLOCK):
             zz, wt = z[lo:lo + BLOCK], weights[lo:lo + BLOCK]
             npt = zz.size
-            d, sm = self._d_and_s(zz)
+            d, sm, zpow = self._d_and_s(zz, far)
+            u = far.series(zpow)  # (P, terms)
             zp = zz[:, None] ** self.powers[None, :]  # (P, f)
-            y = (d @ gw).reshape(npt, nf, nb, cols)
+            y = (np.concatenate([d, u], axis=1) @ gw).reshape(npt, nf, nb, cols)
             r = v[bi][None] - np.einsum("pf,pfic->pic", zp, y)
             xb = np.linalg.solve(sm, r)  # (P, b, c)
             acc_b += np.tensordot(wt, xb, axes=(0, 0))
-            xbf = (zp[:, :, None, None] * xb[:, None]).reshape(npt, nf * nb, cols)
-            qx = (xbf.transpose(0, 2, 1).reshape(npt * cols, nf * nb) @ hcat.T).reshape(
-                npt, cols, nm)  # Psi^H T_IB x_B per point, (P, c, m)
-            xi = d[:, None, :] * (wv.T[None] - qx)  # T_II^{-1}(...) in the eigenbasis
+            xbf = (zp[:, :, None, None] * xb[:, None]).reshape(npt, nf * nb, cols).transpose(
+                0, 2, 1).reshape(npt, cols * nf * nb)  # z^q_f x_B per point, (P, c f b)
+            qx = (xbf.reshape(npt * cols, nf * nb) @ hcat[:j0].T).reshape(
+                npt, cols, j0)  # Psi^H T_IB x_B per point, (P, c, j0)
+            xi = d[:, None, :] * (wv[:j0].T[None] - qx)  # T_II^{-1}(...) in the eigenbasis
             acc_i += np.tensordot(wt, xi, axes=(0, 0))
+            wu = (wt[:, :, None] * u[:, None, :]).reshape(npt, nq * nt)
+            e_far += wu.T @ xbf
+            wu_far += wu.sum(axis=0)
         self.evaluations += z.size
+        if nt:  # the far modes: sum_l weights[l, j] (WU[q, l] wv[j, c] - h_j . E[q, l, c])
+            he = (hcat[j0:] @ e_far.reshape(nq * nt * cols, nf * nb).T).reshape(
+                nm - j0, nq, nt, cols)
+            acc_far = (np.einsum("lj,ql,jc->qcj", far.weights, wu_far.reshape(nq, nt), wv[j0:])
+                       - np.einsum("lj,jqlc->qcj", far.weights, he))
+            acc_i = np.concatenate([acc_i, acc_far], axis=2)
         out = np.empty((nq, self.bop.n, cols), dtype=complex)
         out[:, bi] = acc_b
-        out[:, ii] = self.phi[None] @ acc_i.transpose(0, 2, 1)
+        back = self._from_modes(acc_i.transpose(2, 0, 1).reshape(nm, nq * cols))  # Phi acc
+        out[:, ii] = back.reshape(-1, nq, cols).transpose(1, 0, 2)
         return out
+
+
+@dataclass
+class _Modes:
+    """The interior eigendecomposition of ``T`` at one ``k`` and its couplings to ``B``.
+
+    Attributes:
+        b_idx: The rows of ``B`` (banded order).
+        i_idx: The interior rows ``I``.
+        w: ``K phi_j = w_j M phi_j`` (any order).
+        logdet_m: ``log det M_II``.
+        a_bb: ``(f, b, b)``: ``A_f[B, B]``.
+        g: ``(f, b, m)``: ``A_f[B, I] Phi``.
+        h: ``(f, m, b)``: ``Psi^H A_f[I, B]``.
+        to_modes: ``x -> Psi^H x`` (interior vectors, columns).
+        from_modes: ``a -> Phi a``.
+    """
+
+    b_idx: np.ndarray
+    i_idx: np.ndarray
+    w: np.ndarray
+    logdet_m: complex
+    a_bb: np.ndarray
+    g: np.ndarray
+    h: np.ndarray
+    to_modes: Callable[[np.ndarray], np.ndarray]
+    from_modes: Callable[[np.ndarray], np.ndarray]
+
+
+def _split_rows(n: int, parts: list[list[sp.csr_matrix]], powers: list[int]
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """``(B, I)``: rows where a matrix of power not 0 or 2 is nonzero, or the mass vanishes.
+
+    ``parts[j][f]``: the matrices (one list, or one per power of ``k``; the mass is that of
+    ``parts[0]``).
+
+    Raises:
+        NotImplementedError: A matrix of power other than 0, 2 in the interior.
+    """
+    b = np.zeros(n, dtype=bool)
+    for mats in parts:
+        for q, m in zip(powers, mats, strict=True):
+            if q not in (0, 2):
+                c = m.tocoo()
+                b[c.row[c.data != 0]] = True
+    b |= np.asarray(abs(parts[0][powers.index(2)]).sum(axis=1)).ravel() == 0
+    bi, ii = np.flatnonzero(b), np.flatnonzero(~b)
+    for mats in parts:
+        for q, m in zip(powers, mats, strict=True):
+            if q not in (0, 2) and m[ii][:, ii].count_nonzero():
+                raise NotImplementedError("a matrix of power other than 0, 2 in the interior")
+    return bi, ii
+
+
+def _modes_of(n: int, mats: list[sp.csr_matrix], powers: list[int]) -> _Modes:
+    """:class:`_Modes` of one operator's matrices (:func:`_decompose` of its interior)."""
+    mats = [m.tocsr() for m in mats]
+    bi, ii = _split_rows(n, [mats], powers)
+    mass = mats[powers.index(2)]
+    kmat = sum((m for q, m in zip(powers, mats, strict=True) if q == 0), 0 * mass)
+    w, phi, psi_h, logdet_m = _decompose(kmat[ii][:, ii].toarray(), mass[ii][:, ii].toarray())
+    return _Modes(bi, ii, w, logdet_m, np.stack([m[bi][:, bi].toarray() for m in mats]),
+                  np.stack([m[bi][:, ii].toarray() @ phi for m in mats]),
+                  np.stack([psi_h @ m[ii][:, bi].toarray() for m in mats]),
+                  lambda x: psi_h @ x, lambda a: phi @ a)
+
+
+class CondensedModel:
+    """The ``k``-independent half of the condensed form, for every ``k`` of a banded model.
+
+    ``T(z; k) = T0 + k T1 + k^2 T2`` (:class:`forms.solvers.banded.BandedModel`) with a mass
+    ``M`` that does not depend on ``k`` and a real form ``D^H (.) D`` (diagonal phases ``D``,
+    :func:`_real_phases`) of the interior blocks of every part: then ``M = U^T U`` (banded
+    Cholesky), ``C_j = U^-T D^H K_j D U^-1`` and the couplings ``A_f[B, I] D U^-1``,
+    ``U^-T D^H A_f[I, B]`` are computed once, and each ``k`` costs one dense ``eigh`` of
+    ``C_0 + k C_1 + k^2 C_2`` (``Phi = D U^-1 Y``) and products with ``Y`` (the decomposition of
+    :func:`_real_banded_eigh`, its sparse extraction, phases and banded solves no longer per ``k``).
+
+    Args:
+        banded: The banded model.
+
+    Raises:
+        NotImplementedError: No such form (the caller condenses each ``k`` on its own).
+    """
+
+    def __init__(self, banded: object) -> None:
+        powers = [fn.power_index for fn in banded.functions]
+        if any(q is None for q in powers) or 2 not in powers:
+            raise NotImplementedError("the condensed form needs a polynomial with a z^2 term")
+        parts = banded.part_matrices()
+        f2 = powers.index(2)
+        if any(part[f2].count_nonzero() for part in parts[1:]):
+            raise NotImplementedError("the mass depends on k")
+        self.b_idx, self.i_idx = bi, ii = _split_rows(banded.n, parts, powers)
+        k_parts = [sum((m for q, m in zip(powers, part, strict=True) if q == 0),
+                       0 * part[f2])[ii][:, ii].tocsr() for part in parts]
+        m_ii = parts[0][f2][ii][:, ii].tocsr()
+        if not all(_hermitian(x) for x in [*k_parts, m_ii]):
+            raise NotImplementedError("an interior block is not Hermitian")
+        ph = _sparse_real_phases(sum(k_parts), m_ii)
+        if ph is None or any(_not_real(ph, x) for x in [*k_parts, m_ii]):
+            raise NotImplementedError("no real form of every part")
+        self.phases = ph
+        try:
+            self._u, _, self._bw, logdet = _banded_cholesky(_real(ph, m_ii).toarray())
+        except np.linalg.LinAlgError as err:
+            raise NotImplementedError("the interior mass is not positive definite") from err
+        self.logdet_m = complex(logdet)
+        self._c = []
+        for x in k_parts:
+            a = self._solve_ut(self._solve_ut(_real(ph, x).toarray()).T)  # U^-T K U^-1
+            self._c.append(0.5 * (a + a.T))
+        self._a_bb = np.array([[m[bi][:, bi].toarray() for m in part] for part in parts])
+        # (A_f[B, I] D U^-1)^T = U^-T D A_f[B, I]^T, and U^-T D^H A_f[I, B]: (part, m, f b)
+        self._gt = np.array([self._solve_ut(ph[:, None] * np.concatenate(
+            [m[bi][:, ii].toarray().T for m in part], axis=1)) for part in parts])
+        self._h = np.array([self._solve_ut(ph.conj()[:, None] * np.concatenate(
+            [m[ii][:, bi].toarray() for m in part], axis=1)) for part in parts])
+        self.nf, self.nb = len(powers), bi.size
+
+    def _solve_ut(self, x: np.ndarray) -> np.ndarray:
+        """``U^-T x``."""
+        return _triangular(self._u, x, "T")
+
+    def modes(self, k: float) -> _Modes:
+        """The decomposition at ``k`` (for :class:`CondensedOperator`)."""
+        k = float(k)
+
+        def at(x: np.ndarray) -> np.ndarray:
+            return x[0] + k * x[1] + (k * k) * x[2]
+
+        w, y = sla.eigh(at(self._c), driver="evd", overwrite_a=True, check_finite=False)
+        nf, nb, m = self.nf, self.nb, w.size
+        g = _real_times(y.T, at(self._gt)).T.reshape(nf, nb, m)  # A_f[B, I] Phi
+        h = _real_times(y.T, at(self._h)).reshape(m, nf, nb).transpose(1, 0, 2)  # Psi^H A_f[I, B]
+        ph, u = self.phases, self._u
+        return _Modes(self.b_idx, self.i_idx, w.astype(complex), self.logdet_m, at(self._a_bb),
+                      g, h, lambda x: _real_times(y.T, self._solve_ut(ph.conj()[:, None] * x)),
+                      lambda a: ph[:, None] * _triangular(u, _real_times(y, a), "N"))
+
+    def operator(self, bop: BandedOperator, k: float) -> CondensedOperator:
+        """The condensed form of ``bop``, the banded operator of this model at ``k``."""
+        return CondensedOperator(bop, self.modes(k))
+
+
+def _real_times(y: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``y @ x`` for real ``y`` and complex ``x`` in real arithmetic (columns as re/im pairs)."""
+    x = np.ascontiguousarray(x, dtype=complex)
+    return np.ascontiguousarray(y @ x.view(np.float64)).view(complex)
+
+
+def _triangular(u: np.ndarray, x: np.ndarray, trans: str) -> np.ndarray:
+    """``U^-1 x`` (``trans = "N"``) or ``U^-T x`` (``"T"``) by LAPACK ``dtbtrs``.
+
+    ``U`` is real, upper banded; a complex ``x`` is solved as its real and imaginary columns.
+    """
+    xr = np.ascontiguousarray(x)
+    cplx = np.iscomplexobj(xr)
+    if cplx:
+        xr = xr.view(np.float64)
+    out, info = lapack.dtbtrs(u, xr.reshape(xr.shape[0], -1), uplo="U", trans=trans)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"dtbtrs: info = {info}")
+    out = np.ascontiguousarray(out).reshape(xr.shape)
+    return out.view(complex) if cplx else out
+
+
+def _hermitian(x: sp.csr_matrix) -> bool:
+    """``x`` Hermitian to ``1e-12`` of its largest entry."""
+    return bool(abs(x - x.conj().T).max() <= 1e-12 * max(abs(x).max(), 1e-300))
+
+
+def _real(ph: np.ndarray, x: sp.csr_matrix) -> sp.csr_matrix:
+    """``D^H x D`` (real part)."""
+    c = x.tocoo()
+    return sp.csr_matrix(((ph.conj()[c.row] * c.data * ph[c.col]).real, (c.row, c.col)),
+                         shape=x.shape)
+
+
+def _not_real(ph: np.ndarray, x: sp.csr_matrix, tol: float = 1e-13) -> bool:
+    """``D^H x D`` not real to ``tol`` of its largest entry (the test of :func:`_real_phases`)."""
+    c = x.tocoo()
+    y = ph.conj()[c.row] * c.data * ph[c.col]
+    return bool(y.size and np.abs(y.imag).max() > tol * max(np.abs(y).max(), 1e-300))
+
+
+def _sparse_real_phases(k: sp.csr_matrix, m: sp.csr_matrix) -> np.ndarray | None:
+    """:func:`_real_phases` of sparse ``K``, ``M`` (the phases only; the caller tests them)."""
+    from scipy.sparse.csgraph import breadth_first_order
+
+    kc, mc = k.tocoo(), m.tocoo()
+    n = k.shape[0]
+    knz = kc.data != 0
+    klin = kc.row[knz].astype(np.int64) * n + kc.col[knz]
+    mlin = mc.row.astype(np.int64) * n + mc.col
+    mine = ~np.isin(mlin, klin)  # where K is zero, M's entry (as np.where(k != 0, k, m))
+    a = sp.csr_matrix((np.concatenate([kc.data[knz], mc.data[mine]]),
+                       (np.concatenate([kc.row[knz], mc.row[mine]]),
+                        np.concatenate([kc.col[knz], mc.col[mine]]))), shape=(n, n))
+    a.eliminate_zeros()
+    graph = abs(a)
+    d = np.zeros(n, dtype=complex)
+    for start in range(n):
+        if d[start] != 0:
+            continue
+        order, pred = breadth_first_order(graph, start, directed=False)
+        rest = order[1:]
+        steps = np.exp(-1j * np.angle(np.asarray(a[pred[rest], rest]).ravel())).tolist()
+        phase = {int(start): 1.0 + 0j}
+        for c, r, u in zip(rest.tolist(), pred[rest].tolist(), steps, strict=True):
+            phase[c] = phase[r] * u
+        d[list(phase)] = list(phase.values())
+    return d
 
 
 def _sum_log(d: np.ndarray, group: int = 8) -> np.ndarray:
@@ -181,6 +492,8 @@ def _sum_log(d: np.ndarray, group: int = 8) -> np.ndarray:
     one logarithm at a time. The count uses only the wrapped increments of the argument.
     """
     rows, cols = d.shape
+    if cols == 0:
+        return np.zeros(rows, dtype=d.dtype)
     pad = (-cols) % group
     e = np.concatenate([d, np.ones((rows, pad), dtype=d.dtype)], axis=1) if pad else d
     prods = e.reshape(rows, -1, group).prod(axis=2)
@@ -245,6 +558,23 @@ def _real_banded_eigh(k: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndar
     Raises:
         numpy.linalg.LinAlgError: ``M`` not positive definite.
     """
+    u, lower, bw, logdet = _banded_cholesky(m)
+    x = sla.solve_banded((bw, 0), lower, k)  # U^-T K
+    a = sla.solve_banded((bw, 0), lower, x.T)  # U^-T K U^-1 (K symmetric)
+    w, y = sla.eigh(0.5 * (a + a.T), driver="evd")
+    phi = sla.solve_banded((0, bw), u, y)
+    return w, phi, logdet
+
+
+def _banded_cholesky(m: np.ndarray) -> tuple[np.ndarray, np.ndarray, int, float]:
+    """``M = U^T U`` of a banded real symmetric ``M > 0``.
+
+    Returns:
+        ``(U in upper band storage, U^T in lower band storage, bandwidth, log det M)``.
+
+    Raises:
+        numpy.linalg.LinAlgError: ``M`` not positive definite.
+    """
     n = m.shape[0]
     rows, cols = np.nonzero(m)
     bw = int(np.max(np.abs(rows - cols))) if rows.size else 0
@@ -255,11 +585,7 @@ def _real_banded_eigh(k: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndar
     lower = np.zeros((bw + 1, n))  # U^T in lower band storage
     for d in range(bw + 1):
         lower[d, :n - d] = u[bw - d, d:]
-    x = sla.solve_banded((bw, 0), lower, k)  # U^-T K
-    a = sla.solve_banded((bw, 0), lower, x.T)  # U^-T K U^-1 (K symmetric)
-    w, y = sla.eigh(0.5 * (a + a.T), driver="evd")
-    phi = sla.solve_banded((0, bw), u, y)
-    return w, phi, float(2.0 * np.sum(np.log(u[bw])))
+    return u, lower, bw, float(2.0 * np.sum(np.log(u[bw])))
 
 
 def _real_phases(k: np.ndarray, m: np.ndarray, tol: float = 1e-13) -> np.ndarray | None:

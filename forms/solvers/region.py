@@ -217,6 +217,20 @@ class _Combination:
         self.mat.destroy()
 
 
+def serial_copies(matrices: Sequence[PETSc.Mat]) -> list[PETSc.Mat]:
+    """A whole sequential copy of each (distributed) matrix on every rank (owned by the caller).
+
+    ``MatCreateSubMatrices`` with every row and column: the same global numbering, so the same
+    determinant.
+    """
+    n = matrices[0].getSize()[0]
+    every = PETSc.IS().createStride(n, 0, 1, comm=PETSc.COMM_SELF)
+    try:
+        return [m.createSubMatrices(every, every)[0] for m in matrices]
+    finally:
+        every.destroy()
+
+
 class LogDet:
     """``log det T_h(z)`` at points ``z`` by MUMPS (collective; same value on every rank).
 
@@ -225,12 +239,24 @@ class LogDet:
     over- or underflows. The argument is a branch of ``arg det`` (the winding count only uses
     wrapped increments between neighbouring samples).
 
+    With ``split`` on several ranks, every rank holds a sequential copy of the matrices
+    (:func:`serial_copies`) and factorises its own share of the points (every ``size``-th one)
+    with a serial LU; the values are then gathered, so every rank has all of them, in the order
+    of ``z`` (the same samples and the same rule as without ``split``).
+
     Args:
         matrices: ``A_0, ..., A_d`` (PETSc, any communicator).
         prefix: Options prefix of the LU (``KSP`` ``preonly`` + ``PC`` ``lu`` + MUMPS).
+        split: Share the points among the ranks (serial LUs) instead of one parallel LU each.
     """
 
-    def __init__(self, matrices: Sequence[PETSc.Mat], prefix: str = "region_det_") -> None:
+    def __init__(self, matrices: Sequence[PETSc.Mat], prefix: str = "region_det_",
+                 split: bool = False) -> None:
+        self.world = matrices[0].getComm().tompi4py()
+        self.copies: list[PETSc.Mat] = []
+        if split and self.world.size > 1:
+            self.copies = serial_copies(matrices)
+            matrices = self.copies
         self.comm = matrices[0].getComm().tompi4py()
         self.combo = _Combination(matrices)
         ksp = PETSc.KSP().create(self.comm)
@@ -250,8 +276,22 @@ class LogDet:
     def __call__(self, z: np.ndarray) -> np.ndarray:
         """Vectorised ``log det T_h`` (complex logarithm) at the points ``z``."""
         z = np.atleast_1d(np.asarray(z, dtype=complex))
-        out = np.empty(z.shape, dtype=complex)
         t0 = time.perf_counter()
+        if self.comm.size == self.world.size:
+            out = self._at(z)
+        else:  # split: every rank its share, then all of them everywhere
+            rank, size = self.world.rank, self.world.size
+            shares = self.world.allgather(self._at(z.ravel()[rank::size]))
+            out = np.empty(z.size, dtype=complex)
+            for r, share in enumerate(shares):
+                out[r::size] = share
+            out = out.reshape(z.shape)
+        self.evaluations += z.size
+        self.seconds += time.perf_counter() - t0
+        return out
+
+    def _at(self, z: np.ndarray) -> np.ndarray:
+        out = np.empty(z.shape, dtype=complex)
         pc = self.ksp.getPC()
         for i, zi in enumerate(z.flat):
             self.combo.set(complex(zi))
@@ -262,20 +302,21 @@ class LogDet:
             expo = f.getMumpsInfog(34)
             mant, expo = self.comm.bcast((mant, expo), root=0)
             out.flat[i] = (np.log(mant) if mant != 0 else -np.inf) + expo * math.log(2.0)
-        self.evaluations += z.size
-        self.seconds += time.perf_counter() - t0
         return out
 
     def destroy(self) -> None:
-        """Destroy the LU and the combined matrix."""
+        """Destroy the LU, the combined matrix and the sequential copies."""
         self.ksp.destroy()
         self.combo.destroy()
+        for m in self.copies:
+            m.destroy()
+        self.copies = []
 
 
 def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
                  spurious: Sequence[complex] = (-1.0 + 0j,), *, cleared_rows: int = 0,
                  prefix: str = "region_det_", n_initial: int = 16, nudge: float = 1e-3,
-                 tries: int = 3) -> tuple[int, Box, dict]:
+                 tries: int = 3, split: bool = False) -> tuple[int, Box, dict]:
     """Discrete eigenvalues of ``T_h`` in ``box``: the winding number of ``det T_h`` on its edge.
 
     ``det T_h`` is a polynomial in ``Lambda`` (no poles), so the winding number is the number of
@@ -292,13 +333,13 @@ def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
     eigenvalue lies on (or extremely near) the contour
     (:class:`~analytic.numerics.roots.ContourError`), the box is enlarged by ``nudge`` times its
     size on every side and counted again (up to ``tries`` times); the box actually used is
-    returned.
+    returned. ``split``: the samples shared among the ranks (:class:`LogDet`).
 
     Returns:
         ``(count, box_used, info)`` with ``info`` = evaluations (LU factorisations) and seconds.
     """
     bx = _check_box(box, spurious)
-    logdet = LogDet(matrices, prefix)
+    logdet = LogDet(matrices, prefix, split)
 
     def logf(z: np.ndarray) -> np.ndarray:
         z = np.atleast_1d(np.asarray(z, dtype=complex))
@@ -519,7 +560,7 @@ class RegionSolver:
     def solve(self, matrices: Sequence[PETSc.Mat], box: Sequence[float],
               spurious: Sequence[complex] = (-1.0 + 0j,), *, count: bool = True,
               expected: int | None = None, tiles: tuple[int, int] | None = None,
-              cleared_rows: int = 0) -> RegionResult:
+              cleared_rows: int = 0, split_count: bool = False) -> RegionResult:
         """Every eigenpair in ``box``; with ``count``, the argument-principle count too.
 
         Args:
@@ -535,6 +576,8 @@ class RegionSolver:
                 coarser mesh, for an estimate); else every tile is solved until covered.
             tiles: Initial tiling ``(n_re, n_im)``; default about ``counted / (nev / 2)``
                 tiles, none more than three times taller than wide.
+            split_count: The count's samples shared among the ranks, each with a serial LU
+                of a whole copy of the matrices (:class:`LogDet`); the tiles stay parallel.
 
         Returns:
             :class:`RegionResult` (``closed`` is the certificate).
@@ -543,7 +586,7 @@ class RegionSolver:
         counted, info = None, {"evaluations": 0, "seconds": 0.0}
         if count:
             counted, bx, info = count_in_box(matrices, bx, spurious, cleared_rows=cleared_rows,
-                                             prefix=self.prefix + "det_")
+                                             prefix=self.prefix + "det_", split=split_count)
         a, b, c, d = bx
         nev = self.pep.getDimensions()[0]
         stop_at = counted if count else expected
@@ -565,6 +608,10 @@ class RegionSolver:
         todo = [(a + (b - a) * i / n_re, a + (b - a) * (i + 1) / n_re,
                  c + (d - c) * j / n_im, c + (d - c) * (j + 1) / n_im)
                 for i in range(n_re) for j in range(n_im)]
+        # nearest the real axis first (solved last-in first-out): the order only changes how
+        # soon found == counted stops the tiling (the block's fastest modes are slow waves; in
+        # a tall box above a growth floor the first tiles then hold them)
+        todo.sort(key=lambda t: -abs(t[2] + t[3]))
         kept: list[tuple[complex, PETSc.Vec]] = []
         solved = 0
         t0 = time.perf_counter()

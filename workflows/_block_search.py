@@ -23,7 +23,7 @@ SPECTRUM_PNG = "finite_block_spectrum.png"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    """``--search``, ``--box``, ``--half`` and ``--count-ranks``."""
+    """``--search``, ``--box``, ``--half``, ``--count-ranks`` and ``--count-reference``."""
     p.add_argument("--search", choices=("complete", "targets"), default="targets",
                    help="complete: every eigenvalue in --box, counted by the argument principle"
                         " (prefixes block_region_, block_region_det_); targets: eigenvalues near"
@@ -40,6 +40,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="complete search under MPI: split: each rank factorises its share of the"
                         " count's samples (serial MUMPS on a whole copy); shared: one parallel"
                         " LU per sample")
+    p.add_argument("--count-reference", choices=("elastic", "none"), default="none",
+                   help="complete search with RE_MIN > 0: elastic: the count's samples divided"
+                        " by det of the frictionless block (eigenvalues on the imaginary axis;"
+                        " prefix block_region_det_ref_): the same count, far fewer samples on"
+                        " long blocks")
 
 
 def parse_box(text: str, half: bool = False) -> tuple[float, float, float] | None:
@@ -103,7 +108,7 @@ def solve_length(comm, args: argparse.Namespace, params, L: float, ref, keep_mod
         comm, params, L, cells_per_unit=args.cells_per_unit, ny=args.ny, degree=args.degree,
         lateral=args.lateral, box=box_for(parse_box(args.box), ref.lam_inf, params, args),
         nev=args.nev, estimate=True, keep_mode=keep_mode, half=args.half,
-        split_count=args.count_ranks == "split")
+        split_count=args.count_ranks == "split", divide=args.count_reference == "elastic")
     if comm.rank == 0:
         certificates[f"{L:g}"] = {**spec.record(), "spectrum": [
             [f"{v:.12g}" if isinstance(v, float) else v for v in r] for r in spec.rows()]}

@@ -27,6 +27,7 @@ comes from the exact two-body roots (:func:`analytic.numerics.branches.follow_br
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -35,11 +36,13 @@ import numpy as np
 
 import dolfinx.fem
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from analytic.numerics import branches as exact_branches
 from analytic.numerics.spectrum import Region
 from analytic.numerics.tracking import Branch, waveguide_lambda
 from analytic.params import Params
+from forms.friction import DIRICHLET_DIAGONAL, apply_dirichlet
 from forms.mode_postprocessing import normalise
 from forms.models.strip import (
     FrictionProfile,
@@ -342,6 +345,7 @@ class BlockSpectrum:
         u: The fastest mode, normalised (if asked for).
         mirrored: Values that are conjugates of values found (the half box of
             :func:`block_spectrum`; 0 for a full box); ``found`` and ``counted`` include them.
+        count_evaluations: LU factorisations of the count (its contour's samples).
     """
 
     length: float
@@ -356,6 +360,7 @@ class BlockSpectrum:
     tiles: int
     u: dolfinx.fem.Function | None = None
     mirrored: int = 0
+    count_evaluations: int = 0
 
     @property
     def closed(self) -> bool:
@@ -385,7 +390,8 @@ class BlockSpectrum:
                 "fastest_estimate": float(self.estimates[0]) if self.found else None,
                 "max_estimate": float(np.nanmax(self.estimates)) if self.found and
                 np.isfinite(self.estimates).any() else None,
-                "tiles": self.tiles, "seconds": self.seconds, "mirrored": self.mirrored}
+                "tiles": self.tiles, "seconds": self.seconds, "mirrored": self.mirrored,
+                "count_evaluations": self.count_evaluations}
 
 
 @contextmanager
@@ -446,22 +452,24 @@ def mirror(values: np.ndarray, box: Sequence[float]) -> tuple[np.ndarray, np.nda
 def _region_solve(comm: MPI.Comm, params: Params, length: float, cells_per_unit: int, ny: int,
                   degree: int, lateral: str, box: Sequence[float], nev: int, count: bool,
                   keep_mode: bool, friction: FrictionProfile | None, prefix: str,
-                  expected: int | None = None, split: bool = False):
+                  expected: int | None = None, split: bool = False,
+                  divide: bool = False):
     """One region solve of the block; ``keep_mode``: the fastest found, as a function.
 
     The mode is that of the value of ``Im <= 0`` (a conjugated vector if only ``Im > 0`` was
-    found, as in a half box), the one the sorted full set lists first.
+    found, as in a half box), the one the sorted full set lists first. ``divide``: the count's
+    samples divided by the elastic determinant (:func:`elastic_reference`).
     """
     nx = max(2, int(round(cells_per_unit * length)))
     strip = strip_mesh_for(comm, params, float(length), nx, ny)
     problem = build_strip_problem(strip, params, k=None, degree=degree, lateral=lateral,
                                   friction=friction)
     with region_session(comm, problem, nev, prefix) as (op, solver):
-        res = None
+        res, ref = None, elastic_reference(problem) if divide and count else None
         try:
             res = solver.solve(op.matrices, box, op.law.spurious, count=count,
                                cleared_rows=op.cleared_rows, expected=expected,
-                               split_count=split)
+                               split_count=split, reference=ref)
             u = None
             if keep_mode and res.found:
                 if res.values[0].imag > 0:
@@ -470,8 +478,27 @@ def _region_solve(comm: MPI.Comm, params: Params, length: float, cells_per_unit:
                 normalise(u)
             return res, u
         finally:
+            for m in ref or ():
+                m.destroy()
             if res is not None:
                 res.destroy()  # the vectors; values and counts stay
+
+
+def elastic_reference(problem: object) -> list[PETSc.Mat]:
+    """``K, 0, M`` of the block without friction, Dirichlet rows as in ``T`` (owned by caller).
+
+    ``K + Lambda^2 M`` (the interface's ``x``-rows those of a frictionless interface): real
+    symmetric with ``M`` positive definite on the free rows, so its eigenvalues satisfy
+    ``Lambda^2 = -u^H K u / u^H M u <= 0``: all on the imaginary axis, none in a box with
+    ``re_min > 0``. ``T`` is this operator plus the friction rows (a low-rank change), so
+    ``det T / det`` of it turns slowly along the box's edges
+    (:func:`forms.solvers.region.count_in_box`, ``reference``).
+    """
+    k = problem.stiffness.copy()
+    m = problem.mass.copy()
+    zero = problem.stiffness.duplicate(copy=False)
+    apply_dirichlet([k, zero, m], problem.dirichlet, 0, DIRICHLET_DIAGONAL)
+    return [k, zero, m]
 
 
 def block_spectrum(comm: MPI.Comm, params: Params, length: float, *, cells_per_unit: int,
@@ -479,7 +506,7 @@ def block_spectrum(comm: MPI.Comm, params: Params, length: float, *, cells_per_u
                    estimate: bool = True, keep_mode: bool = False,
                    friction: FrictionProfile | None = None,
                    prefix: str = "block_region_", half: bool = False,
-                   split_count: bool = False) -> BlockSpectrum:
+                   split_count: bool = False, divide: bool = False) -> BlockSpectrum:
     """Every eigenvalue of the block ``0 < x < length`` in ``box``, with its certificate.
 
     The region solve (:class:`forms.solvers.region.RegionSolver`, options prefix
@@ -511,11 +538,14 @@ def block_spectrum(comm: MPI.Comm, params: Params, length: float, *, cells_per_u
         half: Count and solve ``Im >= -HALF_OFFSET (re_max - re_min)`` only, mirror the rest.
         split_count: The count's samples shared among the ranks (serial LUs,
             :class:`forms.solvers.region.LogDet`).
+        divide: The count's samples divided by the frictionless block's determinant
+            (:func:`elastic_reference`; only for ``re_min > 0``, where it has no eigenvalue):
+            the same count, far fewer samples.
     """
     tail = (friction, prefix)
     res, u = _region_solve(comm, params, length, cells_per_unit, ny, degree, lateral,
                            half_box(box) if half else box, nev, True, keep_mode, *tail,
-                           split=split_count)
+                           split=split_count, divide=divide and float(box[0]) > 0)
     values, source = res.values, np.arange(res.found)
     full = res.box
     if half:
@@ -523,17 +553,21 @@ def block_spectrum(comm: MPI.Comm, params: Params, length: float, *, cells_per_u
         a, b, _, d = res.box
         full = (a, b, -d, d)
     est = np.full(res.found, np.nan)
+    seconds = dict(res.seconds)
     if estimate and res.found:
+        t0 = time.perf_counter()
         fine, _ = _region_solve(comm, params, length, cells_per_unit, ny, degree + 1, lateral,
                                 res.box, nev, False, False, *tail, expected=res.found)
         if fine.found:
             est = np.array([np.min(np.abs(fine.values - z)) / abs(z) for z in res.values])
+        seconds["estimate"] = time.perf_counter() - t0
     extra = len(values) - res.found
     counted = None if res.counted is None else res.counted + extra
     gap = float(np.max(np.abs(np.conj(values)[:, None] - values[None, :]).min(axis=1)
                        / np.maximum(np.abs(values), 1.0))) if len(values) else 0.0
     return BlockSpectrum(float(length), full, values, res.residuals[source], len(values),
-                         counted, gap, est[source], res.seconds, res.tiles, u, extra)
+                         counted, gap, est[source], seconds, res.tiles, u, extra,
+                         res.count_evaluations)
 
 
 def converged_rows(rows: Sequence[dict[str, str]]) -> tuple[np.ndarray, np.ndarray]:

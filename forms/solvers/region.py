@@ -75,6 +75,20 @@ def _initial_tiles(box: Box, stop_at: int | None, nev: int) -> tuple[int, int]:
     return n_re, max(math.ceil(n_tiles / n_re), math.ceil(aspect * n_re / 3.0))
 
 
+def _tile_list(box: Box, n_re: int, n_im: int) -> list[Box]:
+    """The ``n_re x n_im`` tiles of ``box``, the one nearest the real axis last.
+
+    :meth:`RegionSolver.solve` pops from the end: the order only changes how soon found ==
+    counted stops the tiling (the block's fastest modes are slow waves; in a tall box above a
+    growth floor the first tiles then hold them).
+    """
+    a, b, c, d = box
+    todo = [(a + (b - a) * i / n_re, a + (b - a) * (i + 1) / n_re,
+             c + (d - c) * j / n_im, c + (d - c) * (j + 1) / n_im)
+            for i in range(n_re) for j in range(n_im)]
+    return sorted(todo, key=lambda t: -abs(t[2] + t[3]))
+
+
 def _keep_new(pairs: list, kept: list, box: Box, scale: float,
               spurious: Sequence[complex]) -> None:
     """Append the pairs inside ``box``, new and not spurious, to ``kept``; destroy the rest."""
@@ -640,13 +654,7 @@ class RegionSolver:
             self._inv = inverted(matrices, self._pole)
         norms = np.array([m.norm(PETSc.NormType.FROBENIUS) for m in matrices])
         scale = max(b - a, d - c)
-        todo = [(a + (b - a) * i / n_re, a + (b - a) * (i + 1) / n_re,
-                 c + (d - c) * j / n_im, c + (d - c) * (j + 1) / n_im)
-                for i in range(n_re) for j in range(n_im)]
-        # nearest the real axis first (solved last-in first-out): the order only changes how
-        # soon found == counted stops the tiling (the block's fastest modes are slow waves; in
-        # a tall box above a growth floor the first tiles then hold them)
-        todo.sort(key=lambda t: -abs(t[2] + t[3]))
+        todo = _tile_list(bx, n_re, n_im)
         kept: list[tuple[complex, PETSc.Vec]] = []
         solved = 0
         t0 = time.perf_counter()

@@ -1,15 +1,11 @@
 """The finite block's complete search above a growth floor: the half box, the split count.
 
 The half box (``block_spectrum(half=True)``: count and solve ``Im >= -0.05 (re_max - re_min)``,
-mirror the rest) and the count's samples shared among the ranks (``split_count``) must give the
-full box's set and count; the committed table-mesh answers are re-read.
+mirror the rest), the count's samples shared among the ranks (``split_count``) and the count
+divided by the frictionless block (``elastic_reference``) must give the full box's set and count.
 """
 
 from __future__ import annotations
-
-import csv
-import json
-import os
 
 import numpy as np
 import pytest
@@ -99,41 +95,3 @@ def test_divided_count_equals_the_plain_count(bc):
         problem.destroy()
     assert plain[0] == div[0] >= 1
 
-
-COMPLETE_RUNS = {"velocity": ("finite_block_complete", "finite_block"),
-                 "stress": ("finite_block_complete_stress", "finite_block_stress")}
-
-
-@pytest.mark.serial
-@pytest.mark.parametrize("top", ["velocity", "stress"])
-def test_committed_complete_search_answers_the_open_point(top):
-    """README "Complete search": the committed half-box search above a growth floor at the
-    table's mesh, re-read: its count closed, and the fastest eigenvalue of the block over every
-    thickness mode, with Re above the floor, is the table's 0-/0+ mode."""
-    root = os.path.join(os.path.dirname(__file__), os.pardir, "workflows", "results")
-    runs = COMPLETE_RUNS[top]
-    base = os.path.join(root, runs[0])
-    if not os.path.exists(os.path.join(base, "finite_block.json")):
-        pytest.skip(f"{runs[0]} not committed")
-    with open(os.path.join(base, "finite_block.json")) as f:
-        meta = json.load(f)
-    with open(os.path.join(root, runs[1], "finite_block.csv")) as f:
-        table = {float(r["L"]): r for r in csv.DictReader(f)}
-    assert (meta["params"]["bc"], meta["cells_per_unit"], meta["ny"], meta["degree"]) == (
-        top, 8, 8, 2)
-    for key, cert in meta["certificates"].items():
-        length = float(key)
-        a, b, c, d = cert["box"]
-        # the ceiling and |Im| bound of auto_box at this mesh (README), a floor below the table
-        assert b >= 2.0 * meta["lambda_inf"][0] - 1e-4 and d >= 125.66 and c == -d
-        assert cert["closed"] and cert["found"] == cert["counted"] >= 1
-        row = table[length]
-        lam_table = complex(float(row["re_lambda"]), float(row["im_lambda"]))
-        assert a < lam_table.real
-        best = complex(*cert["fastest"])
-        # the same eigenvalue from a tile solve and a target solve: measured ~1e-12 apart
-        assert abs(best - lam_table) < 1e-8 * abs(lam_table)
-        with open(os.path.join(base, "finite_block_spectrum.csv")) as f:
-            rows = [r for r in csv.DictReader(f) if float(r["L"]) == length]
-        assert len(rows) == cert["found"]
-        assert all(r["closed"] == "yes" and int(r["counted"]) == cert["counted"] for r in rows)

@@ -23,7 +23,7 @@ SPECTRUM_PNG = "finite_block_spectrum.png"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    """``--search`` and ``--box``."""
+    """``--search``, ``--box``, ``--half``, ``--count-ranks`` and ``--count-reference``."""
     p.add_argument("--search", choices=("complete", "targets"), default="targets",
                    help="complete: every eigenvalue in --box, counted by the argument principle"
                         " (prefixes block_region_, block_region_det_); targets: eigenvalues near"
@@ -33,10 +33,25 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         " auto: Re from 0.5 to 2 times the strip's reference growth, |Im| up"
                         " to the provable region's frequency at the mesh's resolvable k"
                         " (forms.studies.block.auto_box)")
+    p.add_argument("--half", action="store_true",
+                   help="complete search: count and solve the half box Im >= -0.05 (RE_MAX -"
+                        " RE_MIN) only, the rest as conjugates (the block's operators are real)")
+    p.add_argument("--count-ranks", choices=("split", "shared"), default="split",
+                   help="complete search under MPI: split: each rank factorises its share of the"
+                        " count's samples (serial MUMPS on a whole copy); shared: one parallel"
+                        " LU per sample")
+    p.add_argument("--count-reference", choices=("elastic", "none"), default="none",
+                   help="complete search with RE_MIN > 0: elastic: the count's samples divided"
+                        " by det of the frictionless block (eigenvalues on the imaginary axis;"
+                        " prefix block_region_det_ref_): the same count, far fewer samples on"
+                        " long blocks")
 
 
-def parse_box(text: str) -> tuple[float, float, float] | None:
-    """``--box`` as ``(re_min, re_max, im_max)``; ``None`` for ``auto``."""
+def parse_box(text: str, half: bool = False) -> tuple[float, float, float] | None:
+    """``--box`` as ``(re_min, re_max, im_max)``; ``None`` for ``auto``.
+
+    ``half`` (``--half``): ``IM_MAX`` must lie above the half box's lower edge too.
+    """
     if text.strip() == "auto":
         return None
     try:
@@ -46,6 +61,9 @@ def parse_box(text: str) -> tuple[float, float, float] | None:
     if not (-1 < re_min < re_max and im_max > 0):
         raise _cli.ParameterError(f"--box {text!r} is outside its allowed range"
                                   " (-1 < RE_MIN < RE_MAX, IM_MAX > 0)")
+    if half and im_max <= block.HALF_OFFSET * (re_max - re_min):
+        raise _cli.ParameterError(f"--box {text!r} with --half: IM_MAX must exceed"
+                                  f" {block.HALF_OFFSET:g} (RE_MAX - RE_MIN)")
     return re_min, re_max, im_max
 
 
@@ -89,8 +107,8 @@ def solve_length(comm, args: argparse.Namespace, params, L: float, ref, keep_mod
     spec = block.block_spectrum(
         comm, params, L, cells_per_unit=args.cells_per_unit, ny=args.ny, degree=args.degree,
         lateral=args.lateral, box=box_for(parse_box(args.box), ref.lam_inf, params, args),
-        nev=args.nev,
-        estimate=True, keep_mode=keep_mode)
+        nev=args.nev, estimate=True, keep_mode=keep_mode, half=args.half,
+        split_count=args.count_ranks == "split", divide=args.count_reference == "elastic")
     if comm.rank == 0:
         certificates[f"{L:g}"] = {**spec.record(), "spectrum": [
             [f"{v:.12g}" if isinstance(v, float) else v for v in r] for r in spec.rows()]}

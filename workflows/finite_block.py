@@ -53,8 +53,9 @@ from forms.studies import block
 from forms.studies.strip_mode import interface_of
 
 #: Options prefixes of the SLEPc objects: block target solves, block region solve and its count
-#: (MUMPS log det), cross-section model, spatial roots.
-PETSC_PREFIXES = ("block_", "block_region_", "block_region_det_", "xs_", "kroots_")
+#: (MUMPS log det) and its elastic reference, cross-section model, spatial roots.
+PETSC_PREFIXES = ("block_", "block_region_", "block_region_det_", "block_region_det_ref_", "xs_",
+                  "kroots_")
 #: Files this workflow writes.
 OUTPUTS = ("finite_block.csv", "finite_block_spectrum.csv", "finite_block_spectrum.png",
            "finite_block.png", "block_mode.png", "finite_block.json", "raw")
@@ -104,7 +105,7 @@ def validate(args: argparse.Namespace):
     _cli.positive_int("--degree", args.degree, 1, 5)
     _cli.positive_int("--targets", args.targets, 1, 50)
     _cli.positive_int("--nev", args.nev, 1, 200)
-    _block_search.parse_box(args.box)
+    _block_search.parse_box(args.box, args.half)
     _cli.check_block_size(float(np.max(lengths)), args.cells_per_unit, args.ny, args.degree,
                           params.two_body)
     return params, np.unique(lengths), branches, k_scan
@@ -177,7 +178,9 @@ def run_parameters(args: argparse.Namespace, params, branches) -> dict:
     return {"params": params.as_dict(), "lateral": args.lateral,
             "branches": [list(b) for b in branches], "k_scan": args.k_scan,
             "cells_per_unit": args.cells_per_unit, "ny": args.ny, "degree": args.degree,
-            "targets": args.targets, "nev": args.nev, "search": args.search, "box": args.box}
+            "targets": args.targets, "nev": args.nev, "search": args.search, "box": args.box,
+            **({"half": True} if args.half else {}),
+            **({"count_reference": "elastic"} if args.count_reference == "elastic" else {})}
 
 
 def main(comm=None, argv: list[str] | None = None) -> int:

@@ -27,6 +27,7 @@ comes from the exact two-body roots (:func:`analytic.numerics.branches.follow_br
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -35,11 +36,13 @@ import numpy as np
 
 import dolfinx.fem
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from analytic.numerics import branches as exact_branches
 from analytic.numerics.spectrum import Region
 from analytic.numerics.tracking import Branch, waveguide_lambda
 from analytic.params import Params
+from forms.friction import DIRICHLET_DIAGONAL, apply_dirichlet
 from forms.mode_postprocessing import normalise
 from forms.models.strip import (
     FrictionProfile,
@@ -340,6 +343,9 @@ class BlockSpectrum:
         seconds: Solve and count times.
         tiles: Tile solves.
         u: The fastest mode, normalised (if asked for).
+        mirrored: Values that are conjugates of values found (the half box of
+            :func:`block_spectrum`; 0 for a full box); ``found`` and ``counted`` include them.
+        count_evaluations: LU factorisations of the count (its contour's samples).
     """
 
     length: float
@@ -353,6 +359,8 @@ class BlockSpectrum:
     seconds: dict
     tiles: int
     u: dolfinx.fem.Function | None = None
+    mirrored: int = 0
+    count_evaluations: int = 0
 
     @property
     def closed(self) -> bool:
@@ -382,7 +390,8 @@ class BlockSpectrum:
                 "fastest_estimate": float(self.estimates[0]) if self.found else None,
                 "max_estimate": float(np.nanmax(self.estimates)) if self.found and
                 np.isfinite(self.estimates).any() else None,
-                "tiles": self.tiles, "seconds": self.seconds}
+                "tiles": self.tiles, "seconds": self.seconds, "mirrored": self.mirrored,
+                "count_evaluations": self.count_evaluations}
 
 
 @contextmanager
@@ -403,41 +412,113 @@ def region_session(comm: MPI.Comm, problem: object, nev: int, prefix: str
         problem.destroy()
 
 
+#: Half box of :func:`block_spectrum` (``half``): its lower edge at ``Im = -HALF_OFFSET (re_max -
+#: re_min)``, off the real axis, where a real operator's real eigenvalues lie.
+HALF_OFFSET = 0.05
+
+
+def half_box(box: Sequence[float]) -> tuple[float, float, float, float]:
+    """The part ``Im >= -HALF_OFFSET (re_max - re_min)`` of a box symmetric about the real axis.
+
+    Raises:
+        ValueError: ``box`` not symmetric (``im_min != -im_max``) or too flat for the offset.
+    """
+    a, b, c, d = (float(v) for v in box)
+    eps = HALF_OFFSET * (b - a)
+    if c != -d or d <= eps:
+        raise ValueError(f"box = {tuple(box)}: a half box needs im_min = -im_max and im_max >"
+                         f" {eps:g}")
+    return a, b, -eps, d
+
+
+def mirror(values: np.ndarray, box: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+    """The set of a real operator in the full box from its half box ``box`` (:func:`half_box`).
+
+    Every value above the half box's mirrored lower edge, ``Im > -im_min``, has its conjugate
+    (below the half box) added; those within ``|Im| <= -im_min`` have theirs in the half box
+    already. Returns ``(values, source)``, sorted as :meth:`RegionSolver.solve` sorts
+    (decreasing real part, a conjugate pair ``Im <= 0`` first): ``source[i]`` is the index in
+    ``values`` that value ``i`` is, or is the conjugate of.
+    """
+    a, b, c, d = box
+    idx = list(range(len(values))) + [i for i, z in enumerate(values) if z.imag > -c]
+    out = np.array([values[i] if n < len(values) else np.conj(values[i])
+                    for n, i in enumerate(idx)], dtype=complex)
+    scale = max(b - a, d - c)
+    order = sorted(range(len(out)), key=lambda n: (-round(out[n].real / scale, 9), out[n].imag))
+    return out[order], np.array(idx, dtype=int)[order]
+
+
 def _region_solve(comm: MPI.Comm, params: Params, length: float, cells_per_unit: int, ny: int,
                   degree: int, lateral: str, box: Sequence[float], nev: int, count: bool,
-                  keep_mode: bool, friction: FrictionProfile | None, prefix: str):
+                  keep_mode: bool, friction: FrictionProfile | None, prefix: str,
+                  expected: int | None = None, split: bool = False,
+                  divide: bool = False):
+    """One region solve of the block; ``keep_mode``: the fastest found, as a function.
+
+    The mode is that of the value of ``Im <= 0`` (a conjugated vector if only ``Im > 0`` was
+    found, as in a half box), the one the sorted full set lists first. ``divide``: the count's
+    samples divided by the elastic determinant (:func:`elastic_reference`).
+    """
     nx = max(2, int(round(cells_per_unit * length)))
     strip = strip_mesh_for(comm, params, float(length), nx, ny)
     problem = build_strip_problem(strip, params, k=None, degree=degree, lateral=lateral,
                                   friction=friction)
     with region_session(comm, problem, nev, prefix) as (op, solver):
-        res = None
+        res, ref = None, elastic_reference(problem) if divide and count else None
         try:
             res = solver.solve(op.matrices, box, op.law.spurious, count=count,
-                               cleared_rows=op.cleared_rows)
+                               cleared_rows=op.cleared_rows, expected=expected,
+                               split_count=split, reference=ref)
             u = None
             if keep_mode and res.found:
+                if res.values[0].imag > 0:
+                    res.vectors[0].conjugate()
                 u = problem.to_function(res.vectors[0])
                 normalise(u)
             return res, u
         finally:
+            for m in ref or ():
+                m.destroy()
             if res is not None:
                 res.destroy()  # the vectors; values and counts stay
+
+
+def elastic_reference(problem: object) -> list[PETSc.Mat]:
+    """``K, 0, M`` of the block without friction, Dirichlet rows as in ``T`` (owned by caller).
+
+    ``K + Lambda^2 M`` (the interface's ``x``-rows those of a frictionless interface): real
+    symmetric with ``M`` positive definite on the free rows, so its eigenvalues satisfy
+    ``Lambda^2 = -u^H K u / u^H M u <= 0``: all on the imaginary axis, none in a box with
+    ``re_min > 0``. ``T`` is this operator plus the friction rows (a low-rank change), so
+    ``det T / det`` of it turns slowly along the box's edges
+    (:func:`forms.solvers.region.count_in_box`, ``reference``).
+    """
+    k = problem.stiffness.copy()
+    m = problem.mass.copy()
+    zero = problem.stiffness.duplicate(copy=False)
+    apply_dirichlet([k, zero, m], problem.dirichlet, 0, DIRICHLET_DIAGONAL)
+    return [k, zero, m]
 
 
 def block_spectrum(comm: MPI.Comm, params: Params, length: float, *, cells_per_unit: int,
                    ny: int, degree: int, lateral: str, box: Sequence[float], nev: int,
                    estimate: bool = True, keep_mode: bool = False,
                    friction: FrictionProfile | None = None,
-                   prefix: str = "block_region_") -> BlockSpectrum:
+                   prefix: str = "block_region_", half: bool = False,
+                   split_count: bool = False, divide: bool = False) -> BlockSpectrum:
     """Every eigenvalue of the block ``0 < x < length`` in ``box``, with its certificate.
 
     The region solve (:class:`forms.solvers.region.RegionSolver`, options prefix
     ``block_region_``, the count's LU ``block_region_det_``) counts the eigenvalues in the box by
     the argument principle on ``log det T_h`` and finds them by shift-and-invert over tiles; no
-    infinite-strip target is used. With ``estimate``, the same box is solved (tiles only) on the
-    mesh of degree ``degree + 1`` and each eigenvalue gets the relative distance to the nearest
-    one there. Collective; every PETSc object destroyed before returning.
+    infinite-strip target is used. With ``half``, only the half box (:func:`half_box`) is
+    counted and solved and the rest is its conjugate (:func:`mirror`: the block's operators are
+    real); ``found`` and ``counted`` are then the full box's, ``counted`` = the half box's count
+    plus the conjugates added. With ``estimate``, the same box is solved (tiles only, until as
+    many as found) on the mesh of degree ``degree + 1`` and each eigenvalue gets the relative
+    distance to the nearest one there. Collective; every PETSc object destroyed before
+    returning.
 
     Args:
         comm: Mesh communicator.
@@ -448,24 +529,45 @@ def block_spectrum(comm: MPI.Comm, params: Params, length: float, *, cells_per_u
         degree: Lagrange degree.
         lateral: Lateral ends.
         box: ``(re_min, re_max, im_min, im_max)`` (``re_min > -1``: the cleared denominator's
-            root ``-1`` must stay outside).
+            root ``-1`` must stay outside; ``im_min = -im_max`` with ``half``).
         nev: Eigenpairs per tile solve.
         estimate: Also solve at degree ``degree + 1``.
         keep_mode: Also return the fastest mode as a normalised function.
         friction: Friction parameters along the interface (default: uniform, ``params``').
         prefix: Options prefix of the region solve (its count's LU: ``prefix + "det_"``).
+        half: Count and solve ``Im >= -HALF_OFFSET (re_max - re_min)`` only, mirror the rest.
+        split_count: The count's samples shared among the ranks (serial LUs,
+            :class:`forms.solvers.region.LogDet`).
+        divide: The count's samples divided by the frictionless block's determinant
+            (:func:`elastic_reference`; only for ``re_min > 0``, where it has no eigenvalue):
+            the same count, far fewer samples.
     """
     tail = (friction, prefix)
-    res, u = _region_solve(comm, params, length, cells_per_unit, ny, degree, lateral, box, nev,
-                           True, keep_mode, *tail)
+    res, u = _region_solve(comm, params, length, cells_per_unit, ny, degree, lateral,
+                           half_box(box) if half else box, nev, True, keep_mode, *tail,
+                           split=split_count, divide=divide and float(box[0]) > 0)
+    values, source = res.values, np.arange(res.found)
+    full = res.box
+    if half:
+        values, source = mirror(res.values, res.box)
+        a, b, _, d = res.box
+        full = (a, b, -d, d)
     est = np.full(res.found, np.nan)
+    seconds = dict(res.seconds)
     if estimate and res.found:
+        t0 = time.perf_counter()
         fine, _ = _region_solve(comm, params, length, cells_per_unit, ny, degree + 1, lateral,
-                                res.box, nev, False, False, *tail)
+                                res.box, nev, False, False, *tail, expected=res.found)
         if fine.found:
             est = np.array([np.min(np.abs(fine.values - z)) / abs(z) for z in res.values])
-    return BlockSpectrum(float(length), res.box, res.values, res.residuals, res.found,
-                         res.counted, res.conjugate_gap(), est, res.seconds, res.tiles, u)
+        seconds["estimate"] = time.perf_counter() - t0
+    extra = len(values) - res.found
+    counted = None if res.counted is None else res.counted + extra
+    gap = float(np.max(np.abs(np.conj(values)[:, None] - values[None, :]).min(axis=1)
+                       / np.maximum(np.abs(values), 1.0))) if len(values) else 0.0
+    return BlockSpectrum(float(length), full, values, res.residuals[source], len(values),
+                         counted, gap, est[source], seconds, res.tiles, u, extra,
+                         res.count_evaluations)
 
 
 def converged_rows(rows: Sequence[dict[str, str]]) -> tuple[np.ndarray, np.ndarray]:

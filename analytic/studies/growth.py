@@ -219,20 +219,20 @@ def best_over_k(p: Params, ks: np.ndarray, region: Region) -> dict:
 
 #: Seconds of one count (:func:`fastest_root`) per ``S^COUNT_EXPONENT``, ``S`` the region's
 #: height ``W`` times the S-wave travel time across the stack (``H/c_s + H2/c_s2``: the roots'
-#: spacing in ``Im Lambda`` goes as its inverse). Measured on this 2-core machine under a load
-#: of 12 (2026-11-25, ``fastest_root`` in-process, region ``c_max = 4``): rigid substrate,
-#: paper parameters, ``S = 13.8, 24.6, 52.6, 92.6, 132.6``: 0.18, 0.25-0.38, 0.9-1.3, 4.0,
-#: 4.8-5.1 s (1e-3 S^1.75 + 0.1: 0.20, 0.37, 1.2, 2.9, 5.3 s; 1625 tall at ``H = 0.5``, 226 s,
-#: and 825, 47 s, in the README: 1e-3 S^1.75 gives 123 and 38 s).
-COUNT_SECONDS = 1e-3
+#: spacing in ``Im Lambda`` goes as its inverse). Measured on this 2-core machine, idle
+#: (2026-11-25, load average 0.1, ``fastest_root`` in-process with the fastest-first search
+#: ``fastest_in_box``, region ``c_max = 4``): rigid substrate, paper parameters, ``S = 13.8,
+#: 24.6, 52.6, 92.6, 172.6``: 0.030, 0.047, 0.093, 0.105, 0.51 s (6e-5 S^1.75 + 0.02: 0.026,
+#: 0.036, 0.082, 0.19, 0.51 s). Under a load of 12 the same counts took 3-4x longer.
+COUNT_SECONDS = 6e-5
 #: The exponent of the region's size in :data:`COUNT_SECONDS`.
 COUNT_EXPONENT = 1.75
 #: Seconds of the smallest count (set-up, a few contour samples).
-COUNT_FLOOR = 0.1
+COUNT_FLOOR = 0.02
 #: A two-body count costs this many times a rigid one of the same size (larger determinant,
-#: more samples): measured 3.4-5.4 for ``H2 = H``, ``mu2 = 0.1, 100`` (and 0.1-0.3 for the
-#: stable ``mu2 = 1``, 1.3 for a half-space ``mu2 = 100``: overestimated).
-TWO_BODY_COUNT_FACTOR = 4.0
+#: more samples): measured 13.5 and 10 for ``H2 = H``, ``mu2 = 100`` at ``k = 0.3, 3`` (idle,
+#: 0.41 and 1.15 s).
+TWO_BODY_COUNT_FACTOR = 12.0
 
 
 def count_seconds(p: Params, k: float, region: Region) -> float:

@@ -458,8 +458,6 @@ def _not_real(ph: np.ndarray, x: sp.csr_matrix, tol: float = 1e-13) -> bool:
 
 def _sparse_real_phases(k: sp.csr_matrix, m: sp.csr_matrix) -> np.ndarray | None:
     """:func:`_real_phases` of sparse ``K``, ``M`` (the phases only; the caller tests them)."""
-    from scipy.sparse.csgraph import breadth_first_order
-
     kc, mc = k.tocoo(), m.tocoo()
     n = k.shape[0]
     knz = kc.data != 0
@@ -470,6 +468,18 @@ def _sparse_real_phases(k: sp.csr_matrix, m: sp.csr_matrix) -> np.ndarray | None
                        (np.concatenate([kc.row[knz], mc.row[mine]]),
                         np.concatenate([kc.col[knz], mc.col[mine]]))), shape=(n, n))
     a.eliminate_zeros()
+    return _tree_phases(a)
+
+
+def _tree_phases(a: sp.csr_matrix) -> np.ndarray:
+    """Unit phases making ``A``'s entries real along a breadth-first spanning tree of its pattern.
+
+    From each component's first dof, ``d_c = d_r exp(-i arg A_rc)`` for every tree edge
+    ``(r, c)`` (see :func:`_real_phases`; the caller tests the scaled matrices).
+    """
+    from scipy.sparse.csgraph import breadth_first_order
+
+    n = a.shape[0]
     graph = abs(a)
     d = np.zeros(n, dtype=complex)
     for start in range(n):
@@ -597,23 +607,7 @@ def _real_phases(k: np.ndarray, m: np.ndarray, tol: float = 1e-13) -> np.ndarray
     entry (e.g. the ``i k`` coupling of ``u_x`` and ``u_y`` of the ``exp(-i k x)`` ansatz:
     ``d = 1`` on one component and ``-i`` on the other).
     """
-    from scipy.sparse import csr_matrix
-    from scipy.sparse.csgraph import breadth_first_order
-
-    a = np.where(k != 0, k, m)
-    graph = csr_matrix(np.abs(a))
-    n = a.shape[0]
-    d = np.zeros(n, dtype=complex)
-    for start in range(n):
-        if d[start] != 0:
-            continue
-        order, pred = breadth_first_order(graph, start, directed=False)
-        rest = order[1:]
-        steps = np.exp(-1j * np.angle(a[pred[rest], rest])).tolist()
-        phase = {int(start): 1.0 + 0j}
-        for c, r, u in zip(rest.tolist(), pred[rest].tolist(), steps, strict=True):
-            phase[c] = phase[r] * u
-        d[list(phase)] = list(phase.values())
+    d = _tree_phases(sp.csr_matrix(np.where(k != 0, k, m)))
     for x in (k, m):
         y = d.conj()[:, None] * x * d[None, :]
         if np.abs(y.imag).max() > tol * max(np.abs(y).max(), 1e-300):

@@ -14,6 +14,7 @@ from analytic.params import ParameterError, Params
 from analytic.physics.finite_h import det_M
 from analytic.physics.twobody import (
     _layer,
+    _regular_pair,
     _state_matrix,
     cutoff_twobody,
     det_twobody,
@@ -398,3 +399,26 @@ def test_half_space_substrate_branch_is_leaky_then_followed_continuously(kw):
             assert sh == "physical"
             found = roots_in_box(p, kk, (L.real / 2, L.real * 2, L.imag - 0.1, L.imag + 0.1))
             assert len(found) == 1 and abs(found[0].value - L) < 1e-12 * abs(L)
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("beta, sigma", [(0.5, 1.0), (0.6, -1.0)])
+def test_regular_pairs_in_one_call_equal_each_pair_alone(beta: float, sigma: float) -> None:
+    """`_layer` evaluates the four partial-wave pairs of a finite layer in one call of
+    `_regular_pair` (sigma, t broadcast): the same fields, bit for bit, as one call per pair,
+    including near Lambda = 0 where the divided difference switches to its series."""
+    rng = np.random.default_rng(3)
+    L = np.concatenate([rng.normal(size=50) * 2 + 1j * rng.normal(size=50) * 20,
+                        [1e-9 + 1e-9j, 0.3j, 1e-4]])
+    k, H = 1.7, 0.8
+    ks, kd = np.sqrt(L * L + k * k), np.sqrt(beta * beta * L * L + k * k)
+    P, eps = L * L + 2 * k * k, L * L
+    sig = [sigma, -sigma, sigma, -sigma]
+    at = [0.0, -sigma * H, sigma * H, 0.0]
+    ex = (Ellipsis, None)
+    together = _regular_pair(ks[ex], kd[ex], np.full_like(ks, k)[ex], P[ex], eps[ex], beta,
+                             np.array(sig), np.array(at))
+    assert together.shape == L.shape + (4, 2, 4)
+    for j, (s, t) in enumerate(zip(sig, at, strict=True)):
+        alone = _regular_pair(ks, kd, np.full_like(ks, k), P, eps, beta, s, t)
+        assert np.array_equal(together[:, j], alone)

@@ -320,7 +320,7 @@ def winding_numbers(fun: Callable[[np.ndarray], np.ndarray], box: Sequence[float
             else:
                 d, b = _increments(row, bx, t, max_dphase, max_rel, zero_tol)
             dph[r], bad = d, bad | b
-        t_next = np.roll(t, -1)
+        t_next = _next(t)
         t_next[-1] = 4.0  # last interval closes the loop
         dt = t_next - t
         if not bad.any():
@@ -354,6 +354,11 @@ def winding_numbers(fun: Callable[[np.ndarray], np.ndarray], box: Sequence[float
         order = np.argsort(t)
         t, f = t[order], f[:, order]
 
+def _next(x: np.ndarray) -> np.ndarray:
+    """``np.roll(x, -1)`` of a 1-D array: the next sample around the loop (no roll overhead)."""
+    return np.concatenate((x[1:], x[:1]))
+
+
 def _increments(f: np.ndarray, bx: Box, t: np.ndarray, max_dphase: float, max_rel: float,
                 zero_tol: float) -> tuple[np.ndarray, np.ndarray]:
     """Wrapped phase increments ``t_i -> t_{i+1}`` of samples ``f`` and the intervals to refine."""
@@ -368,9 +373,9 @@ def _increments(f: np.ndarray, bx: Box, t: np.ndarray, max_dphase: float, max_re
             f"function vanishes on the contour near z = {zbad:.6g}: move the box edge"
         )
     ph = np.angle(f)
-    dph = np.angle(np.exp(1j * (np.roll(ph, -1) - ph)))  # wrapped increments t_i -> t_{i+1}
-    df = np.abs(np.roll(f, -1) - f)
-    bad = (np.abs(dph) > max_dphase) | (df > max_rel * np.minimum(absf, np.roll(absf, -1)))
+    dph = np.angle(np.exp(1j * (_next(ph) - ph)))  # wrapped increments t_i -> t_{i+1}
+    df = np.abs(_next(f) - f)
+    bad = (np.abs(dph) > max_dphase) | (df > max_rel * np.minimum(absf, _next(absf)))
     return dph, bad
 
 
@@ -383,7 +388,7 @@ def _log_increments(logf: np.ndarray, max_dphase: float, max_rel: float
     """
     if not np.all(np.isfinite(logf)):
         return np.zeros(0), None
-    d = np.roll(logf, -1) - logf
+    d = _next(logf) - logf
     dph = np.angle(np.exp(1j * d.imag))
     with np.errstate(over="ignore", invalid="ignore"):
         r = np.exp(np.minimum(d.real, 700.0)) * np.exp(1j * dph)

@@ -166,36 +166,42 @@ def matrix_M(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params,
                     axis=-2)
 
 
-def _waves_matrix(L: np.ndarray, kk: np.ndarray, ks: np.ndarray, kd: np.ndarray,  # noqa: N803
+def _waves_matrix(L: np.ndarray, kk: np.ndarray | float, ks: np.ndarray, kd: np.ndarray,  # noqa: N803
                   p: Params) -> np.ndarray:
     """:func:`matrix_M` in the ``"waves"`` basis, only the entries its four rows use.
 
     Same floating-point operations, entry by entry, as ``matrix_M(L, kk, p, "waves")`` (``L``,
-    ``kk`` already broadcast, ``ks``, ``kd`` their :func:`wavenumbers`), so the same bits, at
-    a fraction of the per-call cost (``det_M`` is called on tiny arrays thousands of times).
+    ``kk`` broadcast against each other, ``ks``, ``kd`` their :func:`wavenumbers`), so the same
+    values (up to the sign of a zero), at a fraction of the per-call cost (``det_M`` is called
+    on small arrays thousands of times): each field is computed for the two ``psi`` columns
+    (0, 2) and the two ``phi`` columns (1, 3) at once.
     """
     H = p.H
     es, ed = np.exp(-H * ks), np.exp(-H * kd)
-    one = np.ones_like(ks)
-    P = L * L + 2.0 * kk * kk
-    ik, mik, i2k, mi2k = 1j * kk, -1j * kk, 2j * kk, -2j * kk
-
-    def fields(kind: str, v: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, ...]:
-        if kind == "psi":  # (u_x, u_y, s_xy, s_yy) as in _columns_fields
-            return d, ik * v, P * v, i2k * d
-        return mik * v, d, mi2k * d, P * v
-
-    kinds = ("psi", "phi", "psi", "phi")
-    bottom = [(one, -ks), (1j * one, -1j * kd), (es, ks * es), (1j * ed, 1j * kd * ed)]
-    top = [(es, -ks * es), (1j * ed, -1j * kd * ed), (one, ks), (1j * one, 1j * kd)]
-    a, b, c = FrictionLaw.from_params(p).row(L)
-    r0 = 0 if p.bc == "velocity" else 2
-    M = np.empty(L.shape + (4, 4), dtype=complex)
-    for j in range(4):
-        tf = fields(kinds[j], *top[j])
-        bf = fields(kinds[j], *bottom[j])
-        M[..., 0, j], M[..., 1, j], M[..., 2, j] = tf[r0], tf[3], bf[1]
-        M[..., 3, j] = a * bf[2] + b * bf[3] + c * bf[0]
+    ex = (Ellipsis, None)
+    P = (L * L + 2.0 * kk * kk)[ex]
+    kx = np.asarray(kk)[ex]
+    ik, mik, i2k, mi2k = 1j * kx, -1j * kx, 2j * kx, -2j * kx
+    # potentials (value v, y-derivative d) of the columns psi, phi, psi, phi at the top (y = H)
+    # and the bottom (y = 0): exp(-k y) from the bottom, exp(k (y - H)) from the top
+    vt = np.empty(es.shape + (4,), dtype=complex)
+    dt = np.empty(es.shape + (4,), dtype=complex)
+    vt[..., 0], vt[..., 1], vt[..., 2], vt[..., 3] = es, 1j * ed, 1.0, 1j
+    dt[..., 0], dt[..., 1], dt[..., 2], dt[..., 3] = -ks * es, -1j * kd * ed, ks, 1j * kd
+    swap = [2, 3, 0, 1]  # the bottom's columns are the top's, the two waves exchanged
+    vb, db = vt[..., swap], -dt[..., swap]
+    psi, phi = slice(0, 4, 2), slice(1, 4, 2)
+    a, b, c = (np.asarray(x)[ex] for x in FrictionLaw.from_params(p).row(L))
+    M = np.empty(es.shape + (4, 4), dtype=complex)
+    if p.bc == "velocity":  # u_x at the top: psi d, phi -i k v
+        M[..., 0, psi], M[..., 0, phi] = dt[..., psi], mik * vt[..., phi]
+    else:  # s_xy at the top: psi P v, phi -2 i k d
+        M[..., 0, psi], M[..., 0, phi] = P * vt[..., psi], mi2k * dt[..., phi]
+    M[..., 1, psi], M[..., 1, phi] = i2k * dt[..., psi], P * vt[..., phi]  # s_yy at the top
+    M[..., 2, psi], M[..., 2, phi] = ik * vb[..., psi], db[..., phi]  # u_y at the bottom
+    # friction at the bottom: a s_xy + b s_yy + c u_x
+    M[..., 3, psi] = a * (P * vb[..., psi]) + b * (i2k * db[..., psi]) + c * db[..., psi]
+    M[..., 3, phi] = a * (mi2k * db[..., phi]) + b * (P * vb[..., phi]) + c * (mik * vb[..., phi])
     return M
 
 
@@ -216,25 +222,30 @@ def det_M(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -> np.
     """
     H = _finite_h(p)
     require_rigid(p, "analytic.physics.finite_h")
-    L, kk = np.broadcast_arrays(np.asarray(Lambda, dtype=complex), np.asarray(k, dtype=float))
+    if np.ndim(k) == 0:  # one k (the usual call): no broadcast copies
+        L, kk = np.array(Lambda, dtype=complex), float(k)
+    else:
+        L, kk = np.broadcast_arrays(np.asarray(Lambda, dtype=complex),
+                                    np.asarray(k, dtype=float))
     # Exactly at k_s = 0, k_d = 0 or Lambda = 0 the formula is 0/0 (a removable point of a
     # continuous function): evaluate a relative 1e-12 away instead.
     ks, kd = wavenumbers(L, kk, p.beta)
-    degenerate = (np.abs(ks) < 1e-12 * (np.abs(L) + kk)) | (np.abs(kd) < 1e-12 * (np.abs(L) + kk)) \
-        | (L == 0)
+    aL = np.abs(L)
+    tiny = 1e-12 * (aL + kk)
+    degenerate = (np.abs(ks) < tiny) | (np.abs(kd) < tiny) | (L == 0)
     if degenerate.any():
-        L = np.where(degenerate, L + 1e-12 * (np.abs(L) + kk) * (1 + 1j), L)
+        L = np.where(degenerate, L + tiny * (1 + 1j), L)
         ks, kd = wavenumbers(L, kk, p.beta)
+        aL = np.abs(L)
     M = _waves_matrix(L, kk, ks, kd, p)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        hs, hd, aL = H * np.abs(ks), H * np.abs(kd), np.abs(L)
-        phase = np.exp(1j * H * (ks.imag + kd.imag))
-        phase = phase * np.where(hs > 0, np.abs(ks) / ks, 1.0)
-        phase = phase * np.where(hd > 0, np.abs(kd) / kd, 1.0)
-        phase = phase * np.where(aL > 0, aL / L, 1.0) ** SPURIOUS_ORDER_AT_ZERO
-        weight = (hs / (1.0 + hs)) * (hd / (1.0 + hd)) \
-            * (aL / (aL + kk + 1.0 / H)) ** SPURIOUS_ORDER_AT_ZERO
-        return row_normalised_det(M) * phase / weight
+    # after the step off the degenerate points k_s, k_d and Lambda are nonzero
+    aks, akd = np.abs(ks), np.abs(kd)
+    hs, hd = H * aks, H * akd
+    phase = np.exp(1j * H * (ks.imag + kd.imag)) * (aks / ks) * (akd / kd) \
+        * (aL / L) ** SPURIOUS_ORDER_AT_ZERO
+    weight = (hs / (1.0 + hs)) * (hd / (1.0 + hd)) \
+        * (aL / (aL + kk + 1.0 / H)) ** SPURIOUS_ORDER_AT_ZERO
+    return row_normalised_det(M) * phase / weight
 
 
 def row_normalised_det(M: np.ndarray, Lambda: np.ndarray | complex | None = None,  # noqa: N803
@@ -244,7 +255,9 @@ def row_normalised_det(M: np.ndarray, Lambda: np.ndarray | complex | None = None
     With ``Lambda``: times ``(|Lambda|/Lambda)^order``, the phase of ``det(M) / Lambda^order``
     (the even bases vanish like ``Lambda^order`` at 0; 1 there).
     """
-    out = np.linalg.det(M) / np.prod(np.linalg.norm(M, axis=-1), axis=-1)
+    # the row norms as np.linalg.norm(M, axis=-1) computes them, without its per-call overhead
+    norms = np.sqrt(np.add.reduce((M.conj() * M).real, axis=-1))
+    out = np.linalg.det(M) / np.multiply.reduce(norms, axis=-1)
     if Lambda is None:
         return out
     L = np.broadcast_to(np.asarray(Lambda, dtype=complex), out.shape)  # noqa: N806

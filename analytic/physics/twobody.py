@@ -132,8 +132,7 @@ def _phi1(x: np.ndarray) -> np.ndarray:
 
 
 def _regular_pair(ks: np.ndarray, kd: np.ndarray, k: np.ndarray, P: np.ndarray, eps: np.ndarray,
-                  beta: float, sigma: float, t: np.ndarray | float
-                  ) -> tuple[np.ndarray, np.ndarray]:
+                  beta: float, sigma: np.ndarray | float, t: np.ndarray | float) -> np.ndarray:
     """Fields of the partial waves ``psi = exp(-sigma k_s t)`` and ``N = (phi + sigma psi)/D``.
 
     ``phi = i exp(-sigma k_d t)``, ``D = k_d - k_s = (beta^2 - 1) eps / (k_d + k_s)``,
@@ -141,8 +140,9 @@ def _regular_pair(ks: np.ndarray, kd: np.ndarray, k: np.ndarray, P: np.ndarray, 
     (``phi = -sigma psi``); ``N`` is their divided difference, written without cancellation
     (every difference of square roots as ``eps`` over a sum), so the pair stays independent and
     well conditioned down to ``Lambda = 0`` (the quasi-static limit of a stiff substrate).
-    Returns ``(psi_fields, N_fields)``, each ``(..., 4)`` = ``(u_x, u_y, s_xy, s_yy)`` for
-    ``mu = 1``.
+    ``sigma``, ``t`` may be arrays broadcast against the others (several pairs in one call).
+    Returns the fields of shape ``broadcast + (2, 4)``: ``psi`` then ``N``, each ``(u_x, u_y,
+    s_xy, s_yy)`` for ``mu = 1``.
     """
     Es = np.exp(-sigma * ks * t)
     D = (beta * beta - 1.0) * eps / (kd + ks)
@@ -158,12 +158,14 @@ def _regular_pair(ks: np.ndarray, kd: np.ndarray, k: np.ndarray, P: np.ndarray, 
     r_pd = -(kd + ks) * (kd + k * (1.0 - 2.0 * beta * beta)) / (omb * (kd + k))  # (P-2k k_d)/D
     r_ps = (kd + ks) * k_ks / (omb * (k + ks))  # (P - 2 k k_s) / D
     d = -sigma * ks * Es
-    psi = np.stack([d, 1j * k * Es, P * Es, 2j * k * d], axis=-1)
-    N = np.stack([k * Q + r_ks * Es,
-                  -1j * sigma * (kd * Q + r_kd * Es),
-                  sigma * (r_pd * Es - 2.0 * k * kd * Q),
-                  1j * (P * Q + r_ps * Es)], axis=-1)
-    return psi, N
+    out = np.empty(Es.shape + (2, 4), dtype=complex)  # filled in place: np.stack of small
+    out[..., 0, 0], out[..., 0, 1] = d, 1j * k * Es  # arrays dominated the cost
+    out[..., 0, 2], out[..., 0, 3] = P * Es, 2j * k * d
+    out[..., 1, 0] = k * Q + r_ks * Es
+    out[..., 1, 1] = -1j * sigma * (kd * Q + r_kd * Es)
+    out[..., 1, 2] = sigma * (r_pd * Es - 2.0 * k * kd * Q)
+    out[..., 1, 3] = 1j * (P * Q + r_ps * Es)
+    return out
 
 
 def _layer(Lambda: np.ndarray, k: np.ndarray, m: Material, H: float, side: int, basis: str,
@@ -185,20 +187,18 @@ def _layer(Lambda: np.ndarray, k: np.ndarray, m: Material, H: float, side: int, 
     s = float(side)
     if basis == "regular":
         eps = Lambda * Lambda * (m.rho / m.mu)
-        pairs_in = [_regular_pair(ks, kd, k, P, eps, m.beta, s, 0.0)]
-        pairs_out = None
-        if math.isfinite(H):
-            # a: exp(-s k y) from the interface; b: exp(s k (y - s H)) from the outer boundary
-            pairs_in.append(_regular_pair(ks, kd, k, P, eps, m.beta, -s, -s * H))
-            pairs_out = [_regular_pair(ks, kd, k, P, eps, m.beta, s, s * H),
-                         _regular_pair(ks, kd, k, P, eps, m.beta, -s, 0.0)]
-
-        def cols(pairs: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
-            c = np.stack([f for pair in pairs for f in pair], axis=-1)
-            c[..., 0:2, :] /= m.mu
-            return c
-
-        return cols(pairs_in), (None if pairs_out is None else cols(pairs_out))
+        # (sigma, t) of each pair, all in one call: the wave decaying from the interface at
+        # the interface (s, 0); for a finite layer also the one from the outer boundary
+        # exp(s k (y - s H)) at the interface (-s, -s H), then both at the outer boundary
+        # (s, s H) and (-s, 0)
+        sig, at = ([s], [0.0]) if not math.isfinite(H) else \
+            ([s, -s, s, -s], [0.0, -s * H, s * H, 0.0])
+        ex = (Ellipsis, None)
+        pairs = _regular_pair(ks[ex], kd[ex], k[ex], P[ex], eps[ex], m.beta, np.array(sig),
+                              np.array(at))  # (..., pair, psi/N, field)
+        c = np.swapaxes(pairs.reshape(pairs.shape[:-3] + (2 * len(sig), 4)), -1, -2)
+        c[..., 0:2, :] /= m.mu  # (..., field, column): columns psi, N of each pair
+        return (c, None) if not math.isfinite(H) else (c[..., 0:4], c[..., 4:8])
     one = np.ones_like(ks)
     zero = np.zeros_like(ks)
     if not math.isfinite(H):
@@ -255,23 +255,25 @@ def matrix_twobody(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Param
     in1, out1 = _layer(L, kk, p.slider, p.H, +1, basis, sheet)
     in2, out2 = _layer(L, kk, p.substrate, p.H2, -1, basis, sheet)
     n1, n2 = in1.shape[-1], in2.shape[-1]
-    z1 = np.zeros(L.shape + (n1,), dtype=complex)
-    z2 = np.zeros(L.shape + (n2,), dtype=complex)
-    rows = []
+    n_rows = 4 + (out1 is not None) * 2 + (out2 is not None) * 2
+    M = np.zeros(L.shape + (n_rows, n1 + n2), dtype=complex)  # filled row by row in place
+    i = 0
     if out1 is not None:
         for r in _BC_ROWS[p.bc]:
-            rows.append(np.concatenate([out1[..., r, :], z2], axis=-1))
+            M[..., i, :n1] = out1[..., r, :]
+            i += 1
     if out2 is not None:
         for r in _BC_ROWS[p.bc2]:
-            rows.append(np.concatenate([z1, out2[..., r, :]], axis=-1))
+            M[..., i, n1:] = out2[..., r, :]
+            i += 1
     for r in (1, 2, 3):  # u_y, s_xy, s_yy continuous
-        rows.append(np.concatenate([in1[..., r, :], -in2[..., r, :]], axis=-1))
+        M[..., i, :n1], M[..., i, n1:] = in1[..., r, :], -in2[..., r, :]
+        i += 1
     a, b, c = FrictionLaw.from_params(p).row(L)
     a, b, c = a[..., None], b[..., None], c[..., None]
-    fr1 = a * in1[..., 2, :] + b * in1[..., 3, :] + c * in1[..., 0, :]
-    fr2 = -c * in2[..., 0, :]
-    rows.append(np.concatenate([fr1, fr2], axis=-1))
-    return np.stack(rows, axis=-2)
+    M[..., i, :n1] = a * in1[..., 2, :] + b * in1[..., 3, :] + c * in1[..., 0, :]
+    M[..., i, n1:] = -c * in2[..., 0, :]
+    return M
 
 
 def spurious_order(p: Params) -> int:

@@ -259,9 +259,10 @@ def run_meta(params: Params, k_spec: str, k: np.ndarray, merged: int,
 
 #: CPU seconds of solving per ``k`` value per ``(W H)^2`` (``W`` the region's height at that
 #: ``k``: eigenvalues and mesh cells both grow with ``W H``). Measured: the default velocity
-#: sweep (120 k, 4 ``c_d``, ``H = 0.5``, one rank) spent 27.7 s of CPU solving, and its
-#: ``sum (W H)^2`` is 78 771 (2026-11-24, this 2-core machine).
-SECONDS_PER_WH2 = 3.5e-4
+#: sweep (120 k, ``--c-max 4 --check-exact no``, ``H = 0.5``, one rank) spent 4.56 s solving
+#: (the sum of its ``per_k`` seconds), and its ``sum (W H)^2`` is 78 771 (2026-11-25, this
+#: 2-core machine, idle; 27.7 s before the banded precomputation of 2026-11-25).
+SECONDS_PER_WH2 = 5.8e-5
 
 
 def estimate_seconds(params: Params, region: Region, k: Sequence[float], ranks: int) -> float:

@@ -151,6 +151,33 @@ def test_finite_block_workflow(tmp_path, ranks):
     assert sorted(os.listdir(out / "raw")) == ["L2.0.json", "L4.0.json", "L6.0.json"]  # parts
 
 
+@pytest.mark.serial
+def test_grid_search_finds_the_target_searchs_mode(tmp_path):
+    """``--search grid``: targets on a line across the frequency band of the 0- mode (no strip
+    branch consulted for them) give the same fastest eigenvalue as ``--search targets``; a
+    malformed ``--grid`` is one line, exit 2, nothing written."""
+    env = dict(os.environ)
+    env.pop("DISPLAY", None)
+    base = [sys.executable, SCRIPT, "--lengths", "2", "--cells-per-unit", "4", "--ny", "3",
+            "--nev", "4", "--k-scan", "0.5:3:6", "--no-kulikovskii"]
+    rows = {}
+    for search in ("targets", "grid"):
+        out = tmp_path / search
+        res = subprocess.run([*base, "--search", search, "--grid", "0.2:4:9:0.5", "--out",
+                              str(out)], capture_output=True, text=True, env=env, timeout=300)
+        assert res.returncode == 0, res.stderr[-3000:]
+        with open(out / "finite_block.csv") as f:
+            rows[search] = next(csv.DictReader(f))
+    a, b = (complex(float(r["re_lambda"]), -abs(float(r["im_lambda"]))) for r in rows.values())
+    assert abs(a - b) < 1e-10 * abs(a)  # the same eigenvalue (measured equal to 12 digits)
+    bad = tmp_path / "bad"
+    res = subprocess.run([*base, "--search", "grid", "--grid", "0.2:9:4:1", "--out", str(bad)],
+                         capture_output=True, text=True, env=env, timeout=120)
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert res.returncode == 2 and len(lines) == 1 and "--grid" in lines[0], res.stderr
+    assert not bad.exists()
+
+
 @pytest.mark.slow  # measured ~40 s per run on a loaded machine (2026-11-24): three runs
 @pytest.mark.serial
 def test_finite_block_complete_search_is_certified_and_deterministic(tmp_path):
@@ -413,3 +440,41 @@ def test_committed_branch_search_answers_the_open_point(top):
         assert min(slow) == pytest.approx(0.11285, abs=1e-5)
         # ... yet the block's fastest among all 248 candidates is the table's 0+ mode
         assert abs(lam - lam_table) < 1e-10 * abs(lam)
+
+
+@pytest.mark.serial
+def test_committed_complete_search_at_l16_holds_the_target_searches_modes():
+    """README "The open point by the complete search": the committed complete search of the
+    half box at L = 16 (velocity top, the table's mesh), re-read and set against the two
+    committed target searches (other runs, another method: shift-and-invert near targets).
+
+    The count closed and the set is conjugate-symmetric; the table's 0- mode and the nine-branch
+    search's fastest are in the set; among the eigenvalues resolved at this mesh (P3 estimate
+    below 1e-3) it is the fastest; every faster one is unresolved (estimate above 0.05)."""
+    base = os.path.join(ROOT, "workflows", "results", "finite_block_complete")
+    with open(os.path.join(base, "finite_block_spectrum.csv")) as f:
+        rows = [r for r in csv.DictReader(f) if float(r["L"]) == 16.0]
+    rows_meta, meta = _results("finite_block_complete")
+    assert (meta["params"]["bc"], meta["cells_per_unit"], meta["ny"], meta["degree"],
+            meta["search"]) == ("velocity", 8, 8, 2, "complete")
+    cert = meta["certificates"]["16"]
+    assert cert["box"] == [0.2, 0.655, -125.67, 125.67]
+    assert cert["found"] == cert["counted"] == len(rows) == 66 and cert["closed"]
+    z = np.array([complex(float(r["re_lambda"]), float(r["im_lambda"])) for r in rows])
+    est = np.array([float(r["estimate"]) for r in rows])
+    # conjugate-symmetric: the mirrored half equals the solved half's conjugates (bit for bit)
+    assert all(np.min(np.abs(z - v.conjugate())) <= 1e-12 * abs(v) for v in z)
+    table, _ = _results("finite_block")
+    branches, _ = _results("finite_block_branches")
+    for other in (table[16.0], branches[16.0]):
+        v = complex(float(other["re_lambda"]), float(other["im_lambda"]))
+        j = int(np.argmin(np.abs(z - v)))
+        # the CSVs' 12 digits: measured equal to 1e-12 relative
+        assert abs(z[j] - v) < 1e-10 * abs(v)
+        assert est[j] < 1e-3  # measured 2.3e-4: resolved at this mesh
+        resolved = z[est < 1e-3]
+        assert z[j].real == max(resolved.real)  # the fastest resolved eigenvalue
+        faster = z.real > z[j].real + 1e-9
+        # README: 34 faster (17 pairs), |Im| 46-49 and 109-111, estimates 0.074-0.41
+        assert faster.sum() == 34 and est[faster].min() > 0.05
+        assert np.all((np.abs(z[faster].imag) > 45) & (np.abs(z[faster].imag) < 112))

@@ -1,9 +1,11 @@
 """The per-length solve of ``finite_block.py``: targets near the strip's branches, or a box.
 
 ``--search targets`` solves near the infinite strip's branch targets
-(:func:`forms.studies.block.most_unstable_block_mode`); ``--search complete`` returns every
-eigenvalue in a box with its certificate (:func:`forms.studies.block.block_spectrum`: count by the
-argument principle, conjugate symmetry, P(p+1) estimate). Rows are written here (rank 0).
+(:func:`forms.studies.block.most_unstable_block_mode`), ``--search grid`` near a line of
+targets ``RE - i Im`` (``--grid``: a probe of a frequency band, not a count); ``--search
+complete`` returns every eigenvalue in a box with its certificate
+(:func:`forms.studies.block.block_spectrum`: count by the argument principle, conjugate
+symmetry, P(p+1) estimate). Rows are written here (rank 0).
 """
 
 from __future__ import annotations
@@ -24,10 +26,15 @@ SPECTRUM_PNG = "finite_block_spectrum.png"
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """``--search``, ``--box``, ``--half``, ``--count-ranks`` and ``--count-reference``."""
-    p.add_argument("--search", choices=("complete", "targets"), default="targets",
+    p.add_argument("--search", choices=("complete", "targets", "grid"), default="targets",
                    help="complete: every eigenvalue in --box, counted by the argument principle"
                         " (prefixes block_region_, block_region_det_); targets: eigenvalues near"
-                        " the infinite strip's branches only (prefix block_)")
+                        " the infinite strip's branches only (prefix block_); grid: near the"
+                        " targets of --grid (prefix block_; a probe, nothing counted)")
+    p.add_argument("--grid", default="0.3:5:125:1",
+                   help="RE:IM_MIN:IM_MAX:STEP of --search grid: --nev eigenpairs nearest each"
+                        " target RE - i Im, Im from IM_MIN to IM_MAX in steps of STEP (the"
+                        " conjugates are eigenvalues too)")
     p.add_argument("--box", default="auto",
                    help="RE_MIN:RE_MAX:IM_MAX of the complete search (Im in [-IM_MAX, IM_MAX]);"
                         " auto: Re from 0.5 to 2 times the strip's reference growth, |Im| up"
@@ -67,6 +74,23 @@ def parse_box(text: str, half: bool = False) -> tuple[float, float, float] | Non
     return re_min, re_max, im_max
 
 
+def parse_grid(text: str) -> np.ndarray:
+    """``--grid`` as its targets ``RE - i Im`` (at most :data:`MAX_GRID` of them)."""
+    try:
+        re_, lo, hi, step = (float(v) for v in text.split(":"))
+    except ValueError:
+        raise _cli.ParameterError(f"--grid {text!r}: give RE:IM_MIN:IM_MAX:STEP") from None
+    if not (-1 < re_ < 10 and 0 <= lo <= hi and step > 0 and (hi - lo) / step < MAX_GRID):
+        raise _cli.ParameterError(f"--grid {text!r} is outside its allowed range (-1 < RE < 10,"
+                                  f" 0 <= IM_MIN <= IM_MAX, STEP > 0, at most {MAX_GRID}"
+                                  " targets)")
+    return re_ - 1j * np.arange(lo, hi + 0.5 * step, step)
+
+
+#: Most targets of ``--grid``.
+MAX_GRID = 2000
+
+
 def box_for(box: tuple[float, float, float] | None, lam_inf: complex, params,
             args: argparse.Namespace) -> tuple[float, ...]:
     """The searched box ``(re_min, re_max, im_min, im_max)`` (``auto``: :func:`block.auto_box`)."""
@@ -95,13 +119,14 @@ def solve_length(comm, args: argparse.Namespace, params, L: float, ref, keep_mod
                  certificates: dict) -> tuple[block.BlockMode, bool]:
     """One length by ``args.search``; its certificate (with the spectrum's rows) kept.
 
-    Returns the fastest mode found and whether the length is done: a mode found (targets), or
+    Returns the fastest mode found and whether the length is done: a mode found (targets, grid), or
     the count closed (complete; an empty box that counts 0 is an answer: no mode in it).
     """
-    if args.search == "targets":
+    if args.search in ("targets", "grid"):
+        targets = ref.targets if args.search == "targets" else list(parse_grid(args.grid))
         mode = block.most_unstable_block_mode(
             comm, params, L, cells_per_unit=args.cells_per_unit, ny=args.ny,
-            degree=args.degree, lateral=args.lateral, targets=ref.targets, nev=args.nev,
+            degree=args.degree, lateral=args.lateral, targets=targets, nev=args.nev,
             keep_mode=keep_mode)
         return mode, mode.eigenvalue is not None
     spec = block.block_spectrum(

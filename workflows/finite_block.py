@@ -7,7 +7,8 @@ of finite height (``--mu2 --rho2 --beta2 --H2 --bc2``: a substrate block of the 
 reference from the exact two-body roots, no Kulikovskii limit). For every ``L`` of ``--lengths`` the
 eigenvalues near the infinite strip's branches (``--branches``, cross-section model at several
 ``k`` around each one's most unstable wavenumber) are computed and the most unstable one is
-kept. That is ``--search targets`` (the default); ``--search complete`` instead returns every
+kept. That is ``--search targets`` (the default; ``--search grid``: near a line of targets
+across a frequency band instead, ``--grid``); ``--search complete`` instead returns every
 eigenvalue in a box (``--box``, default :func:`forms.studies.block.auto_box`) with its certificate
 (:func:`forms.studies.block.block_spectrum`: argument-principle count of ``det T_h`` == found,
 conjugate symmetry, P(p+1) estimate), with no infinite-strip target. Written to ``--out``:
@@ -106,6 +107,7 @@ def validate(args: argparse.Namespace):
     _cli.positive_int("--targets", args.targets, 1, 50)
     _cli.positive_int("--nev", args.nev, 1, 200)
     _block_search.parse_box(args.box, args.half)
+    _block_search.parse_grid(args.grid)
     _cli.check_block_size(float(np.max(lengths)), args.cells_per_unit, args.ny, args.degree,
                           params.two_body)
     return params, np.unique(lengths), branches, k_scan
@@ -179,6 +181,7 @@ def run_parameters(args: argparse.Namespace, params, branches) -> dict:
             "branches": [list(b) for b in branches], "k_scan": args.k_scan,
             "cells_per_unit": args.cells_per_unit, "ny": args.ny, "degree": args.degree,
             "targets": args.targets, "nev": args.nev, "search": args.search, "box": args.box,
+            **({"grid": args.grid} if args.search == "grid" else {}),
             **({"half": True} if args.half else {}),
             **({"count_reference": "elastic"} if args.count_reference == "elastic" else {})}
 
@@ -205,7 +208,9 @@ def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, b
     _cli.say_plan(comm, f"the infinite strip's reference, then {len(todo)} block length(s)",
                   block.estimate_seconds([_cli.block_unknowns(L, args.cells_per_unit, args.ny,
                                           args.degree, params.two_body) for L in todo],
-                                         args.targets, args.search, len(k_scan), len(branches)))
+                                         args.targets if args.search != "grid" else
+                                         len(_block_search.parse_grid(args.grid)), args.search,
+                                         len(k_scan), len(branches)))
     ref = block.infinite_strip_reference(comm, params, branches, k_scan, args.targets)
     csv_path = os.path.join(args.out, "finite_block.csv")
     json_path = os.path.join(args.out, "finite_block.json")

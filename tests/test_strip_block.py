@@ -405,7 +405,7 @@ def _results(folder):
 
 @pytest.mark.serial
 @pytest.mark.parametrize("top", ["velocity", "stress"])
-def test_committed_branch_search_answers_the_open_point(top):
+def test_committed_branch_search_finds_the_0_mode_near_its_targets(top):
     """README "Higher thickness modes": the committed search near nine strip branches at
     L = 16, re-read: its mesh is the table's, the branch maxima are the README's, and its
     fastest block eigenvalue is the one the README states."""
@@ -478,3 +478,54 @@ def test_committed_complete_search_at_l16_holds_the_target_searches_modes():
         # README: 34 faster (17 pairs), |Im| 46-49 and 109-111, estimates 0.074-0.41
         assert faster.sum() == 34 and est[faster].min() > 0.05
         assert np.all((np.abs(z[faster].imag) > 45) & (np.abs(z[faster].imag) < 112))
+
+
+GRID_RUNS = os.path.join(ROOT, "workflows", "results", "finite_block_grid")
+
+
+def _grid_run(name: str) -> tuple[complex, dict]:
+    rows, meta = _results(os.path.join("finite_block_grid", name))
+    r = rows[16.0]
+    return complex(float(r["re_lambda"]), float(r["im_lambda"])), meta
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("top, grid_degrees", [("velocity", (2, 3, 4)), ("stress", (2, 3))])
+def test_committed_grid_probes_find_faster_unconverged_block_modes(top, grid_degrees):
+    """README "The open point": at L = 16 and the table's mesh, the 0-/0+ mode converges with
+    the degree (target searches P2 to P4), while the grid probe (8 eigenpairs nearest each of
+    121 targets 0.3 - i Im, Im = 5 ... 125) finds faster eigenvalues at every degree, at
+    frequencies and growth rates that change with the degree (not converged)."""
+    ref = {2: complex(*(float(_results(BRANCH_RUNS[top][1])[0][16.0][c])
+                        for c in ("re_lambda", "im_lambda")))}
+    for d in (3, 4):
+        z, meta = _grid_run(f"{top}_targets_p{d}")
+        assert (meta["search"], meta["degree"], meta["cells_per_unit"], meta["ny"]) == (
+            "targets", d, 8, 8)
+        ref[d] = z
+    # the 0-/0+ mode converges: P2 -> P3 moves it by 2.3e-4 (velocity) and 1.7e-5 (stress)
+    # relative, P3 -> P4 by 2.5e-6 and 2.4e-8 (measured)
+    assert abs(ref[4] - ref[3]) < 1e-5 * abs(ref[4])
+    fast = {}
+    for d in grid_degrees:
+        z, meta = _grid_run(f"{top}_p{d}")
+        assert (meta["params"]["bc"], meta["search"], meta["degree"], meta["cells_per_unit"],
+                meta["ny"]) == (top, "grid", d, 8, 8)
+        assert "--grid 0.3:5:125:1" in meta["command"] and "--nev 8" in meta["command"]
+        assert int(_results(os.path.join("finite_block_grid", f"{top}_p{d}"))[0][16.0][
+            "candidates"]) > 1000  # measured 1020-1051 distinct eigenvalues
+        fast[d] = z
+        # faster than the 0-/0+ mode of the same degree, far above its frequency
+        assert z.real > ref[d].real + 0.01 and abs(z.imag) > 40
+    if top == "velocity":
+        # the P2 probe's fastest is the complete search's fastest (another method, same mesh)
+        complete = _results("finite_block_complete")[0][16.0]
+        zc = complex(float(complete["re_lambda"]), float(complete["im_lambda"]))
+        assert abs(fast[2] - zc) < 1e-10 * abs(zc)
+        z5, meta = _grid_run("velocity_p5_band")
+        assert meta["degree"] == 5 and "--grid 0.3:40:100:1" in meta["command"]
+        fast[5] = z5
+    # not converged: from one degree to the next the fastest moves by more than 1 (measured
+    # 2.0 to 39), the 0-/0+ mode by less than 1e-3
+    degrees = sorted(fast)
+    assert all(abs(fast[a] - fast[b]) > 1 for a, b in zip(degrees[:-1], degrees[1:], strict=True))

@@ -490,7 +490,7 @@ def _grid_run(name: str) -> tuple[complex, dict]:
 
 
 @pytest.mark.serial
-@pytest.mark.parametrize("top, grid_degrees", [("velocity", (2, 3, 4)), ("stress", (2, 3))])
+@pytest.mark.parametrize("top, grid_degrees", [("velocity", (2, 3, 4)), ("stress", (2, 3, 4))])
 def test_committed_grid_probes_find_faster_unconverged_block_modes(top, grid_degrees):
     """README "The open point": at L = 16 and the table's mesh, the 0-/0+ mode converges with
     the degree (target searches P2 to P4), while the grid probe (8 eigenpairs nearest each of

@@ -528,12 +528,15 @@ def test_committed_grid_probes_find_faster_unconverged_block_modes(top, grid_deg
     if top == "velocity":
         # at the mesh's resolution limit: |Im| / resolvable_k = 3.75, 3.47, 3.66 (P2-P4) and
         # 3.19 (P2 at h/2), measured
+        # (P5 in the band 100-125: 3.75, its prediction; faster than P5's best in 40-100)
         zh, meta = _grid_run("velocity_h2_band")
         assert (meta["degree"], meta["cells_per_unit"], meta["ny"]) == (2, 16, 16)
+        z5h, meta = _grid_run("velocity_p5_high")
+        assert meta["degree"] == 5 and "--grid 0.3:100:125:1" in meta["command"]
         for z, (cells, deg) in [(fast[2], (8, 2)), (fast[3], (8, 3)), (fast[4], (8, 4)),
-                                (zh, (16, 2))]:
+                                (zh, (16, 2)), (z5h, (8, 5))]:
             assert 3.0 < abs(z.imag) / block.resolvable_k(cells, deg) < 4.0
-        assert zh.real > ref[4].real + 0.01
+        assert zh.real > ref[4].real + 0.01 and z5h.real > fast[5].real
     # not converged: from one degree to the next the fastest moves by more than 1 (measured
     # 2.0 to 39), the 0-/0+ mode by less than 1e-3
     degrees = sorted(fast)

@@ -661,6 +661,24 @@ def test_leftover_partial_files_are_removed_and_not_outputs(tmp_path):
     run.close()
 
 
+@pytest.mark.serial
+def test_a_failed_close_removes_this_processs_partial_files_only(tmp_path):
+    """A signal handler exits (os._exit) inside a write: the ``finally`` that removes its
+    ``*.partial<pid>`` never runs. The run folder's failed close removes this process's, in
+    sub-folders too (the sweep's raw/), and leaves another rank's to that rank."""
+    out = tmp_path / "out"
+    out.mkdir()
+    run = _open(out)
+    (out / "raw").mkdir()
+    mine = out / "raw" / f"k00057.json{_runfolder.PARTIAL}{os.getpid()}"
+    other = out / "raw" / f"k00058.json{_runfolder.PARTIAL}{os.getpid() + 1}"
+    for f in (mine, other):
+        f.write_text("{\"trunc")
+    (out / "raw" / f"m{_runfolder.PARTIAL}{os.getpid()}").mkdir()  # an atomic_files folder
+    run.close(failed=True)
+    assert sorted(os.listdir(out / "raw")) == [other.name]
+
+
 def test_atomic_writers_leave_nothing_on_failure(tmp_path):
     """atomic_open / save_figure / atomic_files: the final name is never half written."""
     target = tmp_path / "a.csv"

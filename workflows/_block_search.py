@@ -91,6 +91,19 @@ def parse_grid(text: str) -> np.ndarray:
 MAX_GRID = 2000
 
 
+def target_count(args: argparse.Namespace) -> int:
+    """Shift targets per length: ``--targets`` per branch, or the ``--grid`` line's."""
+    return len(parse_grid(args.grid)) if args.search == "grid" else args.targets
+
+
+def record(args: argparse.Namespace) -> dict:
+    """The search's options for the run's record (``--resume`` must match them)."""
+    return {"search": args.search, "box": args.box,
+            **({"grid": args.grid} if args.search == "grid" else {}),
+            **({"half": True} if args.half else {}),
+            **({"count_reference": "elastic"} if args.count_reference == "elastic" else {})}
+
+
 def box_for(box: tuple[float, float, float] | None, lam_inf: complex, params,
             args: argparse.Namespace) -> tuple[float, ...]:
     """The searched box ``(re_min, re_max, im_min, im_max)`` (``auto``: :func:`block.auto_box`)."""

@@ -21,7 +21,6 @@ import contextlib
 import fnmatch
 import json
 import os
-import shutil
 import socket
 import time
 from collections.abc import Iterable
@@ -31,7 +30,7 @@ import _supervise
 from _parts import Parts
 from _provenance import command, describe_difference, dumps, versions
 from _sharing import say
-from _writing import PARTIAL, atomic_open
+from _writing import PARTIAL, atomic_open, remove_partials
 
 from analytic.params import ParameterError
 
@@ -141,7 +140,13 @@ class RunFolder:
         return self
 
     def close(self, failed: bool = False) -> None:
-        """Release the lock (rank 0); idempotent. ``failed``: a record without outputs goes."""
+        """Release the lock (rank 0); idempotent. ``failed``: a record without outputs goes.
+
+        ``failed`` also removes this process's own temporary files (every rank's): a signal's
+        handler exits without running the ``finally`` of a write it interrupted.
+        """
+        if failed:
+            remove_partials(self.path, mine_only=True)
         if failed and self._locked and not self.holds_outputs():
             with contextlib.suppress(OSError):
                 os.remove(self.file(RECORD))
@@ -180,18 +185,8 @@ class RunFolder:
         msg = self._lock() or self._check_content()
         if msg:
             return msg
-        self._remove_partials()
+        remove_partials(self.path)
         return self._write_record()
-
-    def _remove_partials(self) -> None:
-        for name in os.listdir(self.path):
-            if PARTIAL in name:
-                target = self.file(name)
-                if os.path.isdir(target):
-                    shutil.rmtree(target, ignore_errors=True)
-                else:
-                    with contextlib.suppress(OSError):
-                        os.remove(target)
 
     def _lock(self) -> str | None:
         host = socket.gethostname()

@@ -22,7 +22,8 @@ from typing import IO, Any
 
 from _provenance import dumps
 
-__all__ = ["PARTIAL", "atomic_files", "atomic_open", "is_no_space", "save_figure", "write_json"]
+__all__ = ["PARTIAL", "atomic_files", "atomic_open", "is_no_space", "remove_partials",
+           "save_figure", "write_json"]
 
 #: Infix of temporary names (``<name>.partial<pid>``): a file with it is never an output.
 PARTIAL = ".partial"
@@ -30,6 +31,25 @@ PARTIAL = ".partial"
 
 def _temp(path: str) -> str:
     return f"{path}{PARTIAL}{os.getpid()}"
+
+
+def remove_partials(path: str, mine_only: bool = False) -> None:
+    """Delete temporary files and folders (``*.partial<pid>``) of ``path``.
+
+    Every one at the top of ``path``, or with ``mine_only`` this process's anywhere below it (a
+    signal handler that exits skips the ``finally`` of the write it interrupted).
+    """
+    mine = f"{PARTIAL}{os.getpid()}"
+    for top, dirs, files in os.walk(path):
+        for name in dirs + files:
+            if name.endswith(mine) if mine_only else PARTIAL in name:
+                target = os.path.join(top, name)
+                if os.path.isdir(target):
+                    shutil.rmtree(target, ignore_errors=True)
+                else:
+                    with contextlib.suppress(OSError):
+                        os.remove(target)
+        dirs[:] = [d for d in dirs if PARTIAL not in d] if mine_only else []
 
 
 def is_no_space(err: BaseException) -> bool:

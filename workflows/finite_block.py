@@ -180,10 +180,7 @@ def run_parameters(args: argparse.Namespace, params, branches) -> dict:
     return {"params": params.as_dict(), "lateral": args.lateral,
             "branches": [list(b) for b in branches], "k_scan": args.k_scan,
             "cells_per_unit": args.cells_per_unit, "ny": args.ny, "degree": args.degree,
-            "targets": args.targets, "nev": args.nev, "search": args.search, "box": args.box,
-            **({"grid": args.grid} if args.search == "grid" else {}),
-            **({"half": True} if args.half else {}),
-            **({"count_reference": "elastic"} if args.count_reference == "elastic" else {})}
+            "targets": args.targets, "nev": args.nev, **_block_search.record(args)}
 
 
 def main(comm=None, argv: list[str] | None = None) -> int:
@@ -208,8 +205,7 @@ def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, b
     _cli.say_plan(comm, f"the infinite strip's reference, then {len(todo)} block length(s)",
                   block.estimate_seconds([_cli.block_unknowns(L, args.cells_per_unit, args.ny,
                                           args.degree, params.two_body) for L in todo],
-                                         args.targets if args.search != "grid" else
-                                         len(_block_search.parse_grid(args.grid)), args.search,
+                                         _block_search.target_count(args), args.search,
                                          len(k_scan), len(branches)))
     ref = block.infinite_strip_reference(comm, params, branches, k_scan, args.targets)
     csv_path = os.path.join(args.out, "finite_block.csv")

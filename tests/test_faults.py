@@ -439,9 +439,10 @@ def test_rank_killed_at_a_random_point(tmp_path, seed):
     """
     rng = random.Random(seed)
     out = tmp_path / "out"
-    # 64 k values: the run is still computing at the latest kill (12 s); with 4 it could end
-    # first (seen: finished at ~10 s, killed during exit, no stop line)
-    proc = _start("sweep_k.py", ["--k", "0.5:2:64", "--out", str(out)], tmp_path, nproc=2)
+    # 240 k values up to k = 4: the run is still computing at the latest kill (12 s): 17.7 s on
+    # the idle machine (2026-11-25). 64 up to k = 2 took 6.7 s once the sweep got faster, and
+    # a CI run killed it while exiting (no stop line)
+    proc = _start("sweep_k.py", ["--k", "0.5:4:240", "--out", str(out)], tmp_path, nproc=2)
     try:
         time.sleep(rng.uniform(1.0, 12.0))
         ranks = [int(p) for p in os.listdir("/proc") if p.isdigit() and _is_rank(int(p), proc)]

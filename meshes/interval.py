@@ -1,11 +1,11 @@
 """Graded interval meshes ``0 < y < H`` for the cross-section model (docs/design.md section 5).
 
-The mesh is made by gmsh on rank 0 of the given communicator (a transfinite line with a
-geometric "Progression"), then read and distributed by ``dolfinx.io.gmshio.model_to_mesh``.
-Cells shrink geometrically towards the interface ``y = 0``: modes with ``k H >> 1`` live within
-about ``1/k`` of it, so the ratio between the largest and the smallest cell is chosen from
-``k H`` (:func:`grading_ratio`); the number of cells from ``k``, ``H``, the element degree and
-the highest waveguide branch wanted (:func:`default_cells`).
+The vertices are an exact geometric progression (:func:`interval_vertices`, numpy: no mesh
+generator, every rank computes the same numbers); :mod:`meshes.layered` turns them into dolfinx
+meshes. Cells shrink geometrically towards the interface ``y = 0``: modes with ``k H >> 1``
+live within about ``1/k`` of it, so the ratio between the largest and the smallest cell is
+chosen from ``k H`` (:func:`grading_ratio`); the number of cells from ``k``, ``H``, the
+element degree and the highest waveguide branch wanted (:func:`default_cells`).
 """
 
 from __future__ import annotations
@@ -13,11 +13,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
-import dolfinx
-import dolfinx.io.gmshio
-import gmsh
-from mpi4py import MPI
 
 #: Largest ratio between the biggest (top) and smallest (interface) cell.
 MAX_GRADING = 20.0
@@ -49,63 +44,35 @@ def default_cells(k_max: float, H: float, degree: int, n_max: int = 0, beta: flo
     return int(max(8, math.ceil(per_wave * waves)))
 
 
-def interval_mesh(
-    comm: MPI.Comm, H: float, cells: int, ratio: float = 1.0
-) -> dolfinx.mesh.Mesh:
-    """Create the interval ``0 < y < H`` with ``cells`` cells, graded towards ``y = 0``.
+def interval_vertices(H: float, cells: int, ratio: float = 1.0) -> np.ndarray:
+    """The ``cells + 1`` increasing vertices of ``0 < y < H``, graded towards ``y = 0``.
+
+    Cell sizes grow geometrically from ``y = 0`` with factor ``r = ratio ** (1 / (cells - 1))``
+    (``h_max / h_min = ratio``): ``y_i = H (r^i - 1) / (r^cells - 1)``, evaluated as
+    ``expm1(i log r) / expm1(cells log r)`` (no cancellation for ``r`` near 1), so ``y_0 = 0``
+    and ``y_cells = H`` exactly. Every 1D model (:mod:`forms.models.section`, its layers and
+    stacks) takes its vertices from here. This replaced gmsh's transfinite "Progression" line,
+    whose nodes differ from the exact progression by up to ``1.1e-8 H`` (gmsh places them by
+    integrating the size field) and whose import cost 0.3-0.5 s per process. The default
+    velocity sweep's 559 eigenvalues moved by at most 2.9e-12 relative (their error estimates
+    reach 2.6e-10).
 
     Args:
-        comm: Communicator the mesh is distributed over (gmsh runs on its rank 0).
-        H: Strip height, ``> 0`` and finite.
+        H: Height, finite and ``> 0``.
         cells: Number of cells, ``>= 1``.
-        ratio: ``h_max / h_min`` (``1`` is uniform); sizes grow geometrically from ``y = 0``.
+        ratio: ``h_max / h_min``, ``>= 1`` (``1``: uniform).
 
     Returns:
-        The dolfinx mesh (geometric dimension 1, coordinate ``y``).
+        The vertices, shape ``(cells + 1,)``.
+
+    Raises:
+        ValueError: A bad ``H``, ``cells`` or ``ratio``.
     """
-    if not (math.isfinite(H) and H > 0):
-        raise ValueError(f"H = {H!r} must be finite and > 0")
-    if cells < 1:
-        raise ValueError(f"cells = {cells!r} must be >= 1")
-    if ratio < 1.0:
-        raise ValueError(f"ratio = {ratio!r} must be >= 1")
-    if comm.rank == 0:
-        # gmsh 4.8 has no isInitialized(): own a gmsh session for the duration of this call.
-        gmsh.initialize()
-        _gmsh_interval(H, cells, ratio)
-    msh, _, _ = dolfinx.io.gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=1)
-    if comm.rank == 0:
-        gmsh.finalize()
-    return msh
-
-
-def _gmsh_interval(H: float, cells: int, ratio: float) -> None:
-    """Mesh the graded line ``0 < y < H`` in the current gmsh session."""
-    progression = ratio ** (1.0 / (cells - 1)) if cells > 1 else 1.0
-    gmsh.option.setNumber("General.Terminal", 0)
-    gmsh.model.add("interval")
-    p0 = gmsh.model.geo.addPoint(0.0, 0.0, 0.0)
-    p1 = gmsh.model.geo.addPoint(H, 0.0, 0.0)
-    line = gmsh.model.geo.addLine(p0, p1)
-    gmsh.model.geo.mesh.setTransfiniteCurve(line, cells + 1, "Progression", progression)
-    gmsh.model.geo.synchronize()
-    gmsh.model.addPhysicalGroup(1, [line], 1)
-    gmsh.model.mesh.generate(1)
-
-
-def interval_vertices(H: float, cells: int, ratio: float = 1.0) -> np.ndarray:
-    """The increasing vertex coordinates :func:`interval_mesh` uses (gmsh, on the calling rank).
-
-    For layered stacks (:mod:`forms.models.section`) that must reproduce the cross-section model's
-    mesh exactly (the same gmsh nodes, not a re-computed progression).
-    """
-    if not (math.isfinite(H) and H > 0) or cells < 1 or ratio < 1.0:
+    if not (math.isfinite(H) and H > 0) or cells < 1 or not ratio >= 1.0:
         raise ValueError(f"bad interval: H={H!r}, cells={cells!r}, ratio={ratio!r}")
-    gmsh.initialize()
-    try:
-        _gmsh_interval(H, cells, ratio)
-        _, coords, _ = gmsh.model.mesh.getNodes()
-    finally:
-        gmsh.finalize()
-    return np.sort(np.asarray(coords, dtype=float).reshape(-1, 3)[:, 0])
-
+    i = np.arange(cells + 1, dtype=float)
+    log_r = math.log(ratio) / (cells - 1) if cells > 1 else 0.0
+    if log_r == 0.0:
+        return H * (i / cells)
+    e = np.expm1(i * log_r)
+    return H * (e / e[-1])

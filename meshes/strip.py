@@ -23,12 +23,11 @@ from dataclasses import dataclass
 import numpy as np
 
 import dolfinx.mesh
-import gmsh
 import ufl
-from dolfinx.io import gmshio
 from mpi4py import MPI
 
 from analytic.params import ParameterError
+from meshes.interval import interval_vertices
 
 INTERFACE, TOP, LEFT, RIGHT, BOTTOM, INTERFACE2 = 1, 2, 3, 4, 5, 6
 FACET_NAMES = {INTERFACE: "interface", TOP: "top", LEFT: "left", RIGHT: "right",
@@ -97,8 +96,29 @@ def check_strip_arguments(length: float, height: float, nx: int, ny: int, gradin
         raise ParameterError(f"cell = {cell!r} is not one of {', '.join(CELL_TYPES)}")
 
 
-def _build_gmsh_model(length: float, height: float, nx: int, ny: int, grading: float,
-                      cell: str) -> None:
+def _gmsh() -> tuple[object, object]:
+    """``gmsh`` and ``dolfinx.io.gmshio``, imported on first use, SIGINT's handler kept.
+
+    Importing gmsh costs 0.3-0.5 s, which the 1D models (all of :mod:`forms.models.section`)
+    never need. gmsh's import sets SIGINT to ``SIG_DFL`` (and ``gmsh.finalize`` restores the
+    handler found at the import): the handler in place before it (e.g.
+    ``workflows/_supervise.py``'s one line on Ctrl-C) is put back at once.
+    """
+    import signal
+    import threading
+
+    main = threading.current_thread() is threading.main_thread()
+    before = signal.getsignal(signal.SIGINT) if main else None
+    import gmsh
+    from dolfinx.io import gmshio
+
+    if main and before is not None and signal.getsignal(signal.SIGINT) is not before:
+        signal.signal(signal.SIGINT, before)
+    return gmsh, gmshio
+
+
+def _build_gmsh_model(gmsh: object, length: float, height: float, nx: int, ny: int,
+                      grading: float, cell: str) -> None:
     """Create the strip in the current gmsh model (rank 0 only)."""
     geo = gmsh.model.geo
     p00 = geo.addPoint(0.0, 0.0, 0.0)
@@ -151,12 +171,13 @@ def strip_mesh(comm: MPI.Comm, length: float, height: float, nx: int, ny: int,
         The distributed :class:`StripMesh`.
     """
     check_strip_arguments(length, height, nx, ny, grading, cell)
+    gmsh, gmshio = _gmsh()
     if comm.rank == rank:
         gmsh.initialize()  # gmsh 4.8 cannot tell whether it is initialised: own the session
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("strip")
         try:
-            _build_gmsh_model(length, height, nx, ny, grading, cell)
+            _build_gmsh_model(gmsh, length, height, nx, ny, grading, cell)
             msh, _, facet_tags = gmshio.model_to_mesh(gmsh.model, comm, rank, gdim=2)
         finally:
             gmsh.finalize()
@@ -189,11 +210,10 @@ def edge_dofs(mesh: StripMesh, x_coordinates: np.ndarray, which: int) -> np.ndar
 def graded_levels(height: float, cells: int, grading: float) -> np.ndarray:
     """``cells + 1`` levels ``0 .. height``, cell heights in a geometric progression.
 
-    The last cell is ``grading`` times the first (the one at ``y = 0``), as on the gmsh strip.
+    The last cell is ``grading`` times the first (the one at ``y = 0``), as on the gmsh strip
+    (:func:`meshes.interval.interval_vertices`, the 1D models' progression).
     """
-    ratio = grading ** (1.0 / (cells - 1)) if cells > 1 else 1.0
-    h = ratio ** np.arange(cells)
-    return height * np.concatenate([[0.0], np.cumsum(h) / h.sum()])
+    return interval_vertices(height, cells, grading)
 
 
 def _two_body_grid(length: float, pieces: list[np.ndarray], nx: int

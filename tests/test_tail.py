@@ -66,8 +66,85 @@ def test_tail_bound_decreases_and_is_none_where_not_derived():
     # first order: ~ 1/W, with the (1 + k/W) margin
     assert tb[1] / tb[2] == pytest.approx(2.0 * (1 + 26.5 / 600) / (1 + 26.5 / 1200), rel=1e-3)
     assert tail_bound(p, 26.5, 10.0) == math.inf  # W below k: no expansion
-    for q in (Params(mu2=4.0), Params(alpha_pc=1.0)):
+    for q in (Params(mu2=4.0), Params(alpha_pc=1.0, bc="stress"),
+              Params(alpha_pc=0.6, Delta=-1.0), Params(alpha_pc=0.1, mu2=4.0, H2=0.5)):
         assert tail_bound(q, 5.0, 500.0) is None and why_no_tail_bound(q)
+    # velocity top, alpha_pc |Delta - 1| < 1: a bound, above the alpha_pc = 0 one
+    q = Params(alpha_pc=1.0)
+    assert tail_bound(q, 5.0, 500.0) > tail_bound(Params(), 5.0, 500.0) > 0
+
+
+#: Prakash-Clifton cases (velocity top): the bound's looseness grows with alpha_pc.
+PC_CASES = {
+    "alpha_pc=0.01": (Params(alpha_pc=0.01), (2.0, 5.0)),
+    "alpha_pc=0.3": (Params(alpha_pc=0.3), (5.0,)),
+    "alpha_pc=0.02-other": (Params(alpha_pc=0.02, beta=0.35, gamma=1.5, Delta=-0.5, f=0.5,
+                                   H=1.0), (3.0,)),
+}
+
+
+@pytest.mark.slow  # 1-5 s per case on the 2-core machine
+@pytest.mark.parametrize("case", list(PC_CASES))
+def test_prakash_clifton_tail_bound_above_every_root_beyond_w(case):
+    """alpha_pc > 0, velocity top: every exact root in W < |Im| < 3 W lies below the bound at W
+    and at its own frequency. Measured max Re / bound at W: 0.68 and 0.48 (alpha_pc = 0.01,
+    k = 2, 5), 0.0016 (0.3), 0.53 (0.02, other parameters); 1e-4 at alpha_pc = 1 (not run)."""
+    p, ks = PC_CASES[case]
+    for k in ks:
+        w = Region(c_max=4.0).im_max(p, k)
+        z = _band_roots(p, k, w, 3.0 * w)
+        assert len(z) > 10
+        tb = tail_bound(p, k, w)
+        assert np.all(z.real < tb), (k, z[np.argmax(z.real)], tb)
+        own = np.array([tail_bound(p, k, abs(v.imag)) for v in z])
+        assert np.all(z.real < own)
+        if p.alpha_pc <= 0.02:  # small alpha_pc: the bound is as tight as without it
+            assert z.real.max() / tb > 0.4
+
+
+@pytest.mark.parametrize("alpha_pc,fastest,climbs", [(1.0, 0.004, False), (0.05, 0.154, True)])
+def test_a_loose_bound_climbs_only_where_the_top_rung_can_prove(alpha_pc, fastest, climbs):
+    """alpha_pc > 0: the region climbs only to a rung whose bound is below the fastest value
+    found (alpha_pc = 1: never; before, the top rung, 32 c_d, was solved for no proof:
+    sweep_k.py --alpha-pc 1 took 498 s instead of 22 s). The fastest values are those of the
+    exact roots at k = 5 (0.0011 at alpha_pc = 1, 0.154 at 0.05)."""
+    p, k, region = Params(alpha_pc=alpha_pc), 5.0, Region(c_max=None)
+    calls = []
+
+    def inside(c):
+        calls.append(c)
+        return fastest
+
+    c, tb = provable_region(p, k, region, inside)
+    assert (c > C_LADDER[0]) == climbs and (tb < fastest) == climbs
+    assert calls == ([C_LADDER[0], c] if climbs else [C_LADDER[0]])
+    if not climbs:  # the top rung could not have proven it either
+        assert tail_bound(p, k, region.fixed(C_LADDER[-1]).im_max(p, k)) >= fastest
+
+
+def test_fe_sweep_proves_the_fastest_mode_with_prakash_clifton(tmp_path):
+    """sweep_k.py --alpha-pc 0.05 --k 5 --check-exact no: the FE climbs past the first rung with
+    the Prakash-Clifton bound and proves the fastest mode; its value is the exact fastest root
+    (fastest_mode on det_M, computed here)."""
+    import json
+
+    from _workflows import run_workflow
+
+    out = tmp_path / "fe"
+    proc = run_workflow("sweep_k.py", ["--alpha-pc", "0.05", "--k", "5", "--check-exact", "no",
+                                       "--quiet", "--no-plot", "--out", str(out)])
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    s = json.loads((out / "summary.json").read_text())
+    best = s["most_unstable"]
+    assert best["certificate"]["fastest_mode"] and best["status"] == "ok"
+    p, k = Params(alpha_pc=0.05), 5.0
+    m = fastest_mode(p, k, Region(c_max=None))
+    assert m.proven and m.c_max > C_LADDER[0]
+    assert s["per_k"][0]["c_max"] == m.c_max and s["per_k"][0]["tail_bound"] == m.tail_bound
+    z = complex(best["re_lambda"], best["im_lambda"])
+    # the sweep's rtol (1e-8) is the certificate's claim; measured 7.5e-14 (c_max 6, tail
+    # bound 0.1521 below the root's 0.1540)
+    assert abs(z - m.root) < 1e-8 * abs(m.root)
 
 
 def test_velocity_scale_is_the_largest_c_d():

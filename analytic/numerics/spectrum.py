@@ -37,7 +37,7 @@ import numpy as np
 from analytic.numerics.branches import BranchResult, branch_cutoff, follow_branch, follow_root
 from analytic.numerics.roots import Box, ContourError, Root, zeros_in_box
 from analytic.params import ParameterError, Params
-from analytic.physics.tail import tail_bound, velocity_scale
+from analytic.physics.tail import loose_tail_bound, tail_bound, velocity_scale
 
 T = TypeVar("T")
 
@@ -149,7 +149,11 @@ def provable_region(p: Params, k: float, region: Region,
         ``region.fixed(c_max_used)`` iff ``tail_bound`` is not ``None`` and below the fastest
         root's ``Re`` there (:func:`proven`). ``tail_bound`` is ``None`` when no bound is
         derived for ``p`` (then ``c_max_used`` is the first rung); at the top rung the tail
-        bound may still be too large (not proven).
+        bound may still be too large (not proven). Where the bound is known to be loose
+        (:func:`analytic.physics.tail.loose_tail_bound`: ``alpha_pc > 0``) the climb stops
+        at the current rung, not proven, instead of solving a top rung whose bound is not
+        below the fastest value found so far (``sweep_k.py --alpha-pc 1``: 22 s without a
+        bound, 498 s climbing to 32 ``c_d`` for no proof).
     """
     ladder = (region.c_max,) if region.c_max is not None else C_LADDER
     i = 0
@@ -165,6 +169,9 @@ def provable_region(p: Params, k: float, region: Region,
         while (i < len(ladder) - 1
                and not tail_bound(p, k, region.fixed(ladder[i]).im_max(p, k)) < target):
             i += 1
+        if loose_tail_bound(p) and not tail_bound(p, k, region.fixed(ladder[i]).im_max(p, k)
+                                                  ) < target:
+            return c, tb  # a loose bound: the top rung would be solved for nothing (not proven)
 
 
 def proven(tail: float | None, fastest: float | None, region: Region) -> bool:

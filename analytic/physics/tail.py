@@ -30,9 +30,26 @@ velocity bound is the paper's ``4 f k / ((2n+1) pi)`` itself. The neglected term
 margin, not derived; tests/test_tail.py checks the bound against every root computed with the
 exact determinant in bands ``W < |Im| < 3 W`` and states the measured ratios.
 
-Not derived (:func:`tail_bound` returns ``None``): ``alpha_pc > 0`` (stress top: the
-denominator ``-alpha_pc omega s + a/gamma`` can vanish, the first-order shift does not decay with
-``omega``; velocity top: only ``|den| >= |a|`` holds, which the ``e`` term spoils).
+Prakash-Clifton (``alpha_pc = alpha > 0``), velocity top: the denominator is ``den = a (1 + i
+alpha omega) + i s (1 + e)/gamma``. Where ``a`` and ``s`` have the same sign,
+``|a + i (alpha omega a + s/gamma)| >= sqrt(a^2 + s^2/gamma^2)`` and the ``alpha_pc = 0`` factor
+bounds ``|a| / |den|``. Where they differ (``a >= 0 > s`` after the symmetry ``(a, s) -> (-a,
+-s)``), with ``y = alpha omega a``, ``b = |s|/gamma``, ``d = |Delta - 1|``:
+``|a| / |den| <= y / (sqrt(y^2 + (alpha omega)^2 (y - b)^2) - alpha d b)``, which is at most
+``1/(1 - alpha d / lam)`` for ``y >= lam b`` and at most ``lam / (alpha ((1 - lam) omega - d))``
+for ``y <= lam b``, for any ``lam`` in ``(alpha d, 1)`` with ``(1 - lam) W > d`` (the second
+term falls with ``omega``: ``W`` bounds it). So ``G_velocity(alpha) = max(G_velocity(0),
+min_lam max(...))``: finite iff ``alpha |Delta - 1| < 1``; it tends to ``1/(1 - alpha
+|Delta - 1|)``. The minimum over a grid of ``lam`` is a bound as it stands (every ``lam``
+gives one). The supremum is attained only where the phase tunes ``alpha omega a + s/gamma``
+to 0, which the resonances' own phases seldom do: the bound is loose by up to 1e4 at
+``alpha_pc = 1`` (tests/test_tail.py), and proves the fastest mode only for small ``alpha_pc``
+(about ``<= 0.1`` at the defaults).
+
+Not derived (:func:`tail_bound` returns ``None``): ``alpha_pc > 0`` on the stress top (the
+denominator ``-alpha_pc omega s + a/gamma + i s`` vanishes to ``O(1/omega)`` where ``s ~
+a/(gamma alpha_pc omega)``, and there the first-order shift does not decay with ``omega``),
+``alpha_pc |Delta - 1| >= 1`` on the velocity top, and ``alpha_pc > 0`` with two bodies.
 
 A deformable substrate (finite ``mu2``): the resonances are those of the stack's dilatational
 rod; :mod:`analytic.physics.tail_stack` derives the first-order shift there and bounds it over
@@ -77,9 +94,13 @@ def velocity_scale(p: Params) -> float:
 
 def why_no_tail_bound(p: Params) -> str:
     """Why :func:`tail_bound` has no bound for ``p`` ("" if it has one)."""
-    if p.alpha_pc > 0:
-        return ("no tail bound derived for alpha_pc > 0: the region is not proven to hold the "
-                "fastest mode")
+    if p.alpha_pc > 0 and (p.two_body or p.bc == "stress"):
+        return (f"no tail bound derived for alpha_pc > 0 with "
+                f"{'two bodies' if p.two_body else 'a stress top'}: the region is not proven "
+                "to hold the fastest mode")
+    if p.alpha_pc * abs(p.Delta - 1.0) >= 1.0:
+        return ("no tail bound derived for alpha_pc |Delta - 1| >= 1: the region is not "
+                "proven to hold the fastest mode")
     if p.two_body and not (math.isfinite(p.H) and math.isfinite(p.H2)):
         return ("no tail bound derived for a half-space (H or H2 = inf): no thickness "
                 "resonances; the region is not proven to hold the fastest mode")
@@ -91,6 +112,17 @@ def why_no_tail_bound(p: Params) -> str:
                 "bound breaks down; "
                 "the region is not proven to hold the fastest mode")
     return ""
+
+
+def loose_tail_bound(p: Params) -> bool:
+    """The bound exists but is far above the roots it bounds: ``alpha_pc > 0`` (velocity top).
+
+    Measured (tests/test_tail.py): the fastest root beyond ``W`` reaches 1e-4 .. 0.7 of the
+    bound, against 0.11 .. 0.84 for ``alpha_pc = 0``. The adaptive region does not climb to
+    its top rung for such a bound unless the top rung's bound is below the fastest value
+    already found (:func:`analytic.numerics.spectrum.provable_region`).
+    """
+    return p.alpha_pc > 0 and not why_no_tail_bound(p)
 
 
 def phase_factor(p: Params, W: float) -> float:
@@ -112,7 +144,24 @@ def phase_factor(p: Params, W: float) -> float:
         return math.inf
     r = num / den
     # the grid's resolution: r is smooth in theta; one grid step's change bounds the gap to sup
-    return float(r.max() + np.abs(np.diff(r)).max())
+    g0 = float(r.max() + np.abs(np.diff(r)).max())
+    if p.alpha_pc == 0 or p.bc != "velocity":
+        return g0
+    return max(g0, _prakash_clifton_factor(p.alpha_pc, abs(p.Delta - 1.0), W))
+
+
+def _prakash_clifton_factor(alpha: float, d: float, W: float) -> float:
+    """``min_lam max(1/(1 - alpha d/lam), lam/(alpha ((1 - lam) W - d)))`` (module docstring).
+
+    Every ``lam`` in ``(alpha d, 1)`` with ``(1 - lam) W > d`` gives a bound, so the minimum
+    over a grid is one; ``inf`` if no ``lam`` qualifies.
+    """
+    lam = alpha * d + (1.0 - alpha * d) * np.linspace(0.0, 1.0, 20001)[1:-1]
+    lam = lam[(1.0 - lam) * W > d]
+    if lam.size == 0:
+        return math.inf
+    return float(np.max([1.0 / (1.0 - alpha * d / lam),
+                         lam / (alpha * ((1.0 - lam) * W - d))], axis=0).min())
 
 
 def tail_bound(p: Params, k: float, W: float) -> float | None:

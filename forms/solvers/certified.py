@@ -168,20 +168,27 @@ def default_discretisation(p: Params, region: Region, k_max: float, rtol: float 
     ``k = 13``: 3.6e-8 with 7 per wavelength) and few cells lose some more (stress top,
     ``k = 1``: 13 cells, 4.9 per wavelength, gave 2.4e-8 where 1e-8 was aimed at), so
     ``11 (2e-10 / rtol)^(1/8)`` cells per wavelength (``alpha_pc = 2``, ``k = 4``: 10 gave
-    1.006e-8 on a shear-family root); at least 6 cells.
+    1.006e-8 on a shear-family root); at least 6 cells. With ``alpha_pc > 0`` 12.5 instead of
+    11: its shear-family roots are nearly undamped at high frequency, and 11 left two of them,
+    at the top of the 16 ``c_d`` rung (``alpha_pc = 0.05``, ``k = 6``, ``|Im| = 217``), at an
+    estimate of 1.04e-8.
 
     The mesh is uniform: the region holds modes that oscillate through the whole strip (up to
     ``W``) as well as modes that decay over ``1/k >= 1/W`` above the interface, and both need
     the same cell size (a graded mesh, ``k H = 25``, ratio 6.4, left the top roots at 2e-6).
     """
-    return 4, _cells(region.im_max(p, k_max), p.H, 1.0, rtol), 1.0
+    return 4, _cells(region.im_max(p, k_max), p.H, 1.0, rtol, _per_wave(p)), 1.0
 
 
-def _cells(w: float, height: float, c_s: float, rtol: float) -> int:
-    """P4 cells of a layer: ``11 (2e-10/rtol)^(1/8)`` per shear wavelength ``2 pi c_s / w``."""
+def _per_wave(p: Params) -> float:
+    """P4 cells per shear wavelength at ``rtol = 2e-10`` (:func:`default_discretisation`)."""
+    return 12.5 if p.alpha_pc > 0 else 11.0
+
+
+def _cells(w: float, height: float, c_s: float, rtol: float, per_wave: float = 11.0) -> int:
+    """P4 cells of a layer: ``per_wave (2e-10/rtol)^(1/8)`` per shear wavelength ``2 pi c_s/w``."""
     waves = w * height / (2.0 * math.pi * c_s)
-    per_wave = 11.0 * (2e-10 / rtol) ** 0.125
-    return int(max(6, math.ceil(per_wave * waves)))
+    return int(max(6, math.ceil(per_wave * (2e-10 / rtol) ** 0.125 * waves)))
 
 
 def substrate_cells(p: Params, region: Region, k_max: float, rtol: float = 1e-8) -> int:
@@ -189,7 +196,7 @@ def substrate_cells(p: Params, region: Region, k_max: float, rtol: float = 1e-8)
 
     The rule of :func:`default_discretisation` with the substrate's shear-wave speed ``c_s2``.
     """
-    return _cells(region.im_max(p, k_max), p.H2, math.sqrt(p.mu2 / p.rho2), rtol)
+    return _cells(region.im_max(p, k_max), p.H2, math.sqrt(p.mu2 / p.rho2), rtol, _per_wave(p))
 
 
 @dataclass

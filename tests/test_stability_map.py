@@ -13,6 +13,7 @@ from analytic import Params, roots_in_box
 from analytic.numerics.branches import spectrum_function
 from analytic.numerics.roots import count_zeros
 from analytic.numerics.spectrum import Region, fastest_root
+from analytic.physics.tail import tail_bound
 from analytic.studies.stability_map import closed_form_delta, kh_grid, map_point, parse_axis
 
 pytestmark = pytest.mark.serial  # subprocesses (their own mpirun) and pure numpy
@@ -88,6 +89,8 @@ def test_resume_keeps_done_points_and_recomputes_missing(tmp_path):
                                        (["--kH-max", "0"], "--kH-max"),
                                        (["--nk", "1"], "--nk"),
                                        (["--re-min", "0"], "--re-min"),
+                                       (["--c-max", "fast"], "--c-max"),
+                                       (["--c-max", "-1"], "--c-max"),
                                        (["--y", "f:-1:1:3"], "f")])
 @pytest.mark.parametrize("nproc", [1, 2])
 def test_bad_input_one_line(tmp_path, bad, word, nproc):
@@ -107,6 +110,8 @@ def test_stable_point_has_no_root_in_a_wider_region():
     khs = kh_grid(0.05, 3.0, 5)
     res = map_point(p, khs, Region(1e-6, 2.0, 4.0))
     assert res["stable_on_grid"] and res["re_lambda"] is None and res["failed_counts"] == 0
+    # no root inside: the (positive) tail bound proves nothing about roots beyond the region
+    assert res["proven_k_count"] == 0 and res["c_max_largest"] == 4.0
     wide = Region(1e-6, 5.0, 12.0)
     for k in np.sort(np.concatenate([khs, np.sqrt(khs[1:] * khs[:-1])])):
         fun = spectrum_function(p, float(k))
@@ -123,9 +128,15 @@ def test_unstable_point_is_the_fastest_root_at_least_the_grid():
     z = complex(res["re_lambda"], res["im_lambda"])
     wide = Region(1e-6, 5.0, 12.0)
     assert fastest_root(p, res["k"], wide)[0] == pytest.approx(z, rel=1e-8)
+    proven = 0
     for kh in khs:
         k = kh / p.H
         assert res["re_lambda"] >= max(w.value.real for w in roots_in_box(p, k, wide.box(p, k)))
+        inside = max(w.value.real for w in roots_in_box(p, k, Region(1e-6, 2.0, 4.0).box(p, k)))
+        proven += tail_bound(p, k, Region(c_max=4.0).im_max(p, k)) < inside
+    # the fastest mode proven in the 4 c_d region at each grid k: the bound at its top edge
+    # below the fastest root inside (here at every k)
+    assert res["proven_k_count"] == proven == len(khs) and res["c_max_largest"] == 4.0
 
 
 @pytest.mark.parametrize("spec, values", [("Delta:-1:1:3", [-1.0, 0.0, 1.0]),
@@ -142,3 +153,18 @@ def test_closed_form_delta_is_the_largest_family_boundary():
     vals = [pd.closed_form(f, p.Gamma, p.f, p.beta) for f in pd.FAMILIES]
     assert closed_form_delta(p) == max(v for v in vals if np.isfinite(v))
     assert np.isnan(closed_form_delta(p.replace(f=0.0)))
+
+
+def test_adaptive_region_climbs_and_proves_at_an_unstable_point():
+    """--c-max auto (Region(c_max=None)): the paper's defaults at stress top, k H = 13.25
+    (k = 26.5, the issue's case): the 4 c_d region misses the fastest root (0.2962), the
+    adaptive one proves 0.3171 at 16 c_d; the map point reports both."""
+    p = Params(bc="stress")
+    khs = np.array([13.25])
+    fixed = map_point(p, khs, Region(1e-6, 2.0, 4.0), top=0)
+    auto = map_point(p, khs, Region(1e-6, 2.0, None), top=0)
+    assert fixed["proven_k_count"] == 0 and fixed["c_max_largest"] == 4.0
+    assert auto["proven_k_count"] == 1 and auto["c_max_largest"] > 4.0
+    # independent: the exact fastest roots quoted by issue 17 (det_M, zeros_in_box by hand)
+    assert fixed["re_lambda"] == pytest.approx(0.2961604, abs=1e-7)
+    assert auto["re_lambda"] == pytest.approx(0.3170864, abs=1e-7)

@@ -5,7 +5,8 @@
 
 Each point of the grid of two parameters (``--x``, ``--y``: ``name:start:stop:count`` or
 ``...:countlog``, name one of ``analytic.studies.stability_map.AXES``) gets the fastest exact root
-in the region (argument principle on ``det_M``; ``--re-min``, ``--c-max``) at ``--nk`` values of
+in the region (argument principle on ``det_M``; ``--re-min``, ``--c-max``: 4 ``c_d`` or ``auto``,
+the sweep's adaptive region) at ``--nk`` values of
 ``k H`` from ``--kH-min`` to ``--kH-max`` (geometric), the largest local maxima refined along
 their family (``analytic.studies.stability_map.map_point``). "Stable" means a certified zero count
 at every grid ``k`` (nothing is proven between grid points). Points are shared over the ranks and
@@ -27,14 +28,14 @@ import _cli
 import _plots
 import numpy as np
 
-from analytic.numerics.spectrum import Region
 from analytic.studies import stability_map as sm
 
 PETSC_PREFIXES: tuple[str, ...] = ()
 OUTPUTS = ("stability_map.csv", "summary.json", "stability_map.png", "run.json", "run.lock",
            "raw")
 COLUMNS = ("ix", "iy", "x", "y", "re_lambda", "im_lambda", "k", "kH", "phase_velocity_over_c_d",
-           "stable_on_grid", "unstable_k_count", "failed_counts", "delta_closed_form")
+           "stable_on_grid", "unstable_k_count", "failed_counts", "proven_k_count",
+           "c_max_largest", "delta_closed_form")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -46,8 +47,13 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--kH-max", type=float, default=10.0, help="largest k H sampled")
     ap.add_argument("--kH-min", type=float, default=0.05, help="smallest k H sampled")
     ap.add_argument("--nk", type=int, default=24, help="k H samples per point (geometric)")
-    ap.add_argument("--c-max", type=float, default=Region().c_max,
-                    help="region: largest phase velocity, in units of c_d")
+    # Not auto by default: at a stable k nothing is found that a tail bound could prove, so the
+    # adaptive region climbs to the ladder's top (32 c_d), where near-neutral roots made the
+    # counts fail (gamma = 0.01, Delta = 0.75 and 2, H = 1, kH <= 1: stable at 4 c_d).
+    ap.add_argument("--c-max", default="4",
+                    help="region: largest phase velocity, in units of c_d, or 'auto': per k, "
+                    "until the tail bound proves the region holds the fastest mode (or the "
+                    "ladder's top)")
     ap.add_argument("--re-min", type=float, default=1e-6,
                     help="region: smallest Re Lambda counted as unstable (> 0: the contour "
                     "stays off Lambda = 0)")
@@ -71,7 +77,7 @@ def validate(args: argparse.Namespace) -> tuple:
     if not 0 < args.re_min < 1:
         raise _cli.ParameterError(f"--re-min = {args.re_min} is outside its allowed range "
                                   "0 < re-min < 1")
-    region = Region(args.re_min, 2.0, args.c_max)
+    region = _cli.region_from_args(args.c_max, args.re_min)
     for xv in x[1]:  # every point valid (finite H), before any file is written
         for yv in y[1]:
             p = sm.point_params(base, (x[0], xv), (y[0], yv))
@@ -141,7 +147,9 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
 #: What summary.json says about the coverage in k.
 COVERAGE = ("a certified count (argument principle on det_M) of the roots in the region at every "
             "k H of the geometric grid; the two largest local maxima of the samples refined "
-            "along their root family; nothing is proven between grid points")
+            "along their root family; nothing is proven between grid points; proven_k_count: "
+            "the grid k at which the tail bound proves that no root beyond the region grows "
+            "faster (with c_max auto the region grows until it does, up to the ladder's top)")
 
 
 def plot(path: str, rows: list[dict], x: tuple, y: tuple, base: object, meta: dict) -> None:

@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from analytic.numerics.roots import ContourError
-from analytic.numerics.spectrum import Region, fastest_root
+from analytic.numerics.spectrum import Region, fastest_mode
 from analytic.params import ParameterError, Params
 from analytic.physics import phase_diagram as pd
 from analytic.studies.growth import counts_seconds, refine_envelope
@@ -94,15 +94,23 @@ def map_point(p: Params, khs: np.ndarray, region: Region, top: int = 2) -> dict:
         ``re_lambda`` (``None``: no root in the region at any grid ``k``), ``im_lambda``, ``k``,
         ``kH``, ``phase_velocity_over_c_d`` of the fastest root; ``stable_on_grid`` (a certified
         zero count at every grid ``k``, no failed count), ``unstable_k_count`` (grid ``k`` with
-        a root in the region), ``failed_counts`` (grid ``k`` whose count failed) and
-        ``refined`` (a refined peak beat the grid maximum).
+        a root in the region), ``failed_counts`` (grid ``k`` whose count failed),
+        ``refined`` (a refined peak beat the grid maximum), ``proven_k_count`` (grid ``k`` at
+        which the tail bound proves that no root beyond the region grows faster than the
+        fastest inside, :func:`analytic.numerics.spectrum.fastest_mode`; never at a ``k``
+        without a root inside, where the bound is positive) and ``c_max_largest`` (the
+        largest phase-velocity bound used, ``c_max = None``: the adaptive region).
     """
     ks = [float(v) / p.H for v in khs]
     zs: list[complex | None] = []
     counts: list[int] = []
+    proven, c_used = 0, []
     for k in ks:
         try:
-            z, n, _ = fastest_root(p, k, region)
+            m = fastest_mode(p, k, region)
+            z, n = m.root, m.count
+            proven += bool(m.proven)
+            c_used.append(m.c_max)
         except ContourError:
             z, n = None, -1
         zs.append(z)
@@ -111,7 +119,8 @@ def map_point(p: Params, khs: np.ndarray, region: Region, top: int = 2) -> dict:
     out = {"re_lambda": None, "im_lambda": None, "k": None, "kH": None,
            "phase_velocity_over_c_d": None, "stable_on_grid": failed == 0 and max(counts) == 0,
            "unstable_k_count": sum(n > 0 for n in counts), "failed_counts": failed,
-           "refined": False}
+           "refined": False, "proven_k_count": proven,
+           "c_max_largest": max(c_used) if c_used else None}
     if all(z is None for z in zs):
         return out
     ref = refine_envelope(p, region, ks, zs, top=top)

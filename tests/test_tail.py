@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from analytic.numerics.roots import zeros_in_box
-from analytic.numerics.spectrum import C_LADDER, Region, fastest_mode, provable_region
+from analytic.numerics.spectrum import C_LADDER, Region, fastest_mode, fastest_root, provable_region
 from analytic.params import Params
 from analytic.physics.tail import tail_bound, velocity_scale, why_no_tail_bound
 
@@ -428,3 +428,19 @@ def test_layered_first_order_shift_is_the_determinants():
             exact = (4.0 * (r1 - L0) - (r2 - L0)) / (2.0 * k)
             # measured 4e-11 .. 3.1e-8 relative (two and three layers, both tops)
             assert abs(c - exact) < 2e-7 * abs(exact), (bc, w, c, exact)
+
+
+def test_a_rung_whose_contour_fails_is_passed_over():
+    """Stress top, k = 35.666 (a k of envelope.py's refined grid): a near-neutral root sits at
+    a corner of the 12 c_d rung's box (-0.0068 - 880.2i), whose count then needs more than
+    50 000 contour samples. The adaptive region passes over that rung to 16 c_d (before: the
+    count failed and the k had no value; 41 of 255 k of the stress envelope)."""
+    from analytic.numerics.roots import ContourError
+
+    p, k = Params(bc="stress"), 35.665959342630515
+    with pytest.raises(ContourError):
+        fastest_root(p, k, Region(-0.01, 2.0, 12.0))
+    m = fastest_mode(p, k, Region(-0.01, 2.0, None))
+    assert m.c_max == 16.0 and m.proven and m.tail_bound < m.root.real
+    z16, n16, _ = fastest_root(p, k, Region(-0.01, 2.0, 16.0))  # independent: the whole box
+    assert m.count == n16 and abs(m.root - z16) < 1e-12 * abs(z16)

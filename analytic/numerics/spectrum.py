@@ -149,7 +149,9 @@ def provable_region(p: Params, k: float, region: Region,
         ``region.fixed(c_max_used)`` iff ``tail_bound`` is not ``None`` and below the fastest
         root's ``Re`` there (:func:`proven`). ``tail_bound`` is ``None`` when no bound is
         derived for ``p`` (then ``c_max_used`` is the first rung); at the top rung the tail
-        bound may still be too large (not proven). Where the bound is known to be loose
+        bound may still be too large (not proven). A rung whose ``fastest_inside`` raises
+        :class:`ContourError` is passed over for the next one (the error is raised only at
+        the top rung or for a fixed region). Where the bound is known to be loose
         (:func:`analytic.physics.tail.loose_tail_bound`: ``alpha_pc > 0``) the climb stops
         at the current rung, not proven, instead of solving a top rung whose bound is not
         below the fastest value found so far (``sweep_k.py --alpha-pc 1``: 22 s without a
@@ -159,7 +161,15 @@ def provable_region(p: Params, k: float, region: Region,
     i = 0
     while True:
         c = ladder[i]
-        re = fastest_inside(c)
+        try:
+            re = fastest_inside(c)
+        except ContourError:
+            if i == len(ladder) - 1:
+                raise
+            # a rung whose contour cannot be used (a root at its edge: stress top, k = 35.67,
+            # 12 c_d): the next rung holds it, with edges elsewhere
+            i += 1
+            continue
         target = re if re is not None else region.re_min
         tb = tail_bound(p, k, region.fixed(c).im_max(p, k))
         if tb is None or tb < target or i == len(ladder) - 1:
@@ -502,7 +512,8 @@ def fastest_mode(p: Params, k: float, region: Region) -> FastestMode:
     An adaptive region is searched incrementally: every root of the first rung, then for each
     larger rung only the two bands ``W_prev < |Im| < W`` at ``Re >=`` the fastest value so far
     (one contour when they hold nothing faster); the count is one argument principle on the
-    final region.
+    final region. A rung whose contour is unusable is passed over for the next one (see
+    :func:`provable_region`; also when the final count fails).
 
     Raises:
         ContourError: If no nudged copy of a box gives a usable contour.
@@ -532,11 +543,21 @@ def fastest_mode(p: Params, k: float, region: Region) -> FastestMode:
         return None if state["z"] is None else state["z"].real
 
     c, tail = provable_region(p, k, region, inside)
-    z = state["z"]
     n, bx = state["n"], state["box"]
-    if bx is None:
-        n, bx = on_usable_box(region.fixed(c).box(p, k), k,
-                              lambda b: count_zeros(fun, b, n_initial=_n_initial(p, b)))
+    while bx is None:
+        try:
+            n, bx = on_usable_box(region.fixed(c).box(p, k), k,
+                                  lambda b: count_zeros(fun, b, n_initial=_n_initial(p, b)))
+        except ContourError:
+            # the accepted rung's contour is unusable (a near-neutral root at its corner:
+            # stress top, k = 35.67, 12 c_d): the next rung holds the same proof (a smaller
+            # tail bound), searched in its new bands and counted with edges elsewhere
+            if region.c_max is not None or c == C_LADDER[-1]:
+                raise
+            c = C_LADDER[C_LADDER.index(c) + 1]
+            inside(c)
+            tail = tail_bound(p, k, region.fixed(c).im_max(p, k))
+    z = state["z"]
     return FastestMode(z, n, bx, c, tail, proven(tail, None if z is None else z.real, region))
 
 

@@ -430,17 +430,49 @@ def test_layered_first_order_shift_is_the_determinants():
             assert abs(c - exact) < 2e-7 * abs(exact), (bc, w, c, exact)
 
 
-def test_a_rung_whose_contour_fails_is_passed_over():
-    """Stress top, k = 35.666 (a k of envelope.py's refined grid): a near-neutral root sits at
-    a corner of the 12 c_d rung's box (-0.0068 - 880.2i), whose count then needs more than
-    50 000 contour samples. The adaptive region passes over that rung to 16 c_d (before: the
-    count failed and the k had no value; 41 of 255 k of the stress envelope)."""
+def test_a_rung_whose_contour_fails_is_passed_over(monkeypatch):
+    """A rung whose contour cannot be used is passed over for the next one, which holds the same
+    proof (a smaller tail bound). Stress top, k = 35.666: the adaptive region stops at 12 c_d;
+    with every count of the 12 c_d box made to fail (a stand-in for a root on its contour) it
+    stops at 16 c_d with the same fastest root, proven (before: the k had no value)."""
+    import analytic.numerics.roots as roots
     from analytic.numerics.roots import ContourError
 
     p, k = Params(bc="stress"), 35.665959342630515
-    with pytest.raises(ContourError):
-        fastest_root(p, k, Region(-0.01, 2.0, 12.0))
+    m12 = fastest_mode(p, k, Region(-0.01, 2.0, None))
+    assert m12.c_max == 12.0 and m12.proven
+    w12 = Region(-0.01, 2.0, 12.0).im_max(p, k)
+    real = roots.count_zeros
+
+    def failing(fun, box, **kw):
+        if abs(abs(box[3]) - w12) < 1e-3 * w12:  # the 12 c_d box and its nudged copies
+            raise ContourError("made to fail")
+        return real(fun, box, **kw)
+
+    monkeypatch.setattr(roots, "count_zeros", failing)
     m = fastest_mode(p, k, Region(-0.01, 2.0, None))
     assert m.c_max == 16.0 and m.proven and m.tail_bound < m.root.real
-    z16, n16, _ = fastest_root(p, k, Region(-0.01, 2.0, 16.0))  # independent: the whole box
-    assert m.count == n16 and abs(m.root - z16) < 1e-12 * abs(z16)
+    assert abs(m.root - m12.root) < 1e-12 * abs(m12.root)
+    # the first rung failing: the climb starts at the second
+    calls = []
+
+    def inside(c):
+        calls.append(c)
+        if c == C_LADDER[0]:
+            raise ContourError("made to fail")
+        return 0.3
+
+    c, tb = provable_region(p, 26.5, Region(c_max=None), inside)
+    assert calls[:2] == [C_LADDER[0], C_LADDER[1]] and tb < 0.3
+
+
+def test_a_tall_box_is_counted_with_enough_samples():
+    """Stress top, k = 100 (envelope.py's last k): the 12 c_d box's count needs more than the
+    old fixed guard of 50 000 contour samples (it starts with 4 x 3 908); the guard now scales
+    with the initial samples (64 n_initial), the fastest mode is proven at 12 c_d, and it is
+    the 4 c_d box's fastest root (a separate count and search of a smaller box)."""
+    p, k = Params(bc="stress"), 100.0
+    m = fastest_mode(p, k, Region(-0.01, 2.0, None))
+    assert m.c_max == 12.0 and m.proven and m.tail_bound < m.root.real
+    z4 = fastest_root(p, k, Region(-0.01, 2.0, 4.0))[0]
+    assert abs(m.root - z4) < 1e-12 * abs(z4)  # both Newton-polished: measured 0

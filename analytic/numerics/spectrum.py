@@ -166,8 +166,8 @@ def provable_region(p: Params, k: float, region: Region,
         except ContourError:
             if i == len(ladder) - 1:
                 raise
-            # a rung whose contour cannot be used (a root at its edge: stress top, k = 35.67,
-            # 12 c_d): the next rung holds it, with edges elsewhere
+            # a rung whose contour cannot be used (a root on it): the next rung holds it, with
+            # its edges elsewhere (tests/test_tail.py)
             i += 1
             continue
         target = re if re is not None else region.re_min
@@ -549,9 +549,9 @@ def fastest_mode(p: Params, k: float, region: Region) -> FastestMode:
             n, bx = on_usable_box(region.fixed(c).box(p, k), k,
                                   lambda b: count_zeros(fun, b, n_initial=_n_initial(p, b)))
         except ContourError:
-            # the accepted rung's contour is unusable (a near-neutral root at its corner:
-            # stress top, k = 35.67, 12 c_d): the next rung holds the same proof (a smaller
-            # tail bound), searched in its new bands and counted with edges elsewhere
+            # the accepted rung's contour is unusable (a root on it): the next rung holds the
+            # same proof (a smaller tail bound), searched in its new bands and counted with
+            # its edges elsewhere
             if region.c_max is not None or c == C_LADDER[-1]:
                 raise
             c = C_LADDER[C_LADDER.index(c) + 1]

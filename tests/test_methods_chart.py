@@ -67,7 +67,9 @@ def test_one_ciss_ellipse_over_a_tall_region_finds_nothing(monkeypatch):
     # README (methods chart): why the region is cut into pieces for CISS
     monkeypatch.setattr(ms, "CISS_ASPECT", 1e9)
     row = ms.methods_point(Params(), 12.0, 8.0, methods=("ciss",))[0]
-    assert row["count"] == 23 and row["found"] == 0, row
+    # measured: 0 of 23 on the gmsh mesh, 1 of 23 on the numpy progression that replaced it
+    # (vertices moved by up to 1.1e-8 H): the single ellipse misses almost every root
+    assert row["count"] == 23 and row["found"] <= 1, row
 
 
 def test_a_failing_method_is_reported_missing(monkeypatch):

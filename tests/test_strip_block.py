@@ -376,6 +376,8 @@ def test_auto_box_holds_every_resolvable_strip_mode(top, lam_ref):
     params = Params(bc=top)
     re_min, re_max, im_min, im_max = block.auto_box(params, lam_ref, 8, 2)
     rows, summary = _envelope(top)
+    missing = [r["k"] for r in rows if r["re_lambda_max"] in ("", "nan")]
+    assert not missing, f"the committed envelope has no value (failed count) at k = {missing[:5]}"
     peak = summary["global_max_on_grid"]
     fastest = max([peak["re_lambda"]] + [p["re_lambda"] for p in peak["local_peaks"]]
                   + [float(r["re_lambda_max"]) for r in rows])

@@ -92,10 +92,15 @@ def test_envelope_without_any_root_in_the_region(tmp_path):
 
 
 def test_contrast_reports_a_failed_count_in_its_exit_code(tmp_path):
-    """mu2 = 0.1, H2 = H, k = 20: the two-body count fails on its contour (measured: more than
-    50000 samples near z = 0.000346 - 184.9i; the README's contrast run met it too)."""
+    """gamma = 0.001 (a nearly undamped interface), mu2 = 1e4, H2 = H = 1, k = 0.05, region
+    Re >= 1e-6: the count fails on its contour (measured: the function vanishes near
+    z = 1.3e-6 + 9.827i, a near-neutral root on the region's edge for every nudged box; 1.7 s).
+    The earlier case, mu2 = 0.1 at k = 20, failed only at the old fixed guard of 50 000 contour
+    samples; since that guard scales with the box's sampling it is counted (in about 4 min)."""
     out = tmp_path / "c"
-    proc = run_workflow("contrast.py", ["--mu2-grid", "0.1", "--H2s", "H", "--k", "20",
+    proc = run_workflow("contrast.py", ["--mu2-grid", "10000", "--H2s", "H", "--H", "1",
+                                        "--gamma", "0.001", "--Delta", "0.75", "--k", "0.05",
+                                        "--re-min", "1e-6", "--c-max", "4",
                                         "--out", str(out)])
     with open(out / "contrast.csv") as fh:
         rows = list(csv.DictReader(fh))

@@ -469,7 +469,7 @@ def test_a_rung_whose_contour_fails_is_passed_over(monkeypatch):
 def test_a_tall_box_is_counted_with_enough_samples():
     """Stress top, k = 100 (envelope.py's last k): the 12 c_d box's count needs more than the
     old fixed guard of 50 000 contour samples (it starts with 4 x 3 908); the guard now scales
-    with the initial samples (64 n_initial), the fastest mode is proven at 12 c_d, and it is
+    with the initial samples (32 n_initial), the fastest mode is proven at 12 c_d, and it is
     the 4 c_d box's fastest root (a separate count and search of a smaller box)."""
     p, k = Params(bc="stress"), 100.0
     m = fastest_mode(p, k, Region(-0.01, 2.0, None))

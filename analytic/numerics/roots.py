@@ -257,8 +257,8 @@ def winding_number(
         n_initial: Initial number of samples per side.
         max_dphase: Largest allowed phase change between neighbouring samples.
         max_rel: Largest allowed relative change of ``F`` between neighbouring samples.
-        max_points: Largest number of samples before giving up; at least ``64 n_initial``
-            (16 times the initial samples: a tall box's initial samples alone can exceed
+        max_points: Largest number of samples before giving up; at least ``32 n_initial``
+            (8 times the initial samples: a tall box's initial samples alone can exceed
             50 000, e.g. stress top, ``k = 100``, 32 ``c_d``: 77 000).
         zero_tol: A sample with ``|F| < zero_tol * max|F|`` is taken as a zero on the contour
             (not used with ``log=True``, where ``|F|`` may span thousands of decades along the
@@ -302,9 +302,10 @@ def winding_numbers(fun: Callable[[np.ndarray], np.ndarray], box: Sequence[float
     """
     bx = _box_checked(box)
     # the guard scales with the box's own sampling (n_initial from the root spacing): with a
-    # fixed 50 000 every count of a box taller than about 2 x 8 000 failed by construction
-    # (stress top k = 51.8 at 12 c_d, 16 000 initial samples, then the refinements)
-    max_points = max(max_points, 64 * n_initial)
+    # fixed 50 000 every tall box failed by construction (stress top k = 51.8 at 12 c_d: 15 264
+    # initial samples, 75 398 in the end). Up to 8 times the initial samples: the stress
+    # envelope's tallest counts took 2.5-5.0 times (k = 35.7, 51.8, 100)
+    max_points = max(max_points, 32 * n_initial)
     t = np.linspace(0.0, 4.0, 4 * n_initial, endpoint=False)
 
     def call(tt: np.ndarray) -> np.ndarray:

@@ -207,15 +207,6 @@ def edge_dofs(mesh: StripMesh, x_coordinates: np.ndarray, which: int) -> np.ndar
     return np.flatnonzero(np.abs(x_coordinates[:, axis] - value) < tol).astype(np.int32)
 
 
-def graded_levels(height: float, cells: int, grading: float) -> np.ndarray:
-    """``cells + 1`` levels ``0 .. height``, cell heights in a geometric progression.
-
-    The last cell is ``grading`` times the first (the one at ``y = 0``), as on the gmsh strip
-    (:func:`meshes.interval.interval_vertices`, the 1D models' progression).
-    """
-    return interval_vertices(height, cells, grading)
-
-
 def _two_body_grid(length: float, pieces: list[np.ndarray], nx: int
                    ) -> tuple[np.ndarray, np.ndarray]:
     """Nodes and triangles of structured grids ``[0, L] x piece`` with their own nodes each."""
@@ -289,7 +280,9 @@ def two_body_strip_mesh(comm: MPI.Comm, length: float, height: float, depth: flo
     check_strip_arguments(length, height, nx, ny, grading, "triangle")
     check_strip_arguments(length, depth, nx, ny2, grading2, "triangle")
     if comm.rank == 0:
-        pieces = [-graded_levels(depth, ny2, grading2)[::-1], graded_levels(height, ny, grading)]
+        # the 1D models' progression (the last cell `grading` times the one at y = 0)
+        pieces = [-interval_vertices(depth, ny2, grading2)[::-1],
+                  interval_vertices(height, ny, grading)]
         coord_arr, cell_arr = _two_body_grid(length, pieces, nx)
     else:
         cell_arr = np.empty((0, 3), dtype=np.int64)

@@ -147,6 +147,46 @@ def test_hidden_root_is_caught_by_the_fe_count(monkeypatch):
     assert all(r["certificate"] == "" for r in res.rows)
 
 
+@pytest.mark.serial
+def test_fe_count_samples_tall_boxes_from_the_wave_time(monkeypatch):
+    """The stress envelope's maximum (k = 41.565, proven at 12 c_d, |Im| <= 1023) by the FE
+    alone: the count starts from the root spacing (``contour_samples``), closes, equals an
+    independent exact count, and nothing exact in the box grows faster than the FE's fastest.
+
+    Before, the FE count started from 32 samples per side and hit the 50 000-sample guard
+    (the first assertion keeps that failure visible: the fix is the start, not the guard).
+    """
+    from analytic.numerics.branches import _n_initial, spectrum_function
+    from analytic.numerics.roots import ContourError, count_zeros
+    from forms.models.section import contour_samples
+
+    p, k, region = Params(bc="stress"), 41.56497927831865, Region(c_max=12.0)
+    box = region.box(p, k)
+    fun = spectrum_function(p, k)
+    n_exact = count_zeros(fun, box, n_initial=_n_initial(p, box))
+    deg, cells, ratio = default_discretisation(p, region, k, 1e-8)
+    cs = CertifiedSolver(p, region, deg, cells, ratio, k, 1e-8, check_exact=False)
+    try:
+        assert contour_samples(cs.models[0].stack, box) == _n_initial(p, box)  # same rule
+        from forms.solvers.certified import _condensed
+
+        op = _condensed(cs.banded[0].operator(k), cs._condensed_model(), k)  # the sweep's count
+        with pytest.raises(ContourError, match="max_points"):
+            op.count_and_samples(box, 32)
+        _no_exact(monkeypatch)
+        res = cs.solve(k)
+    finally:
+        cs.destroy()
+    assert res.closed and res.n_fe == len(res.rows) == n_exact
+    z = max((complex(r["re_lambda"], r["im_lambda"]) for r in res.rows), key=lambda v: v.real)
+    # the FE value is within its estimate (< 1e-13 measured) of an exact root: one exact root
+    # in a 1e-6 square around it, none in the box to the right of it
+    tiny = (z.real - 1e-6, z.real + 1e-6, z.imag - 1e-6, z.imag + 1e-6)
+    right = (z.real + 1e-6, box[1], box[2], box[3])
+    assert count_zeros(fun, tiny, n_initial=_n_initial(p, tiny)) == 1
+    assert count_zeros(fun, right, n_initial=_n_initial(p, right)) == 0
+
+
 def test_moment_eigs_agree_with_newton_from_the_exact_roots():
     """BandedOperator alone: count_and_samples + moment_eigs give the seeded values."""
     p, region, k = Params(bc="stress"), Region(), 2.0

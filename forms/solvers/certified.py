@@ -50,7 +50,7 @@ from analytic.numerics.roots import Box, ContourError
 from analytic.numerics.spectrum import Region, certified_roots, on_usable_box
 from analytic.params import Params
 from forms.models.profiles import SliderMaterial
-from forms.models.section import SectionModel, section_stack
+from forms.models.section import SectionModel, contour_samples, section_stack
 from forms.solvers.banded import BandedModel, BandedOperator, Eigen
 from forms.solvers.condensed import CondensedModel, CondensedOperator
 
@@ -330,7 +330,12 @@ class CertifiedSolver:
                 out.note = f"exact count failed: {err}"
         fe, fine = (b.operator(k) for b in self.banded)
         cond = _condensed(fe, self._condensed_model(), k) if self.count == "condensed" else None
-        counter = cond.count_and_samples if cond is not None else fe.count_and_samples
+        count_in = cond.count_and_samples if cond is not None else fe.count_and_samples
+        stack = self.models[0].stack
+
+        def counter(bx: Box) -> tuple[int, np.ndarray]:
+            return count_in(bx, contour_samples(stack, bx))
+
         sums = cond.moment_sums if cond is not None else None
         want = box if box is not None else (exact_box or region.box(p, k))
         try:
@@ -464,7 +469,7 @@ class CertifiedSolver:
                 "residual": float(e.residual), "status": "; ".join(problems) or "ok",
             })
         try:
-            out.n_fe = fe.count(box)
+            out.n_fe = fe.count(box, contour_samples(self.models[0].stack, box))
         except ContourError as err:
             out.note = f"FE count failed: {err}"
         vals = np.array(values, dtype=complex)

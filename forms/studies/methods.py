@@ -46,7 +46,7 @@ from analytic.numerics.roots import Box
 from analytic.numerics.spectrum import Region
 from analytic.params import Params
 from forms.friction import FrictionOperator
-from forms.models.section import SectionModel
+from forms.models.section import SectionModel, contour_samples
 from forms.solvers.banded import BandedOperator
 from forms.solvers.certified import CertifiedSolver, default_discretisation
 from forms.solvers.region import RegionSolver
@@ -273,7 +273,7 @@ def methods_point(params: Params, k: float, c_max: float, rtol: float = 1e-6,
             solvers["newton"] = CertifiedSolver(params, region, degree, cells, ratio, k, 1e-8,
                                                 solver="newton")
         fe = cs.banded[0].operator(k)
-        count = fe.count(box)
+        count = fe.count(box, contour_samples(cs.models[0].stack, box))
         fns = _methods(params, cs, k, region, count, solvers)
         runs = {m: _run(fns[m]) for m in methods}
         cands = [v for vals, _, _ in runs.values() for v in vals if _in_box(v, box)]

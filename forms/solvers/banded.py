@@ -32,7 +32,7 @@ import scipy.sparse as sp
 from scipy.linalg import blas, lapack
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
-from analytic.numerics.roots import Box, ContourError, _perimeter_point, winding_numbers
+from analytic.numerics.roots import Box, _perimeter_point, winding_numbers
 from forms.friction import FrictionOperator, ScalarFunction
 
 #: Points whose band matrices are assembled in one matrix product (memory: rows x n x CHUNK).
@@ -528,11 +528,3 @@ class BandedModel:
 def _indptr(rows: np.ndarray, n: int) -> np.ndarray:
     """CSR row pointers of sorted row indices."""
     return np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n))]).astype(np.int32)
-
-
-def count_or_none(bop: BandedOperator, box: Box) -> tuple[int | None, str]:
-    """:meth:`BandedOperator.count`, or ``(None, reason)`` if the contour cannot be used."""
-    try:
-        return bop.count(box), ""
-    except ContourError as err:
-        return None, str(err)

@@ -159,7 +159,7 @@ def roots_in_box(p: Params, k: float, box: tuple[float, float, float, float], *,
 
 
 def _n_initial(p: Params, box: tuple[float, float, float, float]) -> int:
-    """Initial contour samples per side: ``det_M`` turns by about ``H (1 + beta)`` per unit.
+    """Initial contour samples, longest side: ``det_M`` turns by about ``H (1 + beta)`` per unit.
 
     Two bodies: plus ``H2 (1 + beta2) / c_s2`` for a finite substrate; a half-space (either
     body) adds no such rotation (its partial waves carry no ``exp(i H Im k)`` phase): 32

@@ -99,3 +99,40 @@ def test_polish_quality_fields():
 def test_double_root_is_reported_as_cluster():
     roots = zeros_in_box(lambda z: (z - 0.2) ** 2 * (z + 0.5), (-1, 1, -1, 1))
     assert sum(2 if "cluster of 2" in r.reason else 1 for r in roots) == 3
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("box", [(-0.01, 2.0, -1000.0, 1000.0), (0.0, 1.0, 0.0, 1.0),
+                                 (-50.0, 50.0, -0.5, 0.5)])
+@pytest.mark.parametrize("n_initial", [8, 32, 3000])
+def test_initial_samples_follow_the_side_lengths(box, n_initial):
+    """``n_initial`` on the longest side, the others in proportion (at least min(n, 16)), the
+    corners among them, evenly spaced per side."""
+    from analytic.numerics.roots import _initial_samples
+
+    t = _initial_samples(box, n_initial)
+    lengths = [box[1] - box[0], box[3] - box[2]] * 2
+    for j, length in enumerate(lengths):
+        side = t[(t >= j) & (t < j + 1)]
+        want = max(int(np.ceil(n_initial * length / max(lengths))), min(n_initial, 16))
+        assert side.size == want and side[0] == j
+        assert np.allclose(np.diff(side), 1.0 / want, rtol=0, atol=1e-15)
+    assert np.all(np.diff(t) > 0)
+
+
+@pytest.mark.serial
+def test_tall_box_counts_the_same_with_proportional_sides():
+    """Roots placed along a tall box, some near its short sides: the count with the
+    proportional start equals the number of roots inside, whatever n_initial."""
+    rng = np.random.default_rng(3)
+    roots = np.concatenate([rng.uniform(0.1, 1.9, 40) + 1j * rng.uniform(-900, 900, 40),
+                            [1.0 + 999.9j, 0.5 - 999.95j, 1.5 + 1000.05j]])
+    box = (0.0, 2.0, -1000.0, 1000.0)
+    inside = sum(1 for r in roots if box[2] < r.imag < box[3])
+
+    def fun(z):  # each zero paired with a pole 3 to its right, outside the box
+        zz = np.asarray(z)[..., None]
+        return np.prod((zz - roots) / (zz - roots - 3.0), axis=-1)
+
+    for n in (32, 200, 2000):
+        assert count_zeros(fun, box, n_initial=n) == inside == 42

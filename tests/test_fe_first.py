@@ -159,6 +159,7 @@ def test_fe_count_samples_tall_boxes_from_the_wave_time(monkeypatch):
     from analytic.numerics.branches import _n_initial, spectrum_function
     from analytic.numerics.roots import ContourError, count_zeros
     from forms.models.section import contour_samples
+    from forms.solvers.certified import _condensed
 
     p, k, region = Params(bc="stress"), 41.56497927831865, Region(c_max=12.0)
     box = region.box(p, k)
@@ -168,8 +169,6 @@ def test_fe_count_samples_tall_boxes_from_the_wave_time(monkeypatch):
     cs = CertifiedSolver(p, region, deg, cells, ratio, k, 1e-8, check_exact=False)
     try:
         assert contour_samples(cs.models[0].stack, box) == _n_initial(p, box)  # same rule
-        from forms.solvers.certified import _condensed
-
         op = _condensed(cs.banded[0].operator(k), cs._condensed_model(), k)  # the sweep's count
         with pytest.raises(ContourError, match="max_points"):
             op.count_and_samples(box, 32)

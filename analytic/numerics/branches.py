@@ -35,6 +35,7 @@ from analytic.numerics.roots import (
     Root,
     count_zeros,
     polish,
+    samples_for_turn,
     winding_numbers,
     zeros_in_box,
 )
@@ -165,14 +166,12 @@ def _n_initial(p: Params, box: tuple[float, float, float, float]) -> int:
     body) adds no such rotation (its partial waves carry no ``exp(i H Im k)`` phase): 32
     samples per side then.
     """
-    side = max(box[1] - box[0], box[3] - box[2])
     turn = p.H * (1.0 + p.beta) if math.isfinite(p.H) else 0.0
     if p.two_body and math.isfinite(p.H2):
         m2 = p.substrate
         turn += p.H2 * (1.0 + m2.beta) / m2.c_s
-    if not math.isfinite(p.H) or (p.two_body and not math.isfinite(p.H2)):
-        return 32 + int(math.ceil(2.0 * turn * side))
-    return 8 + int(math.ceil(2.0 * turn * side))
+    halfspace = not math.isfinite(p.H) or (p.two_body and not math.isfinite(p.H2))
+    return samples_for_turn(turn, box, 32 if halfspace else 8)
 
 
 def _box_around(z: complex, r: float) -> tuple[float, float, float, float]:

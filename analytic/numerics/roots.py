@@ -362,6 +362,18 @@ def winding_numbers(fun: Callable[[np.ndarray], np.ndarray], box: Sequence[float
         order = np.argsort(t)
         t, f = t[order], f[:, order]
 
+def samples_for_turn(turn: float, box: Sequence[float], base: int = 8) -> int:
+    """``n_initial`` for a function whose phase turns by about ``turn`` per unit length.
+
+    ``base + ceil(2 turn side)`` on the longest side ``side`` of ``box``: about two samples per
+    radian before the refinement. The one rule of the exact count
+    (:func:`analytic.numerics.branches._n_initial`) and the FE count
+    (:func:`forms.models.section.contour_samples`).
+    """
+    side = max(box[1] - box[0], box[3] - box[2])
+    return base + int(math.ceil(2.0 * turn * side))
+
+
 def _initial_samples(box: Box, n_initial: int) -> np.ndarray:
     """First contour parameters: ``n_initial`` on the longest side, the others in proportion.
 

@@ -55,6 +55,7 @@ import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from analytic.numerics.roots import samples_for_turn
 from analytic.params import ParameterError, Params
 from forms.elasticity import cross_section_gradients, stiffness_density
 from forms.friction import (
@@ -224,8 +225,7 @@ def contour_samples(stack: Stack, box: Sequence[float]) -> int:
     41.56``, 12 ``c_d`` (``|Im| <= 1023``), hit the 50 000-sample guard (the sweep at that
     ``k``: 521 s, exit 1); from 3 077 on the long sides it closes in under a second.
     """
-    side = max(box[1] - box[0], box[3] - box[2])
-    return max(32, 8 + int(math.ceil(2.0 * stack.wave_time * side)))
+    return max(32, samples_for_turn(stack.wave_time, box))
 
 
 def stack_from_params(params: Params, degree: int = 3, cells: int | None = None,

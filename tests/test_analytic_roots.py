@@ -2,6 +2,9 @@ import numpy as np
 import pytest
 
 from analytic.numerics.roots import ContourError, count_zeros, polish, winding_number, zeros_in_box
+from analytic.numerics.spectrum import Region
+from analytic.params import Params
+from analytic.physics.finite_h import det_M
 
 # Pure numpy (no MPI, no FE): the serial pass is enough.
 pytestmark = pytest.mark.serial
@@ -136,3 +139,40 @@ def test_tall_box_counts_the_same_with_proportional_sides():
 
     for n in (32, 200, 2000):
         assert count_zeros(fun, box, n_initial=n) == inside == 42
+
+
+def test_a_large_dynamic_range_is_not_a_zero_on_the_contour():
+    """A zero on the contour is judged against the median sample, not the largest one.
+
+    ``|F|`` here spans ``exp(-20 .. 20)`` along the contour: a fixed fraction (1e-12) of the
+    largest value called ordinary samples zeros. A true zero on an edge is still an error.
+    """
+    def f(z):
+        return (z - 0.25) * np.exp(20.0 * z)
+
+    assert count_zeros(f, (-1.0, 1.0, -1.0, 1.0)) == 1
+    with pytest.raises(ContourError, match="vanishes"):
+        count_zeros(f, (0.25, 1.0, -1.0, 1.0))
+
+
+def test_thin_strip_exact_count_closes():
+    """det_M at H = 0.01, k = 1 spans 1e-3 .. 4e11 on the 4 c_d box (its weight near the
+    origin); the count used to fail there ("function vanishes on the contour"). The roots sit
+    next to the dilatational thickness resonances ``beta H omega = (2m + 1) pi / 2``: polished
+    from those, the ones in the box are the count and the roots ``zeros_in_box`` locates.
+    """
+    p = Params(H=0.01)
+    box = Region().box(p, 1.0)
+
+    def f(z):
+        return det_M(z, 1.0, p)
+
+    w = np.pi / (2 * p.beta * p.H)
+    seeds = [0.1 + s * (2 * m + 1) * w * 1j for m in range(3) for s in (-1, 1)]
+    polished = [r.value for r in (polish(f, z) for z in seeds) if r.converged]
+    inside = {complex(np.round(z, 6)) for z in polished
+              if box[0] < z.real < box[1] and box[2] < z.imag < box[3]}
+    assert count_zeros(f, box) == len(inside) == 2
+    located = [r.value for r in zeros_in_box(f, box)]
+    assert len(located) == 2
+    assert all(min(abs(z - y) for y in inside) < 1e-5 for z in located)

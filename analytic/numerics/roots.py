@@ -261,7 +261,7 @@ def winding_number(
         max_points: Largest number of samples before giving up; at least ``32 n_initial``
             (8 times the initial samples: a tall box's initial samples alone can exceed
             50 000, e.g. stress top, ``k = 100``, 32 ``c_d``: 77 000).
-        zero_tol: A sample with ``|F| < zero_tol * max|F|`` is taken as a zero on the contour
+        zero_tol: A sample with ``|F| < zero_tol * median|F|`` is taken as a zero on the contour
             (not used with ``log=True``, where ``|F|`` may span thousands of decades along the
             contour, e.g. a finite-element determinant: the local rules above find zeros on it).
         log: ``fun`` returns the complex logarithm ``log|F| + i arg F`` (any branch of the
@@ -404,8 +404,12 @@ def _increments(f: np.ndarray, bx: Box, t: np.ndarray, max_dphase: float, max_re
         zbad = _perimeter_point(bx, t[~np.isfinite(f)][:1])[0]
         raise ContourError(f"function not finite on the contour at z = {zbad:.6g} (a pole?)")
     absf = np.abs(f)
-    fmax = absf.max()
-    if fmax == 0 or absf.min() < zero_tol * fmax:
+    # The scale is the median sample, not the largest: a normalised determinant can span many
+    # decades along one contour (det_M at H = 0.01, k = 1: 1e-3 .. 4e11, its weight near the
+    # origin), where a fixed fraction of the largest value calls ordinary samples zeros.
+    # (median <= max: the median is only computed where the cheap test fires)
+    fmax, fmin = absf.max(), absf.min()
+    if fmax == 0 or (fmin < zero_tol * fmax and fmin < zero_tol * np.median(absf)):
         zbad = _perimeter_point(bx, t[np.argmin(absf):][:1])[0]
         raise ContourError(
             f"function vanishes on the contour near z = {zbad:.6g}: move the box edge"

@@ -77,3 +77,29 @@ def test_real_banded_decomposition_equals_the_complex_one(bc: str, monkeypatch) 
     assert np.max(np.abs(np.angle(np.exp(1j * (a.imag - c.imag))))) < 1e-8
     assert np.max(np.abs(np.sort(k_ii.w.real) - np.sort(ref.w.real))) \
         < 1e-12 * np.max(np.abs(ref.w))
+
+
+@pytest.mark.parametrize("bc", ["velocity", "stress"])
+def test_above_dense_max_the_solver_counts_banded(bc: str, monkeypatch) -> None:
+    """Above ``DENSE_MAX`` the certified solve takes the banded count (no dense matrix) and gives
+    the same count and eigenvalues as the condensed one."""
+    from forms.solvers import condensed
+
+    p, k = Params(bc=bc), 3.0
+    dense = CertifiedSolver(p, REGION, 4, 41, 1.0, 6.0, 1e-8, check_exact=False)
+    ref = dense.solve(k)
+    assert dense._condensed_model() is not None
+    monkeypatch.setattr(condensed, "DENSE_MAX", dense.unknowns // 2)
+    with pytest.raises(NotImplementedError, match="DENSE_MAX"):
+        CondensedOperator(dense.banded[0].operator(k))
+    banded = CertifiedSolver(p, REGION, 4, 41, 1.0, 6.0, 1e-8, check_exact=False)
+    got = banded.solve(k)
+    assert banded._condensed_model() is None
+    assert ref.closed and got.closed and got.n_fe == ref.n_fe == len(got.rows)
+
+    def values(r):
+        return np.sort_complex(np.array([complex(x["re_lambda"], x["im_lambda"])
+                                         for x in r.rows]))
+
+    # both Newton-polished on the same banded T (test above: differences <= 3e-12)
+    assert np.max(np.abs(values(got) - values(ref))) < 1e-10 * np.max(np.abs(values(ref)))

@@ -39,6 +39,22 @@ from forms.solvers.banded import BandedOperator
 
 #: Points per vectorised block (memory: points x n x columns).
 BLOCK = 256
+#: Largest interior block condensed: :class:`CondensedModel` holds dense ``n x n`` matrices,
+#: about ``65 n^2`` bytes at its peak (measured, session 12, stress top, 12 ``c_d`` rung, one
+#: process: 1.5 GB at 4 394 unknowns, 2.8 GB at 6 298, 7.0 GB at 10 418, ``k`` = 41.6, 60,
+#: 100). Larger operators raise ``NotImplementedError`` and their callers count with one banded
+#: LU per contour point (:meth:`forms.solvers.banded.BandedOperator.count_and_samples`, ``O(n)``
+#: memory: 0.42 GB at 4 394), slower by about 4x at 4 394 unknowns (114 s against 27 s of CPU,
+#: the same count, 121, and values) and by less above: the dense ``eigh`` grows as ``n^3``, the
+#: banded count as ``n^2``.
+DENSE_MAX = 10500
+
+
+def dense_fits(n: int) -> None:
+    """Raise ``NotImplementedError`` for an interior block of more than :data:`DENSE_MAX` rows."""
+    if n > DENSE_MAX:
+        raise NotImplementedError(f"the interior block ({n} rows) is above DENSE_MAX = "
+                                  f"{DENSE_MAX}: counted banded")
 #: Truncation of the far modes' power series (relative, per mode): below the rounding level.
 SERIES_EPS = 2.0 ** -60
 #: Candidate ratios ``rho = |z|^2 / |w_j|`` bounding the far modes; the one with the fewest
@@ -328,6 +344,7 @@ def _modes_of(n: int, mats: list[sp.csr_matrix], powers: list[int]) -> _Modes:
     """:class:`_Modes` of one operator's matrices (:func:`_decompose` of its interior)."""
     mats = [m.tocsr() for m in mats]
     bi, ii = _split_rows(n, [mats], powers)
+    dense_fits(ii.size)
     mass = mats[powers.index(2)]
     kmat = sum((m for q, m in zip(powers, mats, strict=True) if q == 0), 0 * mass)
     w, phi, psi_h, logdet_m = _decompose(kmat[ii][:, ii].toarray(), mass[ii][:, ii].toarray())
@@ -364,6 +381,7 @@ class CondensedModel:
         if any(part[f2].count_nonzero() for part in parts[1:]):
             raise NotImplementedError("the mass depends on k")
         self.b_idx, self.i_idx = bi, ii = _split_rows(banded.n, parts, powers)
+        dense_fits(ii.size)
         k_parts = [sum((m for q, m in zip(powers, part, strict=True) if q == 0),
                        0 * part[f2])[ii][:, ii].tocsr() for part in parts]
         m_ii = parts[0][f2][ii][:, ii].tocsr()

@@ -328,7 +328,7 @@ def test_analytic_negative_value_after_option(capsys):
     ("sweep_k.py", ["--k", "1", "--H", "1e-9"], "region's height"),  # was: ContourError
     ("sweep_k.py", ["--k", "1e9"], "region's height"),              # was: silent 150 s
     ("sweep_k.py", ["--k", "1", "--Delta", "-1e6"], "Delta = -1e+06"),  # was: silent 150 s
-    ("sweep_k.py", ["--k", "45", "--H", "1"], "roots"),             # W H = 373 > 250
+    ("sweep_k.py", ["--k", "55", "--H", "1"], "roots"),             # W H = 453 > 420
     ("time_domain.py", ["--H", "1e-9"], "mesh"),  # was: run.json left before exit 2
     ("envelope.py", ["--k", "1e7"], "region's height"),  # was: silent (W = 8e7)
     ("contrast.py", ["--k", "0.1:300:3log"], "region's height"),  # W = 2425 > 1700

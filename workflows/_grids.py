@@ -37,16 +37,22 @@ def parse_grid(spec: str, name: str = "--k", max_count: int = 100000) -> np.ndar
 
 
 #: Limits of the certified sweep (sweep_k.py) on its region R (height ``W = Region.im_max`` at
-#: the largest k), measured on this project's 2-core machine: the region holds about
-#: ``1.3 W H`` roots (21 at the defaults, W H = 16.6, 5 s per k value); W H = 52.6 (k = 10) took
-#: 35 s per k value, W H = 63.6 (k = 51, --c-max 1) 13-32 s, W H = 92.6 (H = 10) and 132.6
-#: (k = 30) more than 90 s; W H = 217 (k = 50, 51 at the defaults, 4 c_d: 48 roots per k,
-#: fewer than 1.3 W H there) took 95 s for both k on one rank with the exact-seeded solver
-#: (the README's large-kH case, which the limit must admit). W = 427 (H = 0.03) took 30 s;
-#: W = 1257 (H = 0.01) left the root count open and W = 12574 (H = 0.001) found no contour:
-#: the contour cannot resolve taller regions.
-SWEEP_WH_MAX = 250.0
-SWEEP_W_MAX = 500.0
+#: the largest k, first rung of an adaptive region), measured on this project's 2-core machine.
+#: The region holds about ``1.3 W H`` roots and the 1D mesh grows with ``W H``
+#: (forms.solvers.certified.default_discretisation). Session 12 (FE first, --check-exact no,
+#: one rank, the machine loaded with two other jobs): stress top k = 60 (W H = 253, climbs to
+#: 12 c_d, 165 roots) 157 s, 2.8 GB; k = 100 (W H = 412, 12 c_d, 272 roots, 10 418 unknowns)
+#: 297 s of CPU (673 s wall), 7.0 GB; both equal to an exact count up to 32 c_d. The limit
+#: admits k = 100 at the defaults (the envelope's range). Before session 12 the limits were
+#: W H <= 250 and W <= 500 (k = 60 at the defaults was refused).
+SWEEP_WH_MAX = 420.0
+#: The height alone: thin strips hold few roots in a tall region. Session 12, k = 1, exact
+#: check on: H = 0.01 (W = 1265), 0.001 (12 574), 1e-4 and 1e-6 (W = 3.1e6) certified in
+#: 2-11 s, both roots matched to the exact ones; H = 1e-8 (W = 3.1e8) found no FE eigenvalue
+#: where the exact count has 2 (the count "not closed", exit 1). (Before: W = 1257 left the
+#: count open, W = 12 574 found no contour: det_M's zero test against its largest sample,
+#: analytic.numerics.roots._increments.)
+SWEEP_W_MAX = 4e6
 #: |Delta| at k = 1: Delta = -10 took 13 s, -1000 took 45 s with 4 of 13 roots flagged, -1e6
 #: more than 150 s without a line (issue 18): the friction law's rate term stiffens the roots.
 SWEEP_DELTA_MAX = 1000.0

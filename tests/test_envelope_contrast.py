@@ -91,17 +91,34 @@ def test_envelope_without_any_root_in_the_region(tmp_path):
         assert all(r["re_lambda_max"] == "" for r in csv.DictReader(fh))
 
 
+#: A sitecustomize.py for the child: every argument-principle count raises ContourError.
+COUNT_FAILS = """
+import analytic.numerics.roots as _roots
+
+
+def _failing(*args, **kwargs):
+    raise _roots.ContourError("injected by the test: the count fails")
+
+
+_roots.winding_numbers = _failing
+"""
+
+
 def test_contrast_reports_a_failed_count_in_its_exit_code(tmp_path):
-    """gamma = 0.001 (a nearly undamped interface), mu2 = 1e4, H2 = H = 1, k = 0.05, region
-    Re >= 1e-6: the count fails on its contour (measured: the function vanishes near
-    z = 1.3e-6 + 9.827i, a near-neutral root on the region's edge for every nudged box; 1.7 s).
-    The earlier case, mu2 = 0.1 at k = 20, failed only at the old fixed guard of 50 000 contour
-    samples; since that guard scales with the box's sampling it is counted (in about 4 min)."""
+    """A count that fails (injected: every count raises ContourError) is reported per grid k
+    and in the exit code. The genuine case used before (gamma = 0.001, mu2 = 1e4, H2 = H = 1,
+    k = 0.05, Re >= 1e-6) was the zero test of the contour, not a root on it: the nearest
+    root, -1.66e-6 + 9.827i, is outside the region, and since session 12 (the zero test
+    against the median sample) that count closes; no cheap genuine failure of the two-body
+    count is known."""
+    inject = tmp_path / "inject"
+    inject.mkdir()
+    (inject / "sitecustomize.py").write_text(COUNT_FAILS)
     out = tmp_path / "c"
     proc = run_workflow("contrast.py", ["--mu2-grid", "10000", "--H2s", "H", "--H", "1",
                                         "--gamma", "0.001", "--Delta", "0.75", "--k", "0.05",
                                         "--re-min", "1e-6", "--c-max", "4",
-                                        "--out", str(out)])
+                                        "--out", str(out)], prepend=[inject])
     with open(out / "contrast.csv") as fh:
         rows = list(csv.DictReader(fh))
     assert [int(r["failed_counts"]) for r in rows] == [1]

@@ -197,7 +197,9 @@ def test_scene_serial_and_mpi(tmp_path):
     with np.load(tmp_path / "np1" / "interface_0000.npz") as a, \
             np.load(tmp_path / "np2" / "interface_0000.npz") as b:
         dv1, dv2 = a["v"] - 1.0, b["v"] - 1.0
-        assert np.array_equal(a["x"], b["x"])
+        # the interface's coordinates: bit for bit on the AVX2 machine of sessions 5-11, one
+        # unit in the last place apart on session 12's AVX-512 one (8.9e-16 at x = pi)
+        assert np.max(np.abs(a["x"] - b["x"])) <= 1e-13 * np.max(np.abs(a["x"]))
         assert np.max(np.abs(dv1 - dv2)) < 1e-9 * np.max(np.abs(dv1))
 
 

@@ -164,3 +164,22 @@ def test_stress_top_grows_slower_than_velocity_top():
         peak[bc] = b.Lambda.real.max()
     # measured 2026-11-21: peaks 0.325 (velocity) and 0.133 (stress) on this grid
     assert peak["stress"] < 0.6 * peak["velocity"]
+
+
+def test_det_m_loses_accuracy_next_to_the_origin_at_large_k():
+    """The README's reason for the stability map's failed counts at H = 0.1 (k = 100): on the
+    region's edge Re Lambda = 1e-6 and its nudged copies (0.97e-6 .. 1.3e-6), det_M at
+    Im Lambda = 0 stands out from its neighbours (|Im| <= 1e-4) by 1e-4 .. 7e-4 at k = 1,
+    0.6 .. 5 % at k = 10 and by a factor of 2 .. 9 at k = 100 (measured; rounding noise: k_s and
+    k_d round to k and the columns cancel). Characterises a known limit: if det_M is made
+    accurate there, this fails and the README's paragraph must change."""
+    p = Params(H=0.1, Delta=-1.0)
+    y = np.linspace(-1e-4, 1e-4, 9)
+
+    def jump(re: float, k: float) -> float:
+        f = np.abs(det_M(re + 1j * y, k, p))
+        return abs(f[4] / np.median(np.delete(f, 4)) - 1.0)
+
+    edges = (0.97e-6, 1e-6, 1.03e-6, 1.3e-6)
+    assert max(jump(a, 1.0) for a in edges) < 1e-2
+    assert min(jump(a, 100.0) for a in edges) > 0.5

@@ -245,7 +245,68 @@ def det_M(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -> np.
         * (aL / L) ** SPURIOUS_ORDER_AT_ZERO
     weight = (hs / (1.0 + hs)) * (hd / (1.0 + hd)) \
         * (aL / (aL + kk + 1.0 / H)) ** SPURIOUS_ORDER_AT_ZERO
-    return row_normalised_det(M) * phase / weight
+    rnd = row_normalised_det(M)
+    near = aL < NEAR_ORIGIN * kk
+    if np.any(near):
+        shape = np.shape(rnd)
+        flat = np.array(rnd, dtype=complex).reshape(-1)
+        Lf, kf = np.broadcast_to(L, shape).reshape(-1), np.broadcast_to(kk, shape).reshape(-1)
+        Mf = np.broadcast_to(M, shape + (4, 4)).reshape(-1, 4, 4)
+        for i in np.flatnonzero(np.broadcast_to(near, shape)):
+            flat[i] = _det_near_origin(complex(Lf[i]), float(kf[i]), p, Mf[i])
+        rnd = flat.reshape(shape)
+    return rnd * phase / weight
+
+
+#: ``|Lambda| < NEAR_ORIGIN k``: :func:`det_M` takes the determinant in extended precision.
+#: There the partial-wave columns cancel (``det`` vanishes like ``Lambda^4``, removed by the
+#: normalisation) and ``k_s``, ``k_d`` round towards ``k``: in double precision the normalised
+#: value at ``Lambda = 1e-6`` stood out from its neighbours by a factor of 2 to 9 at ``k = 100``
+#: (``H = 0.1``), and the stability map's counts failed there (session 12).
+NEAR_ORIGIN = 1e-2
+
+
+def _det_near_origin(L: complex, k: float, p: Params, M: np.ndarray) -> complex:  # noqa: N803
+    """``row_normalised_det(M)`` at one point next to the origin, the determinant in mpmath.
+
+    The elastic entries are recomputed from ``L`` with ``20 + 4 log10(k/|L|)`` digits (the
+    cancellation loses about four decades per decade of ``k/|L|``); the friction coefficients
+    and the row norms are taken in double precision from ``M`` (the determinant is linear in
+    the friction row, whose own rounding is not amplified: that row cancels like the others).
+    """
+    import mpmath
+
+    dps = int(20 + 4 * math.log10(max(k / abs(L), 10.0)))
+    with mpmath.workdps(dps):
+        Lm, km, H = mpmath.mpc(L), mpmath.mpf(k), mpmath.mpf(p.H)
+        ks = mpmath.sqrt(Lm * Lm + km * km)
+        kd = mpmath.sqrt(mpmath.mpf(p.beta) ** 2 * Lm * Lm + km * km)
+        es, ed = mpmath.exp(-H * ks), mpmath.exp(-H * kd)
+        P = Lm * Lm + 2 * km * km
+        j = mpmath.mpc(0, 1)
+        vt = [es, j * ed, mpmath.mpf(1), j]
+        dt = [-ks * es, -j * kd * ed, ks, j * kd]
+        swap = [2, 3, 0, 1]
+        vb, db = [vt[c] for c in swap], [-dt[c] for c in swap]
+        a, b, c = (complex(x) for x in np.ravel(FrictionLaw.from_params(p).row(np.array(L))))
+        a, b, c = mpmath.mpc(a), mpmath.mpc(b), mpmath.mpc(c)
+        rows = [[None] * 4 for _ in range(4)]
+        for col in range(4):
+            psi = col % 2 == 0
+            if p.bc == "velocity":  # u_x at the top
+                rows[0][col] = dt[col] if psi else -j * km * vt[col]
+            else:  # s_xy at the top
+                rows[0][col] = P * vt[col] if psi else -2 * j * km * dt[col]
+            rows[1][col] = 2 * j * km * dt[col] if psi else P * vt[col]  # s_yy at the top
+            rows[2][col] = j * km * vb[col] if psi else db[col]  # u_y at the bottom
+            if psi:  # friction at the bottom: a s_xy + b s_yy + c u_x
+                rows[3][col] = a * (P * vb[col]) + b * (2 * j * km * db[col]) + c * db[col]
+            else:
+                rows[3][col] = a * (-2 * j * km * db[col]) + b * (P * vb[col]) \
+                    + c * (-j * km * vb[col])
+        det = complex(mpmath.det(mpmath.matrix(rows)))
+    norms = np.sqrt(np.add.reduce((M.conj() * M).real, axis=-1))
+    return det / float(np.multiply.reduce(norms))
 
 
 def row_normalised_det(M: np.ndarray, Lambda: np.ndarray | complex | None = None,  # noqa: N803

@@ -4,6 +4,7 @@ against independent root counts and roots of det_M."""
 import csv
 import json
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -169,3 +170,27 @@ def test_adaptive_region_climbs_and_proves_at_an_unstable_point():
     # independent: the exact fastest roots quoted by issue 17 (det_M, zeros_in_box by hand)
     assert fixed["re_lambda"] == pytest.approx(0.2961604, abs=1e-7)
     assert auto["re_lambda"] == pytest.approx(0.3170864, abs=1e-7)
+
+
+#: The README's committed maps (stability_map.py --x Delta:-1:1:9 --y H:0.1:10:7log --nk 16).
+RESULTS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+                       "workflows", "results")
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("top, lo, hi", [("velocity", 0.167, 0.183), ("stress", 0.177, 0.191)])
+def test_committed_maps_close_every_count_and_their_h0_1_row_is_the_fastest_root(top, lo, hi):
+    """The README's reading of the committed maps: no failed count (12 and 18 before det_M's
+    extended precision next to the origin), ``H max Re Lambda`` within the README's range for
+    ``H <= 1`` (rounded to 5e-4), and the ``H = 0.1`` row's value at ``Delta = -1``
+    recomputed by ``fastest_root`` with the adaptive region at its ``k`` (1e-8: both polish the
+    same root)."""
+    rows = _rows(Path(RESULTS) / f"stability_map_{top}")
+    assert len(rows) == 63 and all(int(r["failed_counts"]) == 0 for r in rows)
+    hmax = [float(r["y"]) * float(r["re_lambda"]) for r in rows if float(r["y"]) <= 1.0 + 1e-9]
+    assert lo - 5e-4 <= min(hmax) and max(hmax) <= hi + 5e-4
+    r = next(r for r in rows if r["ix"] == "0" and r["iy"] == "0")  # Delta = -1, H = 0.1
+    p = Params(bc=top, Delta=float(r["x"]), H=float(r["y"]))
+    z = complex(float(r["re_lambda"]), float(r["im_lambda"]))
+    zf = fastest_root(p, float(r["k"]), Region(1e-6, 2.0, None))[0]
+    assert abs(zf - z) <= 1e-8 * abs(z)

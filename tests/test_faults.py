@@ -439,10 +439,11 @@ def test_rank_killed_at_a_random_point(tmp_path, seed):
     """
     rng = random.Random(seed)
     out = tmp_path / "out"
-    # 240 k values up to k = 4: the run is still computing at the latest kill (12 s): 17.7 s on
-    # the idle machine (2026-11-25). 64 up to k = 2 took 6.7 s once the sweep got faster, and
-    # a CI run killed it while exiting (no stop line)
-    proc = _start("sweep_k.py", ["--k", "0.5:4:240", "--out", str(out)], tmp_path, nproc=2)
+    # 600 k values up to k = 4: the run must still be computing at the latest kill (12 s).
+    # 240 took 17.7 s on session 11's idle machine, but about 10 s on session 12's faster one,
+    # where seed 0's kill at 10.3 s came as the run was exiting (no stop line: the known race
+    # of a rank killed at exit). 64 up to k = 2 had failed the same way at 6.7 s before.
+    proc = _start("sweep_k.py", ["--k", "0.5:4:600", "--out", str(out)], tmp_path, nproc=2)
     try:
         time.sleep(rng.uniform(1.0, 12.0))
         ranks = [int(p) for p in os.listdir("/proc") if p.isdigit() and _is_rank(int(p), proc)]

@@ -25,19 +25,25 @@ for _n in ("fastest_mode", "region_at_k", "regions_at_k"):
 
 
 class _Fake:
-    """A stand-in for a rung's CertifiedSolver: its fastest Re Lambda is ``fastest[c]``."""
+    """A stand-in for a rung's CertifiedSolver: its fastest Re Lambda is ``fastest[c]``.
 
-    def __init__(self, fastest: dict, calls: list) -> None:
-        self.fastest, self.calls = fastest, calls
+    Nested like a spectrum: the solve of rung ``c`` returns, for every rung ``b <= c``, a row
+    of ``Re = fastest[b]`` just inside ``W(b)``, so that the rows of a larger rung say what a
+    smaller one holds."""
 
-    def __call__(self, c: float) -> "_Fake":
+    def __init__(self, fastest: dict, calls: list, p: Params | None = None) -> None:
+        self.fastest, self.calls, self.p = fastest, calls, p or Params()
+
+    def __call__(self, c: float, k: float | None = None) -> "_Fake":
         self.c = c
         return self
 
     def solve(self, k: float, fams: list, region: Region) -> KResult:
         self.calls.append(region.c_max)
-        re = self.fastest[region.c_max]
-        return KResult(k, [] if re is None else [{"re_lambda": re}], closed=True)
+        rows = [{"re_lambda": self.fastest[b],
+                 "im_lambda": 0.99 * region.fixed(b).im_max(self.p, k)}
+                for b in self.fastest if b <= region.c_max and self.fastest[b] is not None]
+        return KResult(k, rows, closed=True)
 
 
 @pytest.mark.serial  # pure numpy
@@ -50,17 +56,46 @@ def test_climb_accepts_the_first_rung_whose_tail_bound_is_below_the_fe_value(bc,
     fast = 0.5 * (tb[C_LADDER[1]] + tb[C_LADDER[2]])
     assert tb[C_LADDER[2]] < fast < tb[C_LADDER[1]]
     calls: list = []
-    res, c = sweep.climb(p, region, k, [], _Fake({c: fast for c in C_LADDER}, calls))
-    assert c == C_LADDER[2] and res.rows[0]["re_lambda"] == fast
+    res, c = sweep.climb(p, region, k, [], _Fake({c: fast for c in C_LADDER}, calls, p))
+    assert c == C_LADDER[2] and max(r["re_lambda"] for r in res.rows) == fast
     assert calls[-1] == C_LADDER[2] and calls[0] == C_LADDER[0]
     # nothing in any rung: the region's re_min decides
     calls.clear()
-    res, c = sweep.climb(p, region, k, [], _Fake({c: None for c in C_LADDER}, calls))
+    res, c = sweep.climb(p, region, k, [], _Fake({c: None for c in C_LADDER}, calls, p))
     assert tail_bound(p, k, region.fixed(c).im_max(p, k)) < region.re_min or c == C_LADDER[-1]
     # a fixed region is solved once
     calls.clear()
-    sweep.climb(p, Region(c_max=6.0), k, [], _Fake({6.0: -1.0}, calls))
+    sweep.climb(p, Region(c_max=6.0), k, [], _Fake({6.0: -1.0}, calls, p))
     assert calls == [6.0]
+
+
+@pytest.mark.serial  # pure numpy
+@pytest.mark.parametrize("k", [2.0, 6.0])
+@pytest.mark.parametrize("bc", ["velocity", "stress"])
+@pytest.mark.parametrize("start", [1, 2, 4])
+def test_a_warm_climb_accepts_the_cold_climbs_rung(bc, k, start):
+    """climb(start=c): the rung the cold climb accepts (here C_LADDER[2]), from a warm start
+    below it, at it or above it; solved: the start and the rung accepted (and any rung between
+    them climbed through), never the rungs below the start that it only reads."""
+    p, region = Params(bc=bc), Region(c_max=None)
+    tb = {c: tail_bound(p, k, region.fixed(c).im_max(p, k)) for c in C_LADDER}
+    fast = 0.5 * (tb[C_LADDER[1]] + tb[C_LADDER[2]])
+    # the fastest value grows at rung 2 (a faster root beyond W of rung 1, none beyond rung 2),
+    # and the slower one of rungs 0, 1 is still above rung 2's bound: the cold climb solves
+    # rung 0, skips rung 1 and accepts rung 2. Beyond rung 3 a root faster than every bound: a
+    # warm start there that read its fastest value without the |Im| <= W(c) filter would accept
+    # rung 0
+    slower = 0.5 * (tb[C_LADDER[2]] + fast)
+    fastest = {c: slower if c < C_LADDER[2] else fast if c < C_LADDER[4] else 2 * tb[C_LADDER[0]]
+               for c in C_LADDER}
+    cold: list = []
+    res0, c0 = sweep.climb(p, region, k, [], _Fake(fastest, cold, p))
+    assert c0 == C_LADDER[2] and cold == [C_LADDER[0], C_LADDER[2]]
+    warm: list = []
+    res, c = sweep.climb(p, region, k, [], _Fake(fastest, warm, p), start=C_LADDER[start])
+    assert c == c0 and res.rows == res0.rows
+    assert warm[0] == C_LADDER[start] and warm[-1] == c0
+    assert len(warm) == (1 if start == 2 else 2)
 
 
 @pytest.mark.serial  # starts scenes
@@ -91,3 +126,26 @@ def test_fe_climbs_to_the_same_region_without_analytic(tmp_path, nproc):
     with open(os.path.join(out, "summary.json")) as fh:
         assert json.load(fh)["discretisation"]["per_rung"][-1]["c_max"] == max(
             d["c_max"] for d in sb["per_k"])
+
+
+@pytest.mark.serial  # pure numpy
+@pytest.mark.parametrize("k_max", [6.0, 100.0])
+@pytest.mark.parametrize("bc", ["velocity", "stress"])
+def test_the_mesh_of_a_k_is_never_coarser_than_the_rule_at_that_k(bc, k_max):
+    """RungSolvers.mesh_k: planned at k rounded up to k_max MESH_K_RATIO^-j (within a ratio of
+    MESH_K_RATIO above k, k_max itself at the top), so each rung's cells at k are at least the
+    rule's at k and at most its at MESH_K_RATIO k, or MIN_CELLS (capped by the k_max mesh)."""
+    from forms.solvers.certified import default_discretisation
+
+    p, region = Params(bc=bc), Region(c_max=None)
+    rungs = sweep.RungSolvers(p, region, k_max, 1e-8, (0, 0, 0.0))
+    assert rungs.mesh_k(k_max) == k_max and rungs.mesh_k(None) == k_max
+    for k in [0.05 * k_max, 0.3 * k_max, k_max / sweep.MESH_K_RATIO, 0.99 * k_max, k_max]:
+        km = rungs.mesh_k(k)
+        assert k <= km * (1 + 1e-12) and km < sweep.MESH_K_RATIO * k * (1 + 1e-12)
+        for c in C_LADDER:
+            cells = rungs.discretisation(c, k)[1]
+            rule = default_discretisation(p, region.fixed(c), k, 1e-8)[1]
+            finer = default_discretisation(p, region.fixed(c), sweep.MESH_K_RATIO * k, 1e-8)[1]
+            top = default_discretisation(p, region.fixed(c), k_max, 1e-8)[1]
+            assert rule <= cells <= max(finer, min(top, sweep.MIN_CELLS)) and cells <= top

@@ -127,7 +127,6 @@ def test_distributed_solve_equals_the_serial_solve_and_resumes(tmp_path):
     folder = comm.bcast(str(tmp_path) if comm.rank == 0 else None)
     parts = Parts(os.path.join(folder, "raw"), "k{:05d}")
     p, region, k = Params(H=0.5), Region(), np.array([0.5, 1.5, 2.5])
-    disc = default_discretisation(p, region, float(k[-1]), 1e-8)
 
     def pending(resumed):
         return parts.begin(comm, resumed, count=len(k)).todo
@@ -146,11 +145,14 @@ def test_distributed_solve_equals_the_serial_solve_and_resumes(tmp_path):
     assert share.k_values == len(mine) == len(calls) and share.unknowns > 0
     comm.Barrier()
     results = [sweep.k_result_from_json(d) for d in parts.load_all().values()]
-    solver = CertifiedSolver(p, region, *disc, float(k[-1]), 1e-8)
-    try:
-        serial = [solver.solve(float(kk), fams) for kk in k]
-    finally:
-        solver.destroy()
+    serial = []
+    for kk in k:  # each k on the mesh the sweep plans for it (RungSolvers.mesh_k)
+        disc = rungs.discretisation(region.c_max, float(kk))
+        solver = CertifiedSolver(p, region, *disc, rungs.mesh_k(float(kk)), 1e-8)
+        try:
+            serial.append(solver.solve(float(kk), fams))
+        finally:
+            solver.destroy()
     for a, b in zip(results, serial, strict=True):
         assert a.k == b.k and a.closed and b.closed and a.n_fe == b.n_fe
         assert [r["label"] for r in a.rows] == [r["label"] for r in b.rows]

@@ -242,7 +242,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         if bar is not None:
             bar.close()
         times = comm.gather({"rank": comm.rank, "families_s": t_fam, "solve_s": share.seconds,
-                             "k_values": share.k_values, "unknowns": share.rungs})
+                             "k_values": share.k_values, "unknowns": share.rungs,
+                             "cells": share.rung_cells})
         comm.Barrier()
         code = 0
         if comm.rank == 0:

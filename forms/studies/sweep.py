@@ -46,7 +46,13 @@ from analytic.numerics.spectrum import (
 from analytic.params import ParameterError, Params
 from analytic.physics.tail import SCALE_CAP, tail_bound, velocity_scale, why_no_tail_bound
 from forms.models.profiles import SliderMaterial
-from forms.solvers.certified import CertifiedSolver, KResult, continue_fe, default_discretisation
+from forms.solvers.certified import (
+    CertifiedSolver,
+    KResult,
+    continue_fe,
+    default_discretisation,
+    substrate_cells,
+)
 
 #: What ``summary.json`` says the certificate of the most unstable eigenvalue states, per mode
 #: ``(solver, check_exact)``.
@@ -405,7 +411,9 @@ class ShareRun:
         k_values: Number of ``k`` solved.
         unknowns: Unknowns of the degree-``p`` model (the largest rung's used here).
         substrate_cells: Cells of the substrate mesh (0: rigid substrate).
-        rungs: Unknowns of the degree-``p`` model per bound ``c`` used here.
+        rungs: Unknowns of the degree-``p`` model per bound ``c`` used here (its largest
+            mesh: :class:`RungSolvers` plans one per ``k``).
+        rung_cells: Cells of that mesh per bound ``c``.
     """
 
     seconds: float
@@ -413,14 +421,29 @@ class ShareRun:
     unknowns: int
     substrate_cells: int
     rungs: dict[float, int] = field(default_factory=dict)
+    rung_cells: dict[float, int] = field(default_factory=dict)
+
+
+#: Ratio between the wavenumbers a sweep's meshes are planned for (:meth:`RungSolvers.mesh_k`).
+MESH_K_RATIO = 1.25
+#: Cells below which a per-``k`` mesh is not made smaller (:meth:`RungSolvers.discretisation`):
+#: a solve on so few cells takes 0.05-0.16 s (stress top, 16-48 cells) and a new mesh 0.07-0.1 s
+#: to build, so smaller meshes cost more than they save (measured, session 13: the velocity
+#: sweep, 40 cells at ``k_max``, took 0.82x the CPU with a mesh per ``k`` bucket down to 14 cells).
+MIN_CELLS = 48
 
 
 class RungSolvers:
-    """One :class:`forms.solvers.certified.CertifiedSolver` per phase-velocity bound ``c``.
+    """The :class:`forms.solvers.certified.CertifiedSolver` of each rung ``c`` at each ``k``.
 
-    Each rung's mesh is planned for that rung's region (``default_discretisation`` at the
-    sweep's largest ``k``) unless the user fixed the degree or the cells; built when first
-    asked for, on ``COMM_SELF``. Not collective.
+    The mesh of rung ``c`` at ``k`` is planned for that rung's region at ``k`` rounded up to
+    the grid ``k_max MESH_K_RATIO^-j`` (:meth:`mesh_k`; ``default_discretisation``), but not
+    below :data:`MIN_CELLS` cells (nor above the mesh of ``k_max``), unless the user fixed the
+    degree or the cells: never coarser than the rule asks at ``k``, and the sweep's largest
+    ``k`` gets the mesh of the rule at ``k_max`` itself. Planning every rung for ``k_max`` instead (before session 13) solved
+    ``k = 0.05`` of the stress top's 32 ``c_d`` rung on the 220 cells of ``k = 6`` where 16
+    meet the rule (2.2 s against 0.05 s). Solvers are shared by the ``(c, k)`` that plan the
+    same mesh, built when first asked for, on ``COMM_SELF``. Not collective.
 
     Args:
         params: Parameters.
@@ -439,49 +462,87 @@ class RungSolvers:
         self.params, self.region, self.k_max, self.rtol = params, region, k_max, rtol
         self.fixed, self.material = fixed, material
         self.check_exact, self.solver = check_exact, solver
-        self.solvers: dict[float, CertifiedSolver] = {}
+        self.solvers: dict[tuple, CertifiedSolver] = {}
+        #: The largest ``(cells, unknowns)`` used per rung ``c``.
+        self.largest: dict[float, tuple[int, int]] = {}
 
-    def discretisation(self, c: float) -> tuple[int, int, float]:
-        """``(degree, cells, ratio)`` of rung ``c``."""
-        degree, cells, ratio = default_discretisation(self.params, self.region.fixed(c),
-                                                      self.k_max, self.rtol)
+    def mesh_k(self, k: float | None) -> float:
+        """The wavenumber a mesh for ``k`` is planned for: ``k_max MESH_K_RATIO^-j >= k``."""
+        if k is None or not k < self.k_max:
+            return self.k_max
+        j = math.floor(math.log(self.k_max / k) / math.log(MESH_K_RATIO) + 1e-12)
+        return self.k_max * MESH_K_RATIO ** -j
+
+    def discretisation(self, c: float, k: float | None = None) -> tuple[int, int, float]:
+        """``(degree, cells, ratio)`` of rung ``c`` at ``k`` (``None``: the sweep's ``k_max``)."""
+        reg = self.region.fixed(c)
+        degree, cells, ratio = default_discretisation(self.params, reg, self.mesh_k(k), self.rtol)
+        top = default_discretisation(self.params, reg, self.k_max, self.rtol)[1]
+        cells = max(cells, min(top, MIN_CELLS))
         return self.fixed[0] or degree, self.fixed[1] or cells, self.fixed[2] or ratio
 
-    def __call__(self, c: float) -> CertifiedSolver:
-        """The solver of rung ``c``."""
-        if c not in self.solvers:
-            degree, cells, ratio = self.discretisation(c)
-            self.solvers[c] = CertifiedSolver(
-                self.params, self.region.fixed(c), degree, cells, ratio, self.k_max, self.rtol,
+    def __call__(self, c: float, k: float | None = None) -> CertifiedSolver:
+        """The solver of rung ``c`` at ``k`` (``None``: the mesh of ``k_max``)."""
+        km = self.mesh_k(k)
+        disc = self.discretisation(c, k)
+        cells2 = (substrate_cells(self.params, self.region.fixed(c), km, self.rtol)
+                  if self.params.two_body else 0)
+        key = (*disc, cells2)
+        if key not in self.solvers:
+            self.solvers[key] = CertifiedSolver(
+                self.params, self.region.fixed(c), *disc, km, self.rtol,
                 self.material, check_exact=self.check_exact, solver=self.solver)
-        return self.solvers[c]
+        cs = self.solvers[key]
+        if disc[1] > self.largest.get(c, (0, 0))[0]:
+            self.largest[c] = (disc[1], cs.unknowns)
+        return cs
 
     def destroy(self) -> None:
-        """Free every rung's solver."""
+        """Free every solver."""
         for cs in self.solvers.values():
             cs.destroy()
         self.solvers.clear()
 
 
 def climb(params: Params, region: Region, k: float, fams: list[BranchResult],
-          rungs: Callable[[float], CertifiedSolver]) -> tuple[KResult, float]:
+          rungs: Callable[[float, float], CertifiedSolver], start: float | None = None
+          ) -> tuple[KResult, float]:
     """The FE's own provable region at ``k``: the certified spectrum of the rung it accepts.
 
     :func:`analytic.numerics.spectrum.provable_region` with the fastest FE eigenvalue of each
-    rung (solved by ``rungs(c)``) as ``fastest_inside``: the FE decides how far the region
+    rung (solved by ``rungs(c, k)``) as ``fastest_inside``: the FE decides how far the region
     grows, no exact root is consulted for it. A fixed region is solved once.
+
+    ``start`` (a warm start, e.g. the rung accepted at the previous ``k``): that rung is solved
+    first, and the climb then asks for the rungs below it as before, each answered from the
+    start rung's eigenvalues with ``|Im| <= W(c)`` when its count closed (the same values to
+    the discretisation error: the same decisions); only the rung accepted and any rung above
+    the start are solved. The rung accepted is the one of the cold climb; on a run of ``k``
+    that accept the same rung one solve per ``k`` instead of two (stress top, defaults: the
+    4 ``c_d`` rung, then 12 or 16).
 
     Returns:
         ``(result, c)``: the result at the accepted rung ``c``.
     """
     got: dict[float, KResult] = {}
 
-    def fastest_inside(c: float) -> float | None:
-        got[c] = rungs(c).solve(k, fams, region.fixed(c))
-        return max((r["re_lambda"] for r in got[c].rows), default=None)
+    def solve(c: float) -> KResult:
+        if c not in got:
+            got[c] = rungs(c, k).solve(k, fams, region.fixed(c))
+        return got[c]
 
+    def fastest_inside(c: float) -> float | None:
+        above = [b for b in got if b > c and got[b].closed]
+        if c not in got and above:
+            w = region.fixed(c).im_max(params, k)
+            return max((r["re_lambda"] for r in got[min(above)].rows
+                        if abs(r["im_lambda"]) <= w), default=None)
+        return max((r["re_lambda"] for r in solve(c).rows), default=None)
+
+    if start is not None and region.c_max is None:
+        solve(start)
     c, _ = provable_region(params, k, region, fastest_inside)
-    return got[c], c
+    return solve(c), c
 
 
 def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.ndarray,
@@ -512,41 +573,53 @@ def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.nda
     """
     t0 = time.perf_counter()
     track = rungs.material is not None and not rungs.check_exact
+    start = None
     try:
-        for i in mine:
+        for i in sorted(mine):  # in k: each climb starts at the previous k's rung
             if c_max_at_k is not None:
                 c = c_max_at_k[i]
-                res = rungs(c).solve(float(k[i]), fams, region.fixed(c))
+                res = rungs(c, float(k[i])).solve(float(k[i]), fams, region.fixed(c))
             else:
-                res, c = climb(params, region, float(k[i]), fams, rungs)
+                res, c = climb(params, region, float(k[i]), fams, rungs, start)
+                start = c
             if track and i + 1 < len(k):
-                continue_rows(rungs(c), res, float(k[i + 1]))
+                continue_rows(rungs(c, float(k[i + 1])), res, float(k[i + 1]))
             save(i, res.as_dict() | {"c_max": c})
             if progress is not None:
                 progress()
-        sizes = {c: cs.unknowns for c, cs in rungs.solvers.items()}
+        sizes = {c: n for c, (_, n) in rungs.largest.items()}
         cells2 = max((cs.cells2 for cs in rungs.solvers.values()), default=0)
     finally:
         rungs.destroy()
     return ShareRun(time.perf_counter() - t0, len(mine), max(sizes.values(), default=0), cells2,
-                    sizes)
+                    sizes, {c: m for c, (m, _) in rungs.largest.items()})
 
 
 def rung_table(rungs: RungSolvers, used: Sequence[float], per_rank: list[dict]) -> dict:
     """``summary.json`` discretisation keys of the rungs used: cells and unknowns per bound.
 
+    Each rung's mesh is planned per ``k`` (:class:`RungSolvers`); the table gives its largest,
+    over every rank.
+
     Args:
         rungs: The solvers per bound (only their rule is read).
         used: The bound each ``k`` used (``c_max`` of its saved result).
-        per_rank: Each rank's ``{"unknowns": {c: n}}`` (:attr:`ShareRun.rungs`).
+        per_rank: Each rank's ``{"unknowns": {c: n}, "cells": {c: m}}`` (:attr:`ShareRun.rungs`,
+            :attr:`ShareRun.rung_cells`).
     """
     sizes: dict[float, int] = {}
+    cells: dict[float, int] = {}
     for d in per_rank:
-        sizes |= d["unknowns"]
-    table = [{"c_max": c, "degree": d[0], "cells": d[1], "unknowns": sizes.get(c),
+        for c, n in d["unknowns"].items():
+            sizes[c] = max(n, sizes.get(c, 0))
+        for c, m in d.get("cells", {}).items():
+            cells[c] = max(m, cells.get(c, 0))
+    table = [{"c_max": c, "degree": d[0], "cells": cells.get(c, d[1]), "unknowns": sizes.get(c),
               "k_values": sum(1 for u in used if u == c)}
              for c in sorted(set(used)) for d in [rungs.discretisation(c)]]
-    return {"unknowns": max((r["unknowns"] or 0 for r in table), default=0), "per_rung": table}
+    return {"unknowns": max((r["unknowns"] or 0 for r in table), default=0), "per_rung": table,
+            "mesh_per_k": (f"each rung's mesh planned at k rounded up to k_max * "
+                           f"{MESH_K_RATIO}^-j; the table gives the largest")}
 
 
 def region_referee(k: np.ndarray, used: Sequence[float], exact: Sequence[float], by: str

@@ -13,7 +13,8 @@ paired per ``k`` in the order of ``Im``, then ``Re``) and the largest absolute d
 error estimates. Prints one line per case; exit 1 if a count, a status or a certificate differs.
 
 Cases (``--case``, default all): ``velocity`` (the default grid, 120 k, adaptive region),
-``stress`` (the default grid, ``--c-max 4``), ``k50`` (``--k 50,51 --c-max 4``, velocity top).
+``stress`` (the default grid, ``--c-max 4``), ``stress_auto`` (the default grid, adaptive
+region: 8-32 ``c_d``), ``k50`` (``--k 50,51 --c-max 4``, velocity top).
 ``--new WORKTREE`` times the files of this checkout as they are, uncommitted edits included.
 """
 
@@ -33,6 +34,7 @@ ROOT = os.path.dirname(os.path.dirname(HERE))
 CASES = {
     "velocity": [],
     "stress": ["--bc", "stress", "--c-max", "4"],
+    "stress_auto": ["--bc", "stress"],
     "k50": ["--k", "50,51", "--c-max", "4"],
 }
 

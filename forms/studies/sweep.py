@@ -442,8 +442,9 @@ class RungSolvers:
     degree or the cells: never coarser than the rule asks at ``k``, and the sweep's largest
     ``k`` gets the mesh of the rule at ``k_max`` itself. Planning every rung for ``k_max``
     instead (before session 13) solved ``k = 0.05`` of the stress top's 32 ``c_d`` rung on
-    the 220 cells of ``k = 6`` where 16 meet the rule (2.2 s against 0.05 s). Solvers are shared by the ``(c, k)`` that plan the
-    same mesh, built when first asked for, on ``COMM_SELF``. Not collective.
+    the 220 cells of ``k = 6`` where 16 meet the rule (2.2 s against 0.05 s). Solvers are
+    shared by the ``(c, k)`` that plan the same mesh, built when first asked for, on
+    ``COMM_SELF``. Not collective.
 
     Args:
         params: Parameters.

@@ -182,7 +182,7 @@ def test_det_m_next_to_the_origin_in_double_precision_fails_at_large_k(monkeypat
     """The reason for the stability map's failed counts at H = 0.1, k = 100 before session 12:
     in double precision det_M at Lambda = 1e-6 + 0i stood out from its neighbours by 1e-4 ..
     7e-4 at k = 1 and by a factor of 2 .. 9 at k = 100 (k_s and k_d round to k; the columns
-    cancel). Measured with the extended-precision path switched off."""
+    cancel). Measured with the near-origin path switched off."""
     monkeypatch.setattr(finite_h, "NEAR_ORIGIN", 0.0)
     p = Params(H=0.1, Delta=-1.0)
     assert max(_jump(p, a, 1.0) for a in EDGES) < 1e-2
@@ -192,11 +192,13 @@ def test_det_m_next_to_the_origin_in_double_precision_fails_at_large_k(monkeypat
 @pytest.mark.parametrize("params", [dict(H=0.1, Delta=-1.0), dict(bc="stress"),
                                     dict(bc="stress", alpha_pc=1.0), dict(alpha_ld=0.3)])
 def test_det_m_next_to_the_origin_is_smooth_and_continuous(params, monkeypatch):
-    """With the determinant in extended precision for ``|Lambda| < NEAR_ORIGIN k`` the same
-    edges are smooth (measured: the value at Im = 0 within 2.2e-5 of its neighbours', the
-    function's own variation over |Im| <= 1e-4), and at ``|Lambda| = 0.9 NEAR_ORIGIN k``,
+    """With the divided-difference determinant for ``|Lambda| < NEAR_ORIGIN k`` (extended
+    precision, mpmath, in session 12) the same edges are smooth: the value at Im = 0 within
+    8.2e-5 of its neighbours' over these four parameter sets (session 13; that is the function's
+    own variation over |Im| <= 1e-4: the path equals an mpmath determinant to 5e-15, below),
+    against a factor of 2-9 in plain double precision; and at ``|Lambda| = 0.9 NEAR_ORIGIN k``,
     where double precision is still accurate, the two computations agree (measured: at most
-    2.3e-10 relative over five parameter sets and k = 0.05 .. 100)."""
+    2.9e-10 relative, k = 0.05 .. 100)."""
     p = Params(**params)
     for k in (1.0, 10.0, 100.0):
         assert max(_jump(p, a, k) for a in EDGES) < 1e-4
@@ -207,3 +209,72 @@ def test_det_m_next_to_the_origin_is_smooth_and_continuous(params, monkeypatch):
         double = det_M(L, k, p)
         monkeypatch.undo()
         assert np.max(np.abs(extended - double) / np.abs(double)) < 1e-9
+
+
+def _det_extended(L: complex, k: float, p: Params) -> complex:  # noqa: N803
+    """``row_normalised_det`` of the partial-wave matrix at one point, the determinant in mpmath.
+
+    An independent reference for det_M next to the origin (det_M's own path there before
+    session 13): the elastic entries from ``L`` with ``30 + 4 log10(k/|L|)`` digits (the
+    partial-wave pairs cancel by about four decades per decade of ``k/|L|``), the friction
+    coefficients in double precision (the determinant is linear in that row), the row norms of
+    the double-precision matrix.
+    """
+    import mpmath
+
+    from analytic.law import FrictionLaw
+
+    ks0, kd0 = finite_h.wavenumbers(np.array(L), k, p.beta)
+    M = finite_h._waves_matrix(np.array(L), k, ks0, kd0, p)  # noqa: N806
+    dps = int(30 + 4 * math.log10(max(k / abs(L), 10.0)))
+    with mpmath.workdps(dps):
+        Lm, km, H = mpmath.mpc(L), mpmath.mpf(k), mpmath.mpf(p.H)  # noqa: N806
+        ks = mpmath.sqrt(Lm * Lm + km * km)
+        kd = mpmath.sqrt(mpmath.mpf(p.beta) ** 2 * Lm * Lm + km * km)
+        es, ed = mpmath.exp(-H * ks), mpmath.exp(-H * kd)
+        P = Lm * Lm + 2 * km * km  # noqa: N806
+        j = mpmath.mpc(0, 1)
+        vt = [es, j * ed, mpmath.mpf(1), j]
+        dt = [-ks * es, -j * kd * ed, ks, j * kd]
+        swap = [2, 3, 0, 1]
+        vb, db = [vt[c] for c in swap], [-dt[c] for c in swap]
+        a, b, c = (mpmath.mpc(complex(x)) for x in
+                   np.ravel(FrictionLaw.from_params(p).row(np.array(L))))
+        rows = [[None] * 4 for _ in range(4)]
+        for col in range(4):
+            psi = col % 2 == 0
+            if p.bc == "velocity":  # u_x at the top
+                rows[0][col] = dt[col] if psi else -j * km * vt[col]
+            else:  # s_xy at the top
+                rows[0][col] = P * vt[col] if psi else -2 * j * km * dt[col]
+            rows[1][col] = 2 * j * km * dt[col] if psi else P * vt[col]  # s_yy at the top
+            rows[2][col] = j * km * vb[col] if psi else db[col]  # u_y at the bottom
+            if psi:  # friction at the bottom: a s_xy + b s_yy + c u_x
+                rows[3][col] = a * (P * vb[col]) + b * (2 * j * km * db[col]) + c * db[col]
+            else:
+                rows[3][col] = a * (-2 * j * km * db[col]) + b * (P * vb[col]) \
+                    + c * (-j * km * vb[col])
+        det = complex(mpmath.det(mpmath.matrix(rows)))
+    norms = np.sqrt(np.add.reduce((M.conj() * M).real, axis=-1))
+    return det / float(np.multiply.reduce(norms))
+
+
+@pytest.mark.parametrize("params", [dict(H=0.1, Delta=-1.0), dict(bc="stress"),
+                                    dict(bc="stress", alpha_pc=1.0), dict(alpha_ld=0.3),
+                                    dict(bc="stress", H=3.0, beta=0.3)])
+@pytest.mark.parametrize("k", [0.05, 1.0, 100.0])
+def test_det_m_next_to_the_origin_equals_the_extended_precision_determinant(params, k):
+    """det_M's divided-difference path (|Lambda| < NEAR_ORIGIN k, 1e-9 k .. 0.01 k in every
+    direction, and the stability map's edge Re = 1e-6 next to Im = 0) against the determinant
+    in mpmath: measured at most 5.4e-15 relative (session 13, five parameter sets, k = 0.05 ..
+    100); the plain double-precision determinant is off by up to a factor of 9 there (above)."""
+    p = Params(**params)
+    rng = np.random.default_rng(3)
+    L = k * 10 ** rng.uniform(-9, math.log10(0.99 * finite_h.NEAR_ORIGIN), 12) \
+        * np.exp(1j * rng.uniform(0, 2 * np.pi, 12))
+    L = np.concatenate([L, 1e-6 + 1j * np.linspace(-1e-4, 1e-4, 5)])
+    ks, kd = finite_h.wavenumbers(L, k, p.beta)
+    got = finite_h._det_near_origin(L, np.full(L.shape, k), ks, kd,
+                                    finite_h._waves_matrix(L, k, ks, kd, p), p)
+    ref = np.array([_det_extended(z, k, p) for z in L])
+    assert np.max(np.abs(got - ref) / np.abs(ref)) < 2e-14

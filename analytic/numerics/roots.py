@@ -498,6 +498,65 @@ def _split(box: Box, frac: float) -> tuple[Box, Box]:
     return (a, b, c, m), (a, b, m, d)
 
 
+#: :func:`zeros_in_box` scans a box holding at most this many zeros before bisecting it.
+SCAN_ZEROS = 4
+#: Points along each scan line, at most.
+SCAN_POINTS = 4096
+#: Deepest dips of a scan followed by Newton, and the vectorised Newton steps.
+SCAN_STARTS, SCAN_NEWTON = 256, 12
+
+
+def _scan(fun: ComplexFunction, b: Box, n: int, polish_at: Callable[[complex], Root]
+          ) -> list[Root] | None:
+    """``n`` distinct zeros inside the box ``b`` by Newton from the dips of ``|fun|``.
+
+    ``|fun|`` on lines along the long side (across it at 2 % .. 98 %, points a quarter of the
+    short side apart, one vectorised call); Newton from every local minimum at once
+    (:data:`SCAN_NEWTON` vectorised steps, central differences); the distinct end points inside
+    ``b`` are polished (:func:`polish`) until ``n`` distinct converged zeros lie inside ``b``.
+    With the box's count ``n`` they are all its zeros. ``None``: not found that way (the caller
+    bisects). Most dips belong to zeros just outside the box (the tall bands of the fastest-root
+    search have rows of slower zeros along their left edge), hence every dip at once.
+    """
+    a0, b0, c0, d0 = b
+    tall = (d0 - c0) >= (b0 - a0)
+    short, long_ = (b0 - a0, d0 - c0) if tall else (d0 - c0, b0 - a0)
+    m = int(min(SCAN_POINTS, max(64, math.ceil(4.0 * long_ / short) + 1)))
+    across = np.array([0.001, 0.02, 0.25, 0.5, 0.75, 0.98])
+    along = np.linspace(0.0, 1.0, m)
+    if tall:
+        z = (a0 + across[:, None] * short) + 1j * (c0 + along[None, :] * long_)
+    else:
+        z = (a0 + along[None, :] * long_) + 1j * (c0 + across[:, None] * short)
+    f = np.abs(_call(fun, z.ravel())).reshape(z.shape)
+    f = np.where(np.isfinite(f), f, np.inf)
+    dips = (f[:, 1:-1] <= f[:, :-2]) & (f[:, 1:-1] <= f[:, 2:])
+    rows, cols = np.nonzero(dips)
+    zz = z[rows, cols + 1][np.argsort(f[rows, cols + 1])][:SCAN_STARTS]
+    for _ in range(SCAN_NEWTON):  # every start at once: 5 points each per call
+        h = 6e-6 * np.maximum(np.abs(zz), 1e-3)
+        fv = _call(fun, np.concatenate([zz, zz + h, zz - h, zz + 1j * h, zz - 1j * h]))
+        f0, fp, fm, fi, fmi = fv.reshape(5, zz.size)
+        d = 0.5 * ((fp - fm) - 1j * (fi - fmi)) / (2 * h)
+        with np.errstate(all="ignore"):
+            step = np.where(d != 0, f0 / d, 0.0)
+        big = np.abs(step) > 0.25 * short  # damped: at most a quarter of the short side
+        step[big] *= 0.25 * short / np.abs(step[big])
+        zz = np.where(np.isfinite(step), zz - step, zz)
+    found: list[Root] = []
+    for z0 in zz[(zz.real >= a0) & (zz.real <= b0) & (zz.imag >= c0) & (zz.imag <= d0)]:
+        if any(abs(z0 - q.value) <= 1e-6 * max(1.0, abs(z0)) for q in found):
+            continue
+        r = polish_at(complex(z0))
+        inside = a0 <= r.value.real <= b0 and c0 <= r.value.imag <= d0
+        if r.converged and inside and all(
+                abs(r.value - q.value) > 1e-9 * max(1.0, abs(r.value)) for q in found):
+            found.append(r)
+            if len(found) == n:
+                return found
+    return None
+
+
 def zeros_in_box(
     fun: ComplexFunction,
     box: Sequence[float],
@@ -513,7 +572,12 @@ def zeros_in_box(
     """All zeros of ``fun`` inside ``box``, each polished; the total is checked.
 
     The box is counted (:func:`count_zeros`); a box holding one zero is polished from its centre
-    (accepted if Newton converges to a point inside it), otherwise it is bisected along its
+    (accepted if Newton converges to a point inside it); a box holding up to
+    :data:`SCAN_ZEROS` zeros is scanned (:func:`_scan`: Newton from the dips of ``|fun|``
+    along it, accepted when as many distinct zeros as counted converge inside it; session 13:
+    the tall bands of the fastest-root search took about ten bisections of two counts each,
+    and zeros next to an edge or to each other twenty and more); otherwise it is bisected along
+    its
     longer side (the cut is moved if it runs through a zero) and the halves are treated the same
     way. A box smaller than ``min_size`` (relative) that still holds ``m > 1`` zeros is reported
     as one :class:`Root` with ``reason`` naming the cluster (a multiple root).
@@ -546,7 +610,10 @@ def zeros_in_box(
     def inside(z: complex, b: Box) -> bool:
         return b[0] <= z.real <= b[1] and b[2] <= z.imag <= b[3]
 
-    def solve(b: Box, n: int) -> None:
+    def polish_at(z0: complex) -> Root:
+        return polish(fun, z0, dfun=dfun, tol=tol, scale=scale)
+
+    def solve(b: Box, n: int, scan: bool = True) -> None:
         if n == 0:
             return
         centre = complex(0.5 * (b[0] + b[1]), 0.5 * (b[2] + b[3]))
@@ -556,6 +623,12 @@ def zeros_in_box(
             if r.converged and inside(r.value, b):
                 found.append((r, 1))
                 return
+        if scan and n <= SCAN_ZEROS:
+            roots = _scan(fun, b, n, polish_at)
+            if roots is not None:
+                found.extend((r, 1) for r in roots)
+                return
+            scan = False  # the halves are bisected, not scanned again
         if size < min_size * max(abs(centre), 1.0):
             r = polish(fun, centre, dfun=dfun, tol=tol, scale=scale)
             r.reason = f"cluster of {n} zeros within a box of size {size:.3g}; " + r.reason
@@ -569,7 +642,7 @@ def zeros_in_box(
                 continue
             if sum(counts) == n:
                 for h, m in zip(halves, counts, strict=True):
-                    solve(h, m)
+                    solve(h, m, scan)
                 return
         raise ContourError(f"could not split box {b} holding {n} zeros consistently")
 

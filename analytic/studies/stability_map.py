@@ -106,8 +106,9 @@ def map_point(p: Params, khs: np.ndarray, region: Region, top: int = 2) -> dict:
     counts: list[int] = []
     proven, c_used = 0, []
     for k in ks:
+        hint = next((w.real for w in reversed(zs) if w is not None), None)  # the previous k's
         try:
-            m = fastest_mode(p, k, region)
+            m = fastest_mode(p, k, region, hint)
             z, n = m.root, m.count
             proven += bool(m.proven)
             c_used.append(m.c_max)

@@ -24,6 +24,7 @@ Functions are called with a 1D complex numpy array and must return an array of t
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -506,6 +507,11 @@ SCAN_POINTS = 4096
 SCAN_STARTS, SCAN_NEWTON = 256, 12
 
 
+def _inside(z: complex, b: Box) -> bool:
+    """``z`` in the closed box ``b``."""
+    return b[0] <= z.real <= b[1] and b[2] <= z.imag <= b[3]
+
+
 def _scan(fun: ComplexFunction, b: Box, n: int, polish_at: Callable[[complex], Root]
           ) -> list[Root] | None:
     """``n`` distinct zeros inside the box ``b`` by Newton from the dips of ``|fun|``.
@@ -516,7 +522,9 @@ def _scan(fun: ComplexFunction, b: Box, n: int, polish_at: Callable[[complex], R
     ``b`` are polished (:func:`polish`) until ``n`` distinct converged zeros lie inside ``b``.
     With the box's count ``n`` they are all its zeros. ``None``: not found that way (the caller
     bisects). Most dips belong to zeros just outside the box (the tall bands of the fastest-root
-    search have rows of slower zeros along their left edge), hence every dip at once.
+    search have rows of slower zeros along their left edge), hence every dip at once. Session
+    13: those bands took about ten bisections of two counts each, and zeros next to an edge or
+    to each other twenty and more.
     """
     a0, b0, c0, d0 = b
     tall = (d0 - c0) >= (b0 - a0)
@@ -544,12 +552,11 @@ def _scan(fun: ComplexFunction, b: Box, n: int, polish_at: Callable[[complex], R
         step[big] *= 0.25 * short / np.abs(step[big])
         zz = np.where(np.isfinite(step), zz - step, zz)
     found: list[Root] = []
-    for z0 in zz[(zz.real >= a0) & (zz.real <= b0) & (zz.imag >= c0) & (zz.imag <= d0)]:
+    for z0 in zz[np.array([_inside(z, b) for z in zz], dtype=bool)]:
         if any(abs(z0 - q.value) <= 1e-6 * max(1.0, abs(z0)) for q in found):
             continue
         r = polish_at(complex(z0))
-        inside = a0 <= r.value.real <= b0 and c0 <= r.value.imag <= d0
-        if r.converged and inside and all(
+        if r.converged and _inside(r.value, b) and all(
                 abs(r.value - q.value) > 1e-9 * max(1.0, abs(r.value)) for q in found):
             found.append(r)
             if len(found) == n:
@@ -572,15 +579,11 @@ def zeros_in_box(
     """All zeros of ``fun`` inside ``box``, each polished; the total is checked.
 
     The box is counted (:func:`count_zeros`); a box holding one zero is polished from its centre
-    (accepted if Newton converges to a point inside it); a box holding up to
-    :data:`SCAN_ZEROS` zeros is scanned (:func:`_scan`: Newton from the dips of ``|fun|``
-    along it, accepted when as many distinct zeros as counted converge inside it; session 13:
-    the tall bands of the fastest-root search took about ten bisections of two counts each,
-    and zeros next to an edge or to each other twenty and more); otherwise it is bisected along
-    its
-    longer side (the cut is moved if it runs through a zero) and the halves are treated the same
-    way. A box smaller than ``min_size`` (relative) that still holds ``m > 1`` zeros is reported
-    as one :class:`Root` with ``reason`` naming the cluster (a multiple root).
+    (accepted if Newton converges to a point inside it), one holding up to :data:`SCAN_ZEROS`
+    is scanned (:func:`_scan`), otherwise (or if that fails) it is bisected along its longer side
+    (the cut is moved if it runs through a zero) and the halves are treated the same way. A box
+    smaller than ``min_size`` (relative) that still holds ``m > 1`` zeros is reported as one
+    :class:`Root` with ``reason`` naming the cluster (a multiple root).
 
     Args:
         fun: Vectorised complex function (see module docstring).
@@ -590,47 +593,37 @@ def zeros_in_box(
         tol: Newton tolerance (see :func:`polish`).
         scale: Typical magnitude of ``fun`` (see :func:`polish`).
         min_size: Smallest box edge relative to ``max(|z|, 1)`` before giving up subdividing.
-        total: The count of ``box`` when the caller has just made it with the same ``poles``
-            and ``kwargs`` (saves one contour); ``None``: counted here.
+        total: The count of ``box`` if just made with these ``poles``, ``kwargs`` (or None).
         **kwargs: Passed to :func:`count_zeros`.
 
     Returns:
-        The roots, sorted by real then imaginary part. Every entry counts as one zero except
-        clusters, whose ``reason`` says how many zeros they hold.
+        The roots by real, then imaginary part; a cluster's ``reason`` says how many it holds.
 
     Raises:
-        ContourError: If the outer contour cannot be used, or the roots found do not add up to
-            the count of the whole box.
+        ContourError: The outer contour is unusable, or the roots do not add up to the count.
     """
     bx = _box_checked(box)
     if total is None:
         total = count_zeros(fun, bx, poles=poles, **kwargs)
     found: list[tuple[Root, int]] = []
 
-    def inside(z: complex, b: Box) -> bool:
-        return b[0] <= z.real <= b[1] and b[2] <= z.imag <= b[3]
-
-    def polish_at(z0: complex) -> Root:
-        return polish(fun, z0, dfun=dfun, tol=tol, scale=scale)
+    polish_at = functools.partial(polish, fun, dfun=dfun, tol=tol, scale=scale)
 
     def solve(b: Box, n: int, scan: bool = True) -> None:
         if n == 0:
             return
         centre = complex(0.5 * (b[0] + b[1]), 0.5 * (b[2] + b[3]))
         size = max(b[1] - b[0], b[3] - b[2])
-        if n == 1:
-            r = polish(fun, centre, dfun=dfun, tol=tol, scale=scale)
-            if r.converged and inside(r.value, b):
-                found.append((r, 1))
-                return
+        if n == 1 and (r := polish_at(centre)).converged and _inside(r.value, b):
+            found.append((r, 1))
+            return
         if scan and n <= SCAN_ZEROS:
-            roots = _scan(fun, b, n, polish_at)
-            if roots is not None:
+            if (roots := _scan(fun, b, n, polish_at)) is not None:
                 found.extend((r, 1) for r in roots)
                 return
-            scan = False  # the halves are bisected, not scanned again
+            scan = False  # a scan failed: its halves are bisected, not scanned again
         if size < min_size * max(abs(centre), 1.0):
-            r = polish(fun, centre, dfun=dfun, tol=tol, scale=scale)
+            r = polish_at(centre)
             r.reason = f"cluster of {n} zeros within a box of size {size:.3g}; " + r.reason
             found.append((r, n))
             return

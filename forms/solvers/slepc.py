@@ -118,17 +118,21 @@ def relative_residual(op: FrictionOperator, lam: complex, vec: PETSc.Vec,
     return float(num / den) if den > 0 else float("inf")
 
 
-def sinvert_pep(comm: MPI.Comm, nev: int, tol: float, max_it: int, prefix: str) -> SLEPc.PEP:
+def sinvert_pep(comm: MPI.Comm, nev: int, tol: float, max_it: int, prefix: str,
+                scale: bool = False) -> SLEPc.PEP:
     """A PEP (TOAR) for the ``nev`` eigenpairs nearest a target: shift-and-invert, MUMPS LU.
 
     Defaults by setters, then the options prefix and ``setFromOptions()`` last, so the command
-    line wins (empty prefix: ``-pep_*``, ``-st_*`` apply).
+    line wins (empty prefix: ``-pep_*``, ``-st_*`` apply). ``scale``: SLEPc's scalar scaling
+    of ``Lambda`` (``-pep_scale scalar``), for targets far from the unit circle.
     """
     pep = SLEPc.PEP().create(comm)
     pep.setType(SLEPc.PEP.Type.TOAR)
     pep.setProblemType(SLEPc.PEP.ProblemType.GENERAL)
     pep.setDimensions(nev=nev)
     pep.setTolerances(tol=tol, max_it=max_it)
+    if scale:
+        pep.setScale(SLEPc.PEP.Scale.SCALAR)
     pep.setWhichEigenpairs(SLEPc.PEP.Which.TARGET_MAGNITUDE)
     st = pep.getST()
     st.setType(SLEPc.ST.Type.SINVERT)
@@ -152,12 +156,13 @@ class PolynomialSolver:
         tol: Relative convergence tolerance of SLEPc.
         max_it: Maximum number of restarts.
         prefix: Options prefix (empty: ``-pep_*``, ``-st_*`` apply).
+        scale: Scalar scaling of ``Lambda`` (:func:`sinvert_pep`).
     """
 
     def __init__(self, comm: MPI.Comm, nev: int = 4, tol: float = 1e-13, max_it: int = 200,
-                 prefix: str = "") -> None:
+                 prefix: str = "", scale: bool = False) -> None:
         self.comm = comm
-        self.pep = sinvert_pep(comm, nev, tol, max_it, prefix)
+        self.pep = sinvert_pep(comm, nev, tol, max_it, prefix, scale)
 
     def settings(self) -> dict[str, object]:
         """Solver settings actually in use (for summaries)."""

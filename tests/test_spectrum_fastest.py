@@ -60,26 +60,16 @@ def test_only_the_band_is_located_at_large_k(monkeypatch):
 
 
 @pytest.mark.parametrize("hint", ["none", "good", "bad"])
-def test_a_hint_gives_the_same_root_with_fewer_counts(hint, monkeypatch):
+def test_a_hint_gives_the_same_root_with_fewer_counts(hint, count_calls):
     """fastest_in_box(hint=...): velocity top, k = 20 (18 roots): the same root whatever the
     hint; the counts (the box's and the bisection's; measured: 6 without a hint, 3 with the
     root's own Re, 10 with 1.9, far above it)."""
-    from analytic.numerics import roots
-
     p, k = Params(), 20.0
     box = Region(c_max=4.0, re_min=1e-6).box(p, k)
     ref, n_ref = fastest_in_box(p, k, box)
-    calls = []
-    real_count = roots.count_zeros
-
-    def counting(*args, **kwargs):
-        calls.append(1)
-        return real_count(*args, **kwargs)
-
-    monkeypatch.setattr(roots, "count_zeros", counting)
-    monkeypatch.setattr(spectrum, "zeros_in_box", lambda *a, **kw: zeros_in_box(*a, **kw))
+    count_calls.clear()
     guess = {"none": None, "good": ref.real, "bad": 1.9}[hint]
     z, n = fastest_in_box(p, k, box, guess)
     assert n == n_ref and abs(z - ref) <= 1e-13 * abs(ref)
     if hint == "good":
-        assert len(calls) <= 3
+        assert len(count_calls) <= 3

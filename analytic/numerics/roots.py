@@ -76,16 +76,20 @@ def _call(fun: ComplexFunction, z: np.ndarray) -> np.ndarray:
     return out
 
 
-def _stencil(z: complex) -> tuple[float, np.ndarray]:
-    """Step and points of the central-difference derivative at ``z``."""
-    h = 6e-6 * max(abs(z), 1e-3)  # ~ eps**(1/3): balances truncation and rounding
+def _stencil(z: complex | np.ndarray) -> tuple[float | np.ndarray, np.ndarray]:
+    """Step and points of the central-difference derivative at ``z``.
+
+    ``z`` a point or an array (the points are then ``(4,) + z.shape``).
+    """
+    h = 6e-6 * np.maximum(np.abs(z), 1e-3)  # ~ eps**(1/3): balances truncation and rounding
     return h, np.array([z + h, z - h, z + 1j * h, z - 1j * h])
 
 
-def _wirtinger(f: np.ndarray, h: float) -> complex:
+def _wirtinger(f: np.ndarray, h: float | np.ndarray) -> complex | np.ndarray:
+    """dF/dz from ``F`` at the four points of :func:`_stencil` (``f[0..3]``)."""
     dx = (f[0] - f[1]) / (2 * h)
     dy = (f[2] - f[3]) / (2 * h)
-    return complex(0.5 * (dx - 1j * dy))
+    return 0.5 * (dx - 1j * dy)
 
 
 def _derivative(fun: ComplexFunction, z: complex, dfun: ComplexFunction | None) -> complex:
@@ -93,7 +97,7 @@ def _derivative(fun: ComplexFunction, z: complex, dfun: ComplexFunction | None) 
     if dfun is not None:
         return complex(_call(dfun, np.array([z]))[0])
     h, pts = _stencil(z)
-    return _wirtinger(_call(fun, pts), h)
+    return complex(_wirtinger(_call(fun, pts), h))
 
 
 def _value_and_derivative(fun: ComplexFunction, z: complex, dfun: ComplexFunction | None
@@ -103,7 +107,7 @@ def _value_and_derivative(fun: ComplexFunction, z: complex, dfun: ComplexFunctio
         return complex(_call(fun, np.array([z]))[0]), _derivative(fun, z, dfun)
     h, pts = _stencil(z)
     f = _call(fun, np.concatenate([[z], pts]))
-    return complex(f[0]), _wirtinger(f[1:], h)
+    return complex(f[0]), complex(_wirtinger(f[1:], h))
 
 
 def polish(
@@ -542,10 +546,9 @@ def _scan(fun: ComplexFunction, b: Box, n: int, polish_at: Callable[[complex], R
     rows, cols = np.nonzero(dips)
     zz = z[rows, cols + 1][np.argsort(f[rows, cols + 1])][:SCAN_STARTS]
     for _ in range(SCAN_NEWTON):  # every start at once: 5 points each per call
-        h = 6e-6 * np.maximum(np.abs(zz), 1e-3)
-        fv = _call(fun, np.concatenate([zz, zz + h, zz - h, zz + 1j * h, zz - 1j * h]))
-        f0, fp, fm, fi, fmi = fv.reshape(5, zz.size)
-        d = 0.5 * ((fp - fm) - 1j * (fi - fmi)) / (2 * h)
+        h, pts = _stencil(zz)
+        fv = _call(fun, np.concatenate([zz, pts.ravel()])).reshape(5, zz.size)
+        f0, d = fv[0], _wirtinger(fv[1:], h)
         with np.errstate(all="ignore"):
             step = np.where(d != 0, f0 / d, 0.0)
         big = np.abs(step) > 0.25 * short  # damped: at most a quarter of the short side

@@ -1,8 +1,10 @@
 """The FE finds every mode on its own (issue 15 items 1-3, issue 17 item 3, 1D model).
 
-``forms.solvers.certified.CertifiedSolver`` with ``solver="moments"`` (the default) counts the
-FE eigenvalues in the box by the argument principle on ``det T_h`` and finds them by contour
-moments (``forms.solvers.banded.BandedOperator.moment_eigs``), with no exact root as input. The
+``forms.solvers.certified.CertifiedSolver`` with ``solver="linear"`` (the default) counts the
+FE eigenvalues in the box by the argument principle on ``det T_h`` and finds them from the
+linearised condensed form (``forms.solvers.condensed.CondensedOperator.linear_eigs``), falling
+back to contour moments (``forms.solvers.banded.BandedOperator.moment_eigs``), with no exact
+root as input. The
 reference is the exact-seeded path (``solver="newton"``): FE Newton from every exact root.
 
 The module-level tests run serially and under mpirun -n 2 (the models live on COMM_SELF); the
@@ -22,7 +24,7 @@ import pytest
 
 from analytic import Params
 from analytic.numerics.spectrum import Region, families
-from forms.solvers import banded
+from forms.solvers import banded, condensed
 from forms.solvers.certified import CertifiedSolver, default_discretisation, split_box
 from forms.solvers.condensed import CondensedOperator
 
@@ -46,14 +48,21 @@ for _m, _names in ((S, ("certified_roots", "families", "plan_families", "follow_
     for _n in _names:
         setattr(_m, _n, _no)
 """
-#: Python run before a scene: the moment solver loses the eigenvalue of largest Re Lambda.
+#: Python run before a scene: both ways of finding the eigenvalues (the linearised predictors,
+#: then the moments the solver falls back to) lose the one of largest Re Lambda.
 DROP_ONE = """
-import forms.solvers.banded as _b
+import forms.solvers.banded as _b, forms.solvers.condensed as _c
 _orig = _b.BandedOperator.moment_eigs
 def _drop(self, *a, **k):
     found = _orig(self, *a, **k)
     return sorted(found, key=lambda e: e.value.real)[:-1]
 _b.BandedOperator.moment_eigs = _drop
+_orig_lin = _c.CondensedOperator.linear_eigs
+def _drop_lin(self, *a, **k):
+    lam, vecs = _orig_lin(self, *a, **k)
+    keep = sorted(range(lam.size), key=lambda i: lam[i].real)[:-1]
+    return lam[keep], vecs[:, keep]
+_c.CondensedOperator.linear_eigs = _drop_lin
 """
 
 
@@ -129,13 +138,21 @@ def test_fe_first_with_check_matches_exact_labels():
 
 
 def test_hidden_root_is_caught_by_the_fe_count(monkeypatch):
-    """The moment solver loses one eigenvalue on purpose: the FE count flags the k."""
+    """Both finders (linearised predictors, then the moments) lose one eigenvalue on purpose:
+    the FE count flags the k."""
     orig = banded.BandedOperator.moment_eigs
+    orig_lin = condensed.CondensedOperator.linear_eigs
 
     def drop(self, *args, **kwargs):
         return sorted(orig(self, *args, **kwargs), key=lambda e: e.value.real)[:-1]
 
+    def drop_lin(self, *args, **kwargs):
+        lam, vecs = orig_lin(self, *args, **kwargs)
+        keep = np.argsort(lam.real)[:-1]
+        return lam[keep], vecs[:, keep]
+
     monkeypatch.setattr(banded.BandedOperator, "moment_eigs", drop)
+    monkeypatch.setattr(condensed.CondensedOperator, "linear_eigs", drop_lin)
     p, region, k = Params(), Region(), 3.0
     _, first = _solvers(p, region, k)
     try:
@@ -212,7 +229,7 @@ def test_split_box_counts_add_up_and_values_agree(bc):
     p, region, k = Params(bc=bc), Region(), 5.0
     deg, cells, ratio = default_discretisation(p, region, k, 1e-8)
     whole, split = (CertifiedSolver(p, region, deg, cells, ratio, k, 1e-8, check_exact=False,
-                                    max_per_box=m) for m in (10**6, 3))
+                                    solver="moments", max_per_box=m) for m in (10**6, 3))
     try:
         a, b = whole.solve(k), split.solve(k)
         cond = CondensedOperator(split.banded[0].operator(k))

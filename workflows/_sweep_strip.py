@@ -66,7 +66,7 @@ LABEL_STATEMENT = "h<harmonic>_<j>: j by increasing |Im Lambda| within the harmo
 #: Options of the section model that the strip takes only at their default: (attribute,
 #: option, default, what the strip has instead).
 NOT_FOR_STRIP = (("c_max", "--c-max", "auto", "its box's bound is --strip-c-max"),
-                 ("solver", "--solver", "moments", "its solver is the region solve, options "
+                 ("solver", "--solver", "linear", "its solver is the region solve, options "
                   "-strip_region_*"))
 
 

@@ -98,8 +98,10 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--degree", type=int, default=0, help="Lagrange degree 1..6 (0: auto, P4)")
     ap.add_argument("--cells", type=int, default=0,
                     help="cells of the interval mesh (0: chosen from the region and --rtol)")
-    ap.add_argument("--solver", default="moments",
-                    help="moments (FE first, contour moments) or newton (FE from exact roots)")
+    ap.add_argument("--solver", default="linear",
+                    help="linear (FE first, predictors from the linearised condensed form, "
+                    "moments where they fall short; default), moments (FE first, contour "
+                    "moments only) or newton (FE from exact roots)")
     ap.add_argument("--check-exact", default="auto",
                     help="yes: match the FE values to the exact roots; no: never consult them; "
                     "auto: no for several layers or profiles (no exact roots), else yes")

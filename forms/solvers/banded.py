@@ -308,7 +308,7 @@ class BandedOperator:
         mu, y = np.linalg.eig(small)
         lam = c + rho * mu
         vecs = (u[:self.n] @ y)  # eigenvector approximations (permuted order)
-        return self._polish(lam, vecs, bx)
+        return self.polish(lam, vecs, bx)
 
     def _moment_sums(self, z: np.ndarray, weights: np.ndarray, v: np.ndarray) -> np.ndarray:
         """``sum_p weights[p, q] T(z_p)^{-1} v`` by one ``zgbtrf`` and ``zgbtrs`` per point."""
@@ -323,8 +323,18 @@ class BandedOperator:
                 acc += weights[lo + j][:, None, None] * y[None]
         return acc
 
-    def _polish(self, lam: np.ndarray, vecs: np.ndarray, bx: Box) -> list[Eigen]:
-        """Newton from each approximation inside ``bx`` (widened 10 %); distinct, inside."""
+    def polish(self, lam: np.ndarray, vecs: np.ndarray, bx: Box, *, exact_start: bool = False
+               ) -> list[Eigen]:
+        """Newton from each approximation inside ``bx`` (widened 10 %); distinct, inside.
+
+        Args:
+            lam: Predicted eigenvalues.
+            vecs: Their vectors (banded order, one column each).
+            bx: The box.
+            exact_start: Each vector is ``T``'s near-null vector at its predictor (as
+                :meth:`forms.solvers.condensed.CondensedOperator.linear_eigs` gives): the first
+                step's rule of :meth:`newton` without a start vector applies.
+        """
         a0, b0, c0, d0 = bx
         mw, mh = 0.1 * (b0 - a0), 0.1 * (d0 - c0)
         found: list[Eigen] = []
@@ -335,7 +345,7 @@ class BandedOperator:
                 continue
             x0 = np.empty(self.n, dtype=complex)
             x0[self.perm] = vecs[:, i]
-            e = self.newton(z0, x0)
+            e = self.newton(z0, x0, exact_start=exact_start)
             inside = a0 < e.value.real < b0 and c0 < e.value.imag < d0
             if e.converged and inside and all(
                     abs(e.value - f.value) > 1e-9 * max(1.0, abs(e.value)) for f in found):
@@ -362,7 +372,7 @@ class BandedOperator:
         return float(np.linalg.norm(self._apply(phi, xp)) / den) if den > 0 else math.inf
 
     def newton(self, z0: complex, x0: np.ndarray | None = None, *, tol: float = 1e-14,
-               maxit: int = 12) -> Eigen:
+               maxit: int = 12, exact_start: bool = False) -> Eigen:
         """Eigenpair near ``z0`` by nonlinear inverse iteration (Newton on ``T(z) x = 0``).
 
         ``u = T(z)^{-1} T'(z) x``, ``z <- z - (v^H x)/(v^H u)``, ``x <- u/(v^H u)`` with a fixed
@@ -383,6 +393,8 @@ class BandedOperator:
             x0: Predictor of the eigenvector (original dof order), e.g. the previous k's.
             tol: Relative step tolerance.
             maxit: Maximum number of steps.
+            exact_start: ``x0`` is ``T(z0)``'s near-null vector (accurate to the order of
+                ``|z0 - Lambda|``), so the first step's rule applies as without ``x0``.
         """
         z = complex(z0)
         lu = None
@@ -414,7 +426,8 @@ class BandedOperator:
             prev, step = step, abs(dz)
             scale = tol * max(abs(z), 1.0)
             if step <= scale or (it > 1 and step ** 3 <= scale * prev ** 2) or (
-                    it == 1 and x0 is None and step <= START_STEP * max(abs(z), 1.0)):
+                    it == 1 and (x0 is None or exact_start)
+                    and step <= START_STEP * max(abs(z), 1.0)):
                 converged = True
                 break
         out = np.empty(self.n, dtype=complex)

@@ -58,7 +58,7 @@ from forms.solvers.condensed import CondensedModel, CondensedOperator
 ROW_FIELDS = ("k", "label", "re_lambda", "im_lambda", "re_lambda_exact", "im_lambda_exact",
               "rel_error", "error_estimate", "residual", "status", "certificate")
 #: Ways of finding the FE eigenvalues (``--solver``): contour moments first, or exact-seeded.
-SOLVERS = ("moments", "newton")
+SOLVERS = ("linear", "moments", "newton")
 #: Ways of evaluating ``det T_h`` on the contour: condensed (default) or one banded LU a point.
 COUNTS = ("condensed", "banded")
 #: Largest count of one box of contour moments (:func:`split_box`): the moments' cost per contour
@@ -111,17 +111,32 @@ def split_box(counter: Callable[[Box], tuple[int, np.ndarray]], box: Box, count:
 
 
 def _find(fe: BandedOperator, counter: Callable, box: Box, count: int, t: np.ndarray,
-          most: int, sums: Callable | None) -> tuple[list[Eigen], bool, str]:
-    """The eigenpairs in ``box`` by moments per part of :func:`split_box`.
+          most: int, sums: Callable | None, lin: Callable | None = None
+          ) -> tuple[list[Eigen], bool, str]:
+    """The eigenpairs in ``box``: linearised predictors, else moments per part of :func:`split_box`.
+
+    ``lin(box)`` (:meth:`forms.solvers.condensed.CondensedOperator.linear_eigs`) gives
+    predictors with vectors for the whole box; each is Newton-polished, and they are kept when
+    as many distinct values as ``count`` lie inside. Otherwise (too large a pencil, or a value
+    missing) the moments run and the note says why.
 
     Returns:
         ``(found, the parts' counts add up to count, note)``.
     """
     note = ""
+    if lin is not None and count > 0:
+        try:
+            found = fe.polish(*lin(box), tuple(float(v) for v in box), exact_start=True)
+            if len(found) == count:
+                return found, True, ""
+            note = f"linearised predictors gave {len(found)} of {count}: moments"
+        except NotImplementedError as err:
+            note = f"moments: {err}"
     try:
         parts = split_box(counter, box, count, t, most)
     except ContourError as err:  # no usable cut: the whole box in one block
-        parts, note = [(box, count, t)], f"box not split: {err}"
+        parts = [(box, count, t)]
+        note = "; ".join(x for x in (note, f"box not split: {err}") if x)
     ok = sum(n for _, n, _ in parts) == count
     if not ok:
         note = "; ".join(x for x in (note, f"counts of the sub-boxes {[n for _, n, _ in parts]}"
@@ -265,7 +280,7 @@ class CertifiedSolver:
 
     def __init__(self, params: Params, region: Region, degree: int, cells: int, ratio: float,
                  k_max: float, rtol: float, material: SliderMaterial | None = None, *,
-                 check_exact: bool = True, solver: str = "moments",
+                 check_exact: bool = True, solver: str = "linear",
                  count: str = "condensed", max_per_box: int = MAX_PER_BOX) -> None:
         if count not in COUNTS:
             raise ValueError(f"count = {count!r} is outside its allowed values {COUNTS}")
@@ -347,7 +362,9 @@ class CertifiedSolver:
         out.box = tuple(float(v) for v in used)
         found, parts_ok = [], True
         if t is not None:
-            found, parts_ok, why = _find(fe, counter, used, out.n_fe, t, self.max_per_box, sums)
+            lin = cond.linear_eigs if cond is not None and self.solver == "linear" else None
+            found, parts_ok, why = _find(fe, counter, used, out.n_fe, t, self.max_per_box, sums,
+                                         lin)
             out.note = "; ".join(x for x in (out.note, why) if x)
         rows = [self._row(k, e, fine) for e in found]
         matched = self._match_exact(rows, labelled, exact_box, used) if self.check_exact else True

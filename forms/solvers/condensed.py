@@ -57,6 +57,14 @@ def dense_fits(n: int) -> None:
                                   f"{DENSE_MAX}: counted banded")
 #: Truncation of the far modes' power series (relative, per mode): below the rounding level.
 SERIES_EPS = 2.0 ** -60
+#: :meth:`CondensedOperator.linear_eigs`: the far modes' series truncated at this relative size
+#: (predictors only: measured, P4 paper defaults, both tops, k = 1 to 26.5, the predictors were
+#: within 2e-9 of the polished eigenvalues), the ratios ``|z|^2 / |w_j|`` tried for the split,
+#: and the largest pencil (a dense QZ of ``n`` rows costs about ``n^3``: 0.14 s at 267 rows,
+#: 4.5 s at 702 here).
+LIN_EPS = 1e-8
+LIN_RATIOS = (1 / 2, 1 / 4, 1 / 8, 1 / 16, 1 / 32, 1 / 64)
+LIN_MAX = 1000
 #: Candidate ratios ``rho = |z|^2 / |w_j|`` bounding the far modes; the one with the fewest
 #: near modes plus series terms is taken.
 SERIES_RATIOS = (1 / 4, 1 / 8, 1 / 16, 1 / 64, 1 / 256)
@@ -285,6 +293,164 @@ class CondensedOperator:
         out[:, bi] = acc_b
         back = self._from_modes(acc_i.transpose(2, 0, 1).reshape(nm, nq * cols))  # Phi acc
         out[:, ii] = back.reshape(-1, nq, cols).transpose(1, 0, 2)
+        return out
+
+    def linear_eigs(self, box: Box, widen: float = 1e-3) -> tuple[np.ndarray, np.ndarray]:
+        """Predictors of the eigenvalues in ``box`` from one dense linear eigenproblem.
+
+        The near modes ``j < j0`` stay as unknowns ``a_j``, with ``c_j = z a_j``:
+        ``(z^2 + w_j) a_j + h_j(z) x_B = 0`` is first order in ``(a, c)`` (``T_IB`` has powers 0
+        and 2 only), and the ``B`` rows ``P(z) x_B + sum_j g_j(z) a_j = 0`` with ``g_j(z) a_j``
+        written in ``a, c, x_B, z x_B, ...`` (powers up to 3). ``P(z) = T_BB(z)`` minus the far
+        modes' series truncated after a term of relative size ``rho^terms <= LIN_EPS`` is a
+        ``b x b`` polynomial of degree ``D``, linearised by its companion form in
+        ``z / sigma`` (``sigma^2 = max |z|^2`` on the box). The pencil has ``D b + 2 j0`` rows
+        (``j0`` and ``terms`` minimise that); its eigenvalues inside the box (widened by
+        ``widen``) are returned with vectors of ``T`` (the null vector of ``S(z)`` and
+        ``x_I = T_II(z)^{-1}(-T_IB(z) x_B)``). Predictors only: the truncation moves them by
+        about ``LIN_EPS``; Newton on ``T`` polishes them, and the count checks that none is
+        missing (docs/design.md section 8).
+
+        Returns:
+            ``(values, vectors)``: vectors in banded order, one column per value.
+
+        Raises:
+            NotImplementedError: The pencil would exceed :data:`LIN_MAX` rows.
+        """
+        corners = np.array([complex(x, y) for x in box[:2] for y in box[2:]])
+        scale = max(float(np.max(np.abs(corners))) ** 2, 1e-300)
+        a, b, sigma = self._lin_pencil(scale, *self._lin_split(scale))
+        a0, b0, c0, d0 = box
+        # shift and invert: (A - s B)^-1 B y = y / (z~ - s), a standard eigenproblem (2.5-3.5x
+        # faster than the QZ of the pencil at 160-240 rows, measured); s right of the box by
+        # half its width, so no eigenvalue is near it and B's singular rows go to 1/mu = 0
+        shift = complex(b0 + 0.5 * (b0 - a0), 0.5 * (c0 + d0)) / sigma
+        try:
+            lu = sla.lu_factor(a - shift * b, overwrite_a=True, check_finite=False)
+        except (np.linalg.LinAlgError, ValueError) as err:
+            raise NotImplementedError(f"the linearised pencil at the shift: {err}") from err
+        mu = np.linalg.eigvals(sla.lu_solve(lu, b, check_finite=False))
+        with np.errstate(all="ignore"):
+            lam = (shift + 1.0 / mu) * sigma
+        mw, mh = widen * (b0 - a0), widen * (d0 - c0)
+        lam = lam[np.isfinite(lam) & (lam.real > a0 - mw) & (lam.real < b0 + mw)
+                  & (lam.imag > c0 - mh) & (lam.imag < d0 + mh)]
+        return lam, self._vectors(lam)
+
+    def _lin_split(self, scale: float) -> tuple[int, int]:
+        """``(j0, terms)`` of the pencil for ``|z|^2 <= scale``: fewest rows over LIN_RATIOS.
+
+        Raises:
+            NotImplementedError: More than :data:`LIN_MAX` rows.
+        """
+        aw, nb = np.abs(self.w), self.b_idx.size
+        best = None
+        for rho in LIN_RATIOS:
+            j0 = int(np.searchsorted(aw, scale / rho))
+            terms = 0 if j0 == aw.size else math.ceil(math.log(LIN_EPS) / math.log(rho))
+            rows = 2 * j0 + nb * (5 + 2 * terms)
+            if best is None or rows < best[0]:
+                best = (rows, j0, terms)
+        if best[0] > LIN_MAX:
+            raise NotImplementedError(f"the linearised pencil would have {best[0]} rows "
+                                      f"(LIN_MAX = {LIN_MAX})")
+        return best[1], best[2]
+
+    def _lin_coefficients(self, scale: float, j0: int, terms: int) -> list[np.ndarray]:
+        """``P_d sigma^d``: ``T_BB(z)`` minus the far modes' series (``j >= j0``), by power."""
+        nb, exps = self.b_idx.size, self._s_exp
+        ne = exps.size
+        coef: dict[int, np.ndarray] = {}
+        for i, e in enumerate(exps):
+            coef[int(e)] = coef.get(int(e), 0) + self._s_a[i].reshape(nb, nb)
+        if terms:
+            wf = self.w[j0:]
+            weights = (scale / wf)[None, :] ** np.arange(terms)[:, None] / wf[None, :]
+            sc = (weights @ self._s_r[j0:]).reshape(terms, ne, nb, nb)
+            for t in range(terms):
+                # 1/(z^2 + w) = sum_t (-z^2/scale)^t scale^t/w^(t+1)
+                for i, e in enumerate(exps):
+                    d = int(e) + 2 * t
+                    coef[d] = coef.get(d, 0) - (-1.0 / scale) ** t * sc[t, i]
+        top = max([d for d, c in coef.items() if np.any(c != 0)] + [2])
+        sigma = math.sqrt(scale)
+        return [coef.get(d, np.zeros((nb, nb))) * sigma ** d for d in range(top + 1)]
+
+    def _lin_pencil(self, scale: float, j0: int, terms: int
+                    ) -> tuple[np.ndarray, np.ndarray, float]:
+        """``(A, B, sigma)``: ``A v = (z / sigma) B v``, ``v = [x_B, z~ x_B, ..., a, c]``.
+
+        ``z~ = z / sigma``; ``X_d = z~^d x_B`` for ``d < D``; the near modes' equations
+        ``z~ a = c``, ``z~ c = -om a - eta0 X_0 - h2 X_2`` (``om = w / sigma^2``); the last
+        block row ``z~ P_D X_(D-1) = -sum_(d<D) P_d X_d - sum_q G_q z~^q a`` with ``z~^q a``
+        in those unknowns (:meth:`_lin_powers`).
+        """
+        p = self._lin_coefficients(scale, j0, terms)
+        q = self.powers.astype(int)
+        top_q = int(q.max())
+        while len(p) < top_q + 2:  # X_(top_q) must be one of the unknowns
+            p.append(np.zeros_like(p[0]))
+        deg, nb = len(p) - 1, self.b_idx.size
+        sigma = math.sqrt(scale)
+        gq = [sum((self.g[f, :, :j0] for f in range(q.size) if q[f] == e),
+                  np.zeros((nb, j0), dtype=complex)) * sigma ** e for e in range(top_q + 1)]
+        h0, h2 = (sum((self.h[f, :j0] for f in range(q.size) if q[f] == e),
+                      np.zeros((j0, nb), dtype=complex)) for e in (0, 2))
+        om = self.w[:j0] / scale
+        n = deg * nb + 2 * j0
+        a = np.zeros((n, n), dtype=complex)
+        b = np.zeros((n, n), dtype=complex)
+        xs = [slice(d * nb, (d + 1) * nb) for d in range(deg)]
+        sa, sc = slice(deg * nb, deg * nb + j0), slice(deg * nb + j0, n)
+        eye = np.eye(nb)
+        for d in range(deg - 1):  # z~ X_d = X_(d+1)
+            a[xs[d], xs[d + 1]], b[xs[d], xs[d]] = eye, eye
+        last = xs[-1]
+        b[last, last] = p[deg]
+        for d in range(deg):
+            a[last, xs[d]] -= p[d]
+        for e, (ca, cc, cx) in enumerate(self._lin_powers(om, h0 / scale, h2, top_q)):
+            a[last, sa] -= gq[e] * ca[None, :]
+            a[last, sc] -= gq[e] * cc[None, :]
+            for d, m in cx.items():
+                a[last, xs[d]] -= gq[e] @ m
+        a[sa, sc] = b[sa, sa] = b[sc, sc] = np.eye(j0)  # z~ a = c
+        a[sc, sa] = -np.diag(om)  # z~ c = -om a - eta0 X_0 - h2 X_2
+        a[sc, xs[0]], a[sc, xs[2]] = -h0 / scale, -h2
+        return a, b, sigma
+
+    @staticmethod
+    def _lin_powers(om: np.ndarray, eta0: np.ndarray, h2: np.ndarray, top: int
+                    ) -> list[tuple[np.ndarray, np.ndarray, dict[int, np.ndarray]]]:
+        """``z~^q a`` for ``q <= top`` as ``(coefficient of a, of c, {d: matrix on X_d})``.
+
+        ``z~^0 a = a``, ``z~ a = c`` and ``z~^q a = -om z~^(q-2) a - eta0 X_(q-2) - h2 X_q``.
+        """
+        one, zero = np.ones_like(om), np.zeros_like(om)
+        out = [(one, zero, {}), (zero, one, {})]
+        for e in range(2, top + 1):
+            ca, cc, cx = out[e - 2]
+            nx = {d: -om[:, None] * m for d, m in cx.items()}
+            nx[e - 2] = nx.get(e - 2, 0) - eta0
+            nx[e] = nx.get(e, 0) - h2
+            out.append((-om * ca, -om * cc, nx))
+        return out[:top + 1]
+
+    def _vectors(self, lam: np.ndarray) -> np.ndarray:
+        """``T(z)``'s near-null vector at each ``z`` (banded order, columns): ``S``'s, extended.
+
+        ``x_B`` the right singular vector of ``S(z)`` of its smallest singular value,
+        ``x_I = -T_II(z)^{-1} T_IB(z) x_B`` in the eigenbasis (every mode, exactly).
+        """
+        out = np.zeros((self.bop.n, lam.size), dtype=complex)
+        if not lam.size:
+            return out
+        _, s, _ = self._d_and_s(lam, self._far(lam))
+        xb = np.linalg.svd(s)[2][:, -1, :].conj()  # (points, b)
+        zp = lam[:, None] ** self.powers[None, :]  # (points, f)
+        hx = np.einsum("pf,fjb,pb->jp", zp, self.h, xb)  # Psi^H T_IB(z) x_B, (m, points)
+        out[self.b_idx] = xb.T
+        out[self.i_idx] = self._from_modes(-hx / (lam[None, :] ** 2 + self.w[:, None]))
         return out
 
 

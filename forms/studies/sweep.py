@@ -67,6 +67,10 @@ CERTIFICATE_STATEMENTS = {
 }
 #: How the sweep's values are obtained (``summary.json``, key ``method``), per ``--solver``.
 METHODS = {
+    "linear": ("FE first: argument-principle count of det T_h in R; predictors from one dense "
+               "linear eigenproblem of the condensed form (near modes and the interface rows), "
+               "Newton-polished, contour-integral moments (Beyn) where they do not give the "
+               "count; no exact root as input"),
     "moments": ("FE first: argument-principle count of det T_h in R and contour-integral moments"
                 " (Beyn) on the same contour points, Newton-polished; no exact root as input"),
     "newton": ("exact continuation labels; FE Newton on the discrete NEP from the exact roots; "
@@ -145,7 +149,7 @@ def layered_params(params: Params, material: SliderMaterial, check_exact: str,
             ``solver = "newton"`` (it starts from exact roots): one line.
     """
     if check_exact not in ("auto", "no") or solver == "newton":
-        bad = ("--solver = newton", "moments") if solver == "newton" else (
+        bad = ("--solver = newton", "linear, moments") if solver == "newton" else (
             f"--check-exact = {check_exact}", "no")
         raise ParameterError(f"{bad[0]} is outside its allowed values for several layers or "
                              f"profiles (no exact roots): {bad[1]}")
@@ -317,7 +321,7 @@ def plan_regions(params: Params, region: Region, k: np.ndarray, check_exact: boo
     when checked (to plan the families and referee the FE's bounds). Otherwise (exact-seeded, or
     a fixed region) the exact roots' bounds are used.
     """
-    fe_climbs = solver == "moments" and region.c_max is None
+    fe_climbs = solver != "newton" and region.c_max is None
     if fe_climbs and not check_exact:
         return RegionPlan(True, [], region.fixed(C_LADDER[0]))
     c_at_k, big = regions_at_k(params, region, k, check_exact, mapper)
@@ -454,12 +458,12 @@ class RungSolvers:
         fixed: ``(degree, cells)`` given by the user (0: from the rule), and the grading ratio.
         material: The slider's layers/profiles (``None``: homogeneous).
         check_exact: Match the FE values to the exact roots.
-        solver: ``"moments"`` or ``"newton"``.
+        solver: ``"linear"``, ``"moments"`` or ``"newton"``.
     """
 
     def __init__(self, params: Params, region: Region, k_max: float, rtol: float,
                  fixed: tuple[int, int, float], material: SliderMaterial | None = None, *,
-                 check_exact: bool = True, solver: str = "moments") -> None:
+                 check_exact: bool = True, solver: str = "linear") -> None:
         self.params, self.region, self.k_max, self.rtol = params, region, k_max, rtol
         self.fixed, self.material = fixed, material
         self.check_exact, self.solver = check_exact, solver

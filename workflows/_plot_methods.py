@@ -6,7 +6,8 @@ from typing import Any
 
 import _cli
 
-METHOD_STYLE = {"tiling": ("C0", "o"), "dense": ("C3", "s"), "moments": ("k", "D"),
+METHOD_STYLE = {"tiling": ("C0", "o"), "dense": ("C3", "s"), "linear": ("C5", "P"),
+                "moments": ("k", "D"),
                 "ciss": ("C2", "^"), "nleigs": ("C1", "v"), "newton": ("C4", "x")}
 
 

@@ -6,6 +6,7 @@
 Paper defaults (velocity top, H = 0.5). At each (k, c_max) the section model of the sweep's
 default discretisation is solved by a shift-and-invert PEP tiling (``tiling``), the dense
 companion linearisation (``dense``, failed above a pencil size), the sweep's default
+FE-first path (``linear``: the linearised condensed form, moments where it falls short), the
 FE-first moments path (``moments``), SLEPc PEP CISS on ellipses over the region (``ciss``),
 SLEPc NEP NLEIGS on the region (``nleigs``) and the exact-seeded Newton (``newton``, the
 sweep's ``--solver newton``); each is set against the banded argument-principle count

@@ -8,8 +8,14 @@ discretisation for that region) is solved by:
   (:class:`forms.solvers.region.RegionSolver`, told the banded count so it stops once found);
 - ``dense``: the companion linearisation (:func:`forms.solvers.slepc.
   dense_companion_eigenvalues`), skipped (``failed``) above :data:`DENSE_MAX` pencil rows;
-- ``moments``: the sweep's default FE-first path (:meth:`forms.solvers.banded.BandedOperator.
-  moment_eigs` inside :class:`forms.solvers.certified.CertifiedSolver`, no exact root used);
+- ``linear``: the sweep's default FE-first path (``CertifiedSolver(solver="linear")``): the
+  eigenvalues of the linearised condensed form
+  (:meth:`forms.solvers.condensed.CondensedOperator.linear_eigs`) Newton-polished, the moments
+  where they fall short of the count; its time includes its count and the ``p + 1``
+  estimates;
+- ``moments``: the FE-first path with contour moments only (:meth:`forms.solvers.banded.
+  BandedOperator.moment_eigs` inside ``CertifiedSolver(solver="moments")``, no exact root
+  used; the sweep's ``--solver moments``, its default before 2026-11-28);
 - ``ciss``: SLEPc PEP CISS (contour integral, Sakurai-Sugiura) on the polynomial form, the
   region an RG ellipse through the corners of the box (SLEPc 3.18's PEP CISS rejects an RG
   interval, PETSc error 56), :data:`CISS_POINTS` quadrature points;
@@ -53,7 +59,7 @@ from forms.solvers.region import RegionSolver
 from forms.solvers.slepc import collect_pairs, dense_companion_eigenvalues, rational_fn
 
 #: Methods in the order of the chart.
-METHODS = ("tiling", "dense", "moments", "ciss", "nleigs", "newton")
+METHODS = ("tiling", "dense", "linear", "moments", "ciss", "nleigs", "newton")
 #: Options prefixes: the tiling's PEP (its determinant LU: ``methods_tiling_det_``), the CISS
 #: PEP, the NLEIGS NEP.
 PREFIXES = ("methods_tiling_", "methods_ciss_", "methods_nleigs_")
@@ -239,11 +245,12 @@ def _methods(params: Params, cs: CertifiedSolver, k: float, region: Region, coun
             raise RuntimeError(f"pencil {deg * n} > DENSE_MAX = {DENSE_MAX}")
         return [complex(v) for v in dense_companion_eigenvalues(op)], ""
 
-    def moments() -> tuple[list[complex], str]:
-        res = cs.solve(k, box=box)
+    def certified(solver: CertifiedSolver) -> tuple[list[complex], str]:
+        res = solver.solve(k, box=box)
         return [complex(r["re_lambda"], r["im_lambda"]) for r in res.rows], ""
 
-    return {"tiling": tiling, "dense": dense, "moments": moments,
+    return {"tiling": tiling, "dense": dense, "moments": lambda: certified(cs),
+            "linear": lambda: certified(solvers["linear"]),
             "ciss": lambda: ciss_values(op, box, PREFIXES[1]),
             "nleigs": lambda: nleigs_values(solvers["split"], k, box, count, PREFIXES[2]),
             "newton": lambda: _seeded(solvers["newton"], k, region, box)}
@@ -262,10 +269,14 @@ def methods_point(params: Params, k: float, c_max: float, rtol: float = 1e-6,
     """
     region = Region(c_max=c_max)
     degree, cells, ratio = default_discretisation(params, region, k)
-    cs = CertifiedSolver(params, region, degree, cells, ratio, k, 1e-8, check_exact=False)
+    cs = CertifiedSolver(params, region, degree, cells, ratio, k, 1e-8, check_exact=False,
+                         solver="moments")
     box = region.box(params, k)
     solvers: dict = {}  # models of the other methods, built outside their timing
     try:
+        if "linear" in methods:
+            solvers["linear"] = CertifiedSolver(params, region, degree, cells, ratio, k, 1e-8,
+                                                check_exact=False)
         if "nleigs" in methods:
             solvers["split"] = SectionModel(MPI.COMM_SELF, cs.models[0].stack, params,
                                             degree=degree, form="split")

@@ -84,6 +84,32 @@ def test_predictors_are_near_the_polished_values(case):
     assert steps == lam.size
 
 
+@pytest.mark.filterwarnings("ignore:invalid value:RuntimeWarning")  # Newton from a zero vector
+@pytest.mark.parametrize("fill", [np.nan, 0.0])
+def test_a_poor_predicted_vector_is_replaced_by_inverse_iteration(fill, monkeypatch):
+    """Where ``T_II(z)`` is nearly singular (a mode that hardly moves the interface, seen at
+    ``|Im| ~ 800`` on the stress top's 12 ``c_d`` rung at ``k = 41.6``) the predicted vector
+    is useless: Newton then starts by inverse iteration, and no moments are needed."""
+    p, k, c_max = CASES["stress"]
+    region = Region(c_max=c_max)
+    orig = condensed.CondensedOperator.linear_eigs
+
+    def no_vectors(self, box, *args, **kwargs):
+        lam, vecs = orig(self, box, *args, **kwargs)
+        return lam, np.full_like(vecs, fill)  # not finite, or a Newton that breaks down
+
+    monkeypatch.setattr(condensed.CondensedOperator, "linear_eigs", no_vectors)
+    ref, s = _solver(p, region, k, "moments"), _solver(p, region, k, "linear")
+    try:
+        a, b = ref.solve(k), s.solve(k)
+    finally:
+        ref.destroy()
+        s.destroy()
+    assert b.closed and b.note == "" and b.n_fe == a.n_fe == len(b.rows) > 0
+    va, vb = _values(a), _values(b)
+    assert np.max(np.abs(va - vb) / np.abs(va)) < SAME_VALUE_RTOL
+
+
 @pytest.mark.parametrize("how", ["pencil too large", "a predictor lost"])
 def test_moments_take_over_when_the_linearisation_falls_short(how, monkeypatch):
     p, k, c_max = CASES["stress"]

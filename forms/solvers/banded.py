@@ -345,7 +345,12 @@ class BandedOperator:
                 continue
             x0 = np.empty(self.n, dtype=complex)
             x0[self.perm] = vecs[:, i]
-            e = self.newton(z0, x0, exact_start=exact_start)
+            finite = bool(np.all(np.isfinite(x0)))
+            e = self.newton(z0, x0 if finite else None, exact_start=exact_start)
+            if exact_start and finite and not e.converged:
+                # the predicted vector is poor where T_II(z) is nearly singular (a mode that
+                # hardly moves the interface, Re Lambda ~ 0): start by inverse iteration
+                e = self.newton(z0)
             inside = a0 < e.value.real < b0 and c0 < e.value.imag < d0
             if e.converged and inside and all(
                     abs(e.value - f.value) > 1e-9 * max(1.0, abs(e.value)) for f in found):

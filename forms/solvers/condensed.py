@@ -129,14 +129,53 @@ class CondensedOperator:
         self.bop, self.powers = bop, np.array(powers, dtype=float)
         modes = modes if modes is not None else _modes_of(bop.n, bop.mats, powers)
         self.b_idx, self.i_idx, self.logdet_m = modes.b_idx, modes.i_idx, modes.logdet_m
-        order = np.argsort(np.abs(modes.w), kind="stable")  # near (small |w_j|) modes first
-        self.w = modes.w[order]
-        self.a_bb, self.g, self.h = modes.a_bb, modes.g[:, :, order], modes.h[:, order]
-        self._to_modes = lambda x: modes.to_modes(x)[order]
-        self._from_modes = lambda a: modes.from_modes(a[np.argsort(order)])
+        self.a_bb = modes.a_bb
+        #: A :class:`forms.solvers.partial.PartialModes` (vectors of the near modes only, far
+        #: sums by solves) instead of a full decomposition.
+        self.partial = getattr(modes, "partial", False)
+        self._modes, self._dense = modes, None
+        if self.partial:  # sorted by |w|; g, h, S's R grow with the near modes asked for
+            self.w = modes.w
+            nf, nb = len(powers), modes.b_idx.size
+            self.g = np.zeros((nf, nb, 0), dtype=complex)
+            self.h = np.zeros((nf, 0, nb), dtype=complex)
+        else:
+            order = np.argsort(np.abs(modes.w), kind="stable")  # near (small |w_j|) modes first
+            self.w = modes.w[order]
+            self.g, self.h = modes.g[:, :, order], modes.h[:, order]
+            self._to_modes = lambda x: modes.to_modes(x)[order]
+            self._from_modes = lambda a: modes.from_modes(a[np.argsort(order)])
         self._s_form()
         self._fars: dict[float, _Far] = {}
         self.evaluations = 0  #: points evaluated so far (cost measure)
+
+    def _ensure(self, j0: int) -> None:
+        """The near modes' ``g``, ``h`` and ``S``-terms for ``j < j0`` (a partial provider)."""
+        if self.partial and self.g.shape[2] < j0:
+            self.g, self.h = self._modes.near(j0)
+            self._s_form()
+
+    def _far_coef(self, j0: int, terms: int, scale: float) -> np.ndarray:
+        """``sum_(j >= j0) scale^l / w_j^(l+1) R_j`` for ``l < terms``: ``(terms, e b b)``."""
+        if not self.partial:
+            wf = self.w[j0:]
+            weights = (scale / wf)[None, :] ** np.arange(terms)[:, None] / wf[None, :]
+            return weights @ self._s_r[j0:]
+        pairs = self._modes.far_sums(j0, terms, scale)  # (terms, f, f', b, b)
+        q = self.powers.astype(int)
+        idx = {int(e): i for i, e in enumerate(self._s_exp)}
+        nb = self.b_idx.size
+        out = np.zeros((terms, self._s_exp.size, nb, nb), dtype=complex)
+        for f in range(q.size):
+            for f2 in range(q.size):
+                out[:, idx[q[f] + q[f2]]] += pairs[:, f, f2]
+        return out.reshape(terms, -1)
+
+    def _dense_operator(self) -> CondensedOperator:
+        """The same operator with a full (dense) decomposition, made once, for the moments."""
+        if self._dense is None:
+            self._dense = CondensedOperator(self.bop)
+        return self._dense
 
     def _far(self, z: np.ndarray) -> _Far:
         """The far modes' series for points ``z`` (made per power of 2 above ``max |z|^2``).
@@ -160,13 +199,14 @@ class CondensedOperator:
                 t = math.ceil(math.log(SERIES_EPS) / math.log(rho))
                 if j + t < j0 + terms:
                     j0, terms = j, t
+            self._ensure(j0)
             wf = self.w[j0:]
             ratio = scale / wf
             powers = ratio[None, :] ** np.arange(terms + 1)[:, None]  # (terms + 1, far)
             weights = powers[:terms] / wf[None, :]
             signs = (-1.0) ** np.arange(terms)  # (-1)^(l+1) for l = 1 .. terms
             self._fars[scale] = _Far(
-                j0, terms, scale, weights, weights @ self._s_r[j0:],
+                j0, terms, scale, weights, self._far_coef(j0, terms, scale),
                 complex(np.sum(np.log(wf.astype(complex)))),
                 signs / np.arange(1, terms + 1) * powers[1:].sum(axis=1))
         return self._fars[scale]
@@ -250,6 +290,12 @@ class CondensedOperator:
         ``Psi^H T_IB x_B``: ``[h_f] (z^q_f x_B)``); the far modes' ``d_j`` are the power series
         of :class:`_Far`, so their sums over the points are taken once per series term.
         """
+        if self.partial:  # needs every mode's vector: the dense decomposition, once
+            try:
+                dense = self._dense_operator()
+            except NotImplementedError:  # above DENSE_MAX: one banded LU per point
+                return self.bop._moment_sums(z, weights, v)
+            return dense.moment_sums(z, weights, v)
         bi, ii = self.b_idx, self.i_idx
         nf, nb, nm = self.g.shape
         cols, nq = v.shape[1], weights.shape[1]
@@ -363,10 +409,9 @@ class CondensedOperator:
         coef: dict[int, np.ndarray] = {}
         for i, e in enumerate(exps):
             coef[int(e)] = coef.get(int(e), 0) + self._s_a[i].reshape(nb, nb)
+        self._ensure(j0)
         if terms:
-            wf = self.w[j0:]
-            weights = (scale / wf)[None, :] ** np.arange(terms)[:, None] / wf[None, :]
-            sc = (weights @ self._s_r[j0:]).reshape(terms, ne, nb, nb)
+            sc = self._far_coef(j0, terms, scale).reshape(terms, ne, nb, nb)
             for t in range(terms):
                 # 1/(z^2 + w) = sum_t (-z^2/scale)^t scale^t/w^(t+1)
                 for i, e in enumerate(exps):
@@ -447,9 +492,13 @@ class CondensedOperator:
             return out
         _, s, _ = self._d_and_s(lam, self._far(lam))
         xb = np.linalg.svd(s)[2][:, -1, :].conj()  # (points, b)
+        out[self.b_idx] = xb.T
+        if self.partial:  # one banded solve each
+            for c, z in enumerate(lam):
+                out[self.i_idx, c] = self._modes.interior_response(complex(z), xb[c])
+            return out
         zp = lam[:, None] ** self.powers[None, :]  # (points, f)
         hx = np.einsum("pf,fjb,pb->jp", zp, self.h, xb)  # Psi^H T_IB(z) x_B, (m, points)
-        out[self.b_idx] = xb.T
         out[self.i_idx] = self._from_modes(-hx / (lam[None, :] ** 2 + self.w[:, None]))
         return out
 

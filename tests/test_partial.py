@@ -11,7 +11,7 @@ import pytest
 
 from analytic import Params
 from analytic.numerics.spectrum import Region
-from forms.solvers import certified
+from forms.solvers import certified, condensed
 from forms.solvers.certified import CertifiedSolver, default_discretisation
 from forms.solvers.condensed import CondensedModel
 from forms.solvers.partial import NearModel
@@ -73,16 +73,22 @@ def test_far_sums_and_predictors_equal_the_dense_ones(pair):
         assert cos > 1 - 1e-12
 
 
-def test_moment_sums_fall_back_to_the_dense_decomposition(pair):
+@pytest.mark.parametrize("how", ["dense", "banded"])
+def test_moment_sums_fall_back_to_a_full_decomposition_or_banded_solves(pair, how, monkeypatch):
     near, dense, box = pair
+    monkeypatch.setattr(near, "_dense", None)  # the module's operators are shared
+    if how == "banded":  # above DENSE_MOMENTS_MAX: one banded LU per point
+        monkeypatch.setattr(condensed, "DENSE_MOMENTS_MAX", 0)
     rng = np.random.default_rng(1)
     z = box[1] + 1j * np.linspace(box[2], box[3], 7)
     weights = rng.standard_normal((7, 2)) + 0j
     v = rng.standard_normal((near.bop.n, 3)) + 0j
     a, b = near.moment_sums(z, weights, v), dense.moment_sums(z, weights, v)
-    # two dense decompositions (this k's own, CondensedModel's reduction): measured at most
-    # 5.1e-11 of the largest entry over the cases (stress top, 800 interior rows)
+    # another decomposition (this k's own dense one, or banded LUs) than CondensedModel's
+    # reduction: measured at most 5.1e-11 of the largest entry over the cases (stress top,
+    # 800 interior rows)
     assert np.max(np.abs(a - b)) <= 1e-9 * np.max(np.abs(b))
+    assert (near._dense is None) == (how == "banded")
 
 
 @pytest.mark.parametrize("case", ["stress", "two_body"])

@@ -60,11 +60,15 @@ SERIES_EPS = 2.0 ** -60
 #: :meth:`CondensedOperator.linear_eigs`: the far modes' series truncated at this relative size
 #: (predictors only: measured, P4 paper defaults, both tops, k = 1 to 26.5, the predictors were
 #: within 2e-9 of the polished eigenvalues), the ratios ``|z|^2 / |w_j|`` tried for the split,
-#: and the largest pencil (a dense QZ of ``n`` rows costs about ``n^3``: 0.14 s at 267 rows,
-#: 4.5 s at 702 here).
+#: and the largest pencil (its dense eigenvalues cost about ``n^3``: 0.29 s at 461 rows; the
+#: stress top's 12 ``c_d`` rung at ``k = 100``, 10 418 unknowns, needs 1 754 rows, and above
+#: the limit the moments decompose the interior densely: 438 s and 10.8 GB there).
 LIN_EPS = 1e-8
 LIN_RATIOS = (1 / 2, 1 / 4, 1 / 8, 1 / 16, 1 / 32, 1 / 64)
-LIN_MAX = 1000
+LIN_MAX = 2500
+#: A partial operator's moments (:meth:`CondensedOperator.moment_sums`) decompose the interior
+#: densely up to this many rows (1.5 GB at 4 394, session 12), above it one banded LU per point.
+DENSE_MOMENTS_MAX = 4500
 #: Candidate ratios ``rho = |z|^2 / |w_j|`` bounding the far modes; the one with the fewest
 #: near modes plus series terms is taken.
 SERIES_RATIOS = (1 / 4, 1 / 8, 1 / 16, 1 / 64, 1 / 256)
@@ -292,8 +296,10 @@ class CondensedOperator:
         """
         if self.partial:  # needs every mode's vector: the dense decomposition, once
             try:
+                if self.i_idx.size > DENSE_MOMENTS_MAX:
+                    raise NotImplementedError("above DENSE_MOMENTS_MAX")
                 dense = self._dense_operator()
-            except NotImplementedError:  # above DENSE_MAX: one banded LU per point
+            except NotImplementedError:  # one banded LU per point, O(n) memory
                 return self.bop._moment_sums(z, weights, v)
             return dense.moment_sums(z, weights, v)
         bi, ii = self.b_idx, self.i_idx

@@ -37,6 +37,18 @@ def _solver(p, region, k, solver):
                            solver=solver)
 
 
+def _moments_and_linear(p, region, k):
+    """The certified results at ``k`` of ``solver="moments"`` and ``solver="linear"``."""
+    out = []
+    for solver in ("moments", "linear"):
+        s = _solver(p, region, k, solver)
+        try:
+            out.append(s.solve(k))
+        finally:
+            s.destroy()
+    return out
+
+
 def _values(res):
     return np.array(sorted((complex(r["re_lambda"], r["im_lambda"]) for r in res.rows),
                            key=lambda z: (z.imag, z.real)))
@@ -46,14 +58,7 @@ def _values(res):
 def test_linear_gives_the_moments_rows(case):
     p, k, c_max = CASES[case]
     region = Region(c_max=c_max)
-    got = {}
-    for solver in ("linear", "moments"):
-        s = _solver(p, region, k, solver)
-        try:
-            got[solver] = s.solve(k)
-        finally:
-            s.destroy()
-    a, b = got["moments"], got["linear"]
+    a, b = _moments_and_linear(p, region, k)
     assert a.closed and b.closed and a.n_fe == b.n_fe == len(b.rows) > 0
     assert b.note == ""  # the linearised predictors gave the count: no moments ran
     va, vb = _values(a), _values(b)
@@ -99,12 +104,7 @@ def test_a_poor_predicted_vector_is_replaced_by_inverse_iteration(fill, monkeypa
         return lam, np.full_like(vecs, fill)  # not finite, or a Newton that breaks down
 
     monkeypatch.setattr(condensed.CondensedOperator, "linear_eigs", no_vectors)
-    ref, s = _solver(p, region, k, "moments"), _solver(p, region, k, "linear")
-    try:
-        a, b = ref.solve(k), s.solve(k)
-    finally:
-        ref.destroy()
-        s.destroy()
+    a, b = _moments_and_linear(p, region, k)
     assert b.closed and b.note == "" and b.n_fe == a.n_fe == len(b.rows) > 0
     va, vb = _values(a), _values(b)
     assert np.max(np.abs(va - vb) / np.abs(va)) < SAME_VALUE_RTOL
@@ -125,12 +125,7 @@ def test_moments_take_over_when_the_linearisation_falls_short(how, monkeypatch):
             return lam[keep], vecs[:, keep]
 
         monkeypatch.setattr(condensed.CondensedOperator, "linear_eigs", lose_one)
-    ref, s = _solver(p, region, k, "moments"), _solver(p, region, k, "linear")
-    try:
-        a, b = ref.solve(k), s.solve(k)
-    finally:
-        ref.destroy()
-        s.destroy()
+    a, b = _moments_and_linear(p, region, k)
     assert b.closed and b.n_fe == a.n_fe == len(b.rows)
     expect = "LIN_MAX" if how == "pencil too large" else f"gave {b.n_fe - 1} of {b.n_fe}"
     assert expect in b.note and "moments" in b.note

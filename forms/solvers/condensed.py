@@ -575,6 +575,54 @@ def _modes_of(n: int, mats: list[sp.csr_matrix], powers: list[int]) -> _Modes:
                   lambda x: psi_h @ x, lambda a: phi @ a)
 
 
+@dataclass
+class InteriorForm:
+    """The interior blocks of a banded model ``T0 + k T1 + k^2 T2`` in their real form.
+
+    Attributes:
+        powers: The power of ``z`` of each matrix function.
+        parts: Each part's matrices (banded order).
+        b_idx, i_idx: The rows of ``B`` and the interior ``I`` (:func:`_split_rows`).
+        k_parts: ``K_p = A0_p[I, I]`` per part (sparse, complex).
+        m_ii: ``M = A2[I, I]`` (``k``-free).
+        phases: ``D`` with every ``D^H K_p D`` and ``D^H M D`` real.
+    """
+
+    powers: list[int]
+    parts: list
+    b_idx: np.ndarray
+    i_idx: np.ndarray
+    k_parts: list[sp.csr_matrix]
+    m_ii: sp.csr_matrix
+    phases: np.ndarray
+
+
+def real_interior_form(banded: object) -> InteriorForm:
+    """:class:`InteriorForm` of a banded model, the conditions of a ``k``-independent half.
+
+    Raises:
+        NotImplementedError: Not a polynomial with a ``z^2`` term, a mass that depends on
+            ``k``, an interior block that is not Hermitian, or no one real phase form.
+    """
+    powers = [fn.power_index for fn in banded.functions]
+    if any(q is None for q in powers) or 2 not in powers:
+        raise NotImplementedError("the condensed form needs a polynomial with a z^2 term")
+    parts = banded.part_matrices()
+    f2 = powers.index(2)
+    if any(part[f2].count_nonzero() for part in parts[1:]):
+        raise NotImplementedError("the mass depends on k")
+    bi, ii = _split_rows(banded.n, parts, powers)
+    k_parts = [sum((m for q, m in zip(powers, part, strict=True) if q == 0),
+                   0 * part[f2])[ii][:, ii].tocsr() for part in parts]
+    m_ii = parts[0][f2][ii][:, ii].tocsr()
+    if not all(_hermitian(x) for x in [*k_parts, m_ii]):
+        raise NotImplementedError("an interior block is not Hermitian")
+    ph = _sparse_real_phases(sum(k_parts), m_ii)
+    if ph is None or any(_not_real(ph, x) for x in [*k_parts, m_ii]):
+        raise NotImplementedError("no real form of every part")
+    return InteriorForm(powers, parts, bi, ii, k_parts, m_ii, ph)
+
+
 class CondensedModel:
     """The ``k``-independent half of the condensed form, for every ``k`` of a banded model.
 
@@ -594,23 +642,11 @@ class CondensedModel:
     """
 
     def __init__(self, banded: object) -> None:
-        powers = [fn.power_index for fn in banded.functions]
-        if any(q is None for q in powers) or 2 not in powers:
-            raise NotImplementedError("the condensed form needs a polynomial with a z^2 term")
-        parts = banded.part_matrices()
-        f2 = powers.index(2)
-        if any(part[f2].count_nonzero() for part in parts[1:]):
-            raise NotImplementedError("the mass depends on k")
-        self.b_idx, self.i_idx = bi, ii = _split_rows(banded.n, parts, powers)
+        form = real_interior_form(banded)
+        powers, parts, k_parts, m_ii, ph = (form.powers, form.parts, form.k_parts, form.m_ii,
+                                            form.phases)
+        self.b_idx, self.i_idx = bi, ii = form.b_idx, form.i_idx
         dense_fits(ii.size)
-        k_parts = [sum((m for q, m in zip(powers, part, strict=True) if q == 0),
-                       0 * part[f2])[ii][:, ii].tocsr() for part in parts]
-        m_ii = parts[0][f2][ii][:, ii].tocsr()
-        if not all(_hermitian(x) for x in [*k_parts, m_ii]):
-            raise NotImplementedError("an interior block is not Hermitian")
-        ph = _sparse_real_phases(sum(k_parts), m_ii)
-        if ph is None or any(_not_real(ph, x) for x in [*k_parts, m_ii]):
-            raise NotImplementedError("no real form of every part")
         self.phases = ph
         try:
             self._u, _, self._bw, logdet = _banded_cholesky(_real(ph, m_ii).toarray())

@@ -32,14 +32,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 from scipy.linalg import lapack
 
-from forms.solvers.condensed import (
-    _banded_cholesky,
-    _hermitian,
-    _not_real,
-    _real,
-    _sparse_real_phases,
-    _split_rows,
-)
+from forms.solvers.condensed import _banded_cholesky, _real, real_interior_form
 
 #: Near vectors computed beyond those asked for (:meth:`PartialModes._vectors_to`).
 MARGIN = 4
@@ -124,23 +117,11 @@ class NearModel:
     """
 
     def __init__(self, banded: object) -> None:
-        powers = [fn.power_index for fn in banded.functions]
-        if any(q is None for q in powers) or 2 not in powers:
-            raise NotImplementedError("the condensed form needs a polynomial with a z^2 term")
         _lapack_dsbgvx()
-        parts = banded.part_matrices()
-        f2 = powers.index(2)
-        if any(part[f2].count_nonzero() for part in parts[1:]):
-            raise NotImplementedError("the mass depends on k")
-        self.b_idx, self.i_idx = bi, ii = _split_rows(banded.n, parts, powers)
-        k_parts = [sum((m for q, m in zip(powers, part, strict=True) if q == 0),
-                       0 * part[f2])[ii][:, ii].tocsr() for part in parts]
-        m_ii = parts[0][f2][ii][:, ii].tocsr()
-        if not all(_hermitian(x) for x in [*k_parts, m_ii]):
-            raise NotImplementedError("an interior block is not Hermitian")
-        ph = _sparse_real_phases(sum(k_parts), m_ii)
-        if ph is None or any(_not_real(ph, x) for x in [*k_parts, m_ii]):
-            raise NotImplementedError("no real form of every part")
+        form = real_interior_form(banded)
+        powers, parts, k_parts, m_ii, ph = (form.powers, form.parts, form.k_parts, form.m_ii,
+                                            form.phases)
+        self.b_idx, self.i_idx = bi, ii = form.b_idx, form.i_idx
         self.phases, self.powers = ph, np.array(powers)
         self.k_parts = [_real(ph, x) for x in k_parts]
         self.m = _real(ph, m_ii)

@@ -34,8 +34,11 @@ from scipy.linalg import lapack
 
 from forms.solvers.condensed import _banded_cholesky, _real, real_interior_form
 
-#: Near vectors computed beyond those asked for (:meth:`PartialModes._vectors_to`).
+#: Near vectors computed beyond those asked for, and the relative distance under which
+#: eigenvalues form a cluster whose vectors are separated by Rayleigh-Ritz
+#: (:meth:`PartialModes._vectors_to`).
 MARGIN = 4
+CLUSTER = 1e-3
 
 
 def _lapack_dsbgvx() -> object:
@@ -171,7 +174,7 @@ class PartialModes:
         w = banded_eigenvalues(self._kab, model.mab)
         self.w = w[np.argsort(np.abs(w), kind="stable")].astype(complex)
         self._gs, self._hs = self._at(model._g), self._at(model._h)
-        self._phi = self._raw = np.zeros((model.m.shape[0], 0))
+        self._phi = np.zeros((model.m.shape[0], 0))
         self._rng = np.random.default_rng(7)
         self._kchol, self._band_store = None, None
         # the couplings' columns that are not zero (interior rows carry powers 0 and 2 only)
@@ -193,32 +196,46 @@ class PartialModes:
     def _vectors_to(self, j: int) -> None:
         """Near vectors up to ``j`` (``M``-orthonormal, real): inverse iteration, Rayleigh-Ritz.
 
-        One solve with ``K - w_i M`` at each eigenvalue ``w_i`` (``dsbgvx``'s, accurate to
-        rounding) from its own random start, for ``i < j +`` :data:`MARGIN`, gives a basis of
-        those modes (a cluster of close eigenvalues gets independent combinations of its
-        vectors); the Rayleigh-Ritz pairs of ``(K, M)`` on that basis are the modes, the
-        first ``j`` kept. The margin keeps a cluster cut by ``j`` whole.
+        At each eigenvalue ``w_i`` (``dsbgvx``'s, accurate to rounding) two solves with one LU
+        of ``K - w_i M`` from a random start give its vector to rounding over the gap to its
+        neighbours. Eigenvalues closer than :data:`CLUSTER` (relative) form a cluster, whose
+        iterates are independent combinations of its vectors: the Rayleigh-Ritz pairs of
+        ``(K, M)`` on them are its modes. The vectors are computed to the end of the cluster
+        that holds ``j + MARGIN``, so no cluster is cut.
         """
-        if j <= self._phi.shape[1]:
+        have = self._phi.shape[1]
+        if j <= have:
             return
         n, bw, m = self.kmat.shape[0], self.model.bw, self.model.m
-        have, top = self._raw.shape[1], min(j + MARGIN, n)
+        w = self.w.real
+        top = min(j + MARGIN, n)
+        while top < n and abs(w[top] - w[top - 1]) <= CLUSTER * abs(w[top]):
+            top += 1
         full = np.zeros((3 * bw + 1, n))  # dgbtrf storage: A[r, c] at [2 bw + r - c, c]
         kb, mb = self._bands()
         x = self._rng.standard_normal((n, top - have))
         for c, i in enumerate(range(have, top)):
-            sigma = self.w[i].real
             for nudge in (0.0, 1e-13, 1e-11):  # an exactly singular shift is moved off
-                full[bw:] = kb - sigma * (1.0 + nudge) * mb
+                full[bw:] = kb - w[i] * (1.0 + nudge) * mb
                 lu, piv, info = lapack.dgbtrf(full, bw, bw)
                 if info == 0:
-                    x[:, c] = lapack.dgbtrs(lu, bw, bw, m @ x[:, c], piv)[0]
+                    for _ in range(2):
+                        x[:, c] = lapack.dgbtrs(lu, bw, bw, m @ x[:, c], piv)[0]
+                        x[:, c] /= np.linalg.norm(x[:, c])
                     break
-        x /= np.linalg.norm(x, axis=0)[None, :]
-        self._raw = x = np.concatenate([self._raw, x], axis=1)
-        kx, mx = x.T @ (self.kmat @ x), x.T @ (m @ x)
-        w, y = sla.eigh(0.5 * (kx + kx.T), 0.5 * (mx + mx.T))
-        self._phi = x @ y[:, np.argsort(np.abs(w), kind="stable")[:j]]
+        x /= np.sqrt(np.einsum("ij,ij->j", x, m @ x))[None, :]
+        lo = 0
+        for hi in range(1, x.shape[1] + 1):  # Rayleigh-Ritz on each cluster
+            if hi < x.shape[1] and abs(w[have + hi] - w[have + hi - 1]) <= CLUSTER * abs(
+                    w[have + hi]):
+                continue
+            if hi - lo > 1:
+                v = x[:, lo:hi]
+                kv, mv = v.T @ (self.kmat @ v), v.T @ (m @ v)
+                ritz, y = sla.eigh(0.5 * (kv + kv.T), 0.5 * (mv + mv.T))
+                x[:, lo:hi] = v @ y[:, np.argsort(np.abs(ritz), kind="stable")]
+            lo = hi
+        self._phi = np.concatenate([self._phi, x], axis=1)
 
     def _bands(self) -> tuple[np.ndarray, np.ndarray]:
         """General band storage of ``K`` (this ``k``) and ``M`` (made once)."""

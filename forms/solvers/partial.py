@@ -10,8 +10,8 @@ the banded pencil (both real after the diagonal phase scaling ``D^H (.) D``):
   ``O(n^2 b)``: 0.03 s at 728 interior rows, 0.2 s at 1 831, against 0.11 s and 2.0 s for the
   dense ``eigh`` with its products in :class:`forms.solvers.condensed.CondensedModel`,
   measured 2026-11-28);
-- each near vector by inverse iteration at its eigenvalue (one banded LU, two solves),
-  ``M``-orthogonalised against the vectors before it;
+- each near vector by inverse iteration at its eigenvalue (one banded LU, two solves), the
+  vectors of a cluster of close eigenvalues separated by Rayleigh-Ritz;
 - the far sums by deflated solves: ``X_0 = K^-1 (Y - M Phi_n Phi_n^T Y)``,
   ``X_(l+1) = K^-1 M X_l`` with the near components projected out after every solve, so that
   ``X_l = sum_(j >= j0) phi_j phi_j^T Y / w_j^(l+1)`` (``Y`` the interior-to-interface
@@ -19,7 +19,8 @@ the banded pencil (both real after the diagonal phase scaling ``D^H (.) D``):
 
 Nothing here forms a dense ``n x n`` matrix. :class:`PartialModes` is what
 :class:`~forms.solvers.condensed.CondensedOperator` takes in place of the dense decomposition;
-where a full basis is needed (the contour moments, a fallback) the operator decomposes densely.
+where a full basis is needed (the contour moments, a fallback) the operator decomposes densely
+up to ``condensed.DENSE_MOMENTS_MAX`` interior rows and takes banded LUs above.
 """
 
 from __future__ import annotations

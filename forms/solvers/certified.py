@@ -1,19 +1,21 @@
 """The certified complete spectrum at one ``k``: FE eigenvalues, their count, exact roots.
 
 docs/design.md section 8. For every requested ``k`` and a rectangle ``R`` (by default the
-:class:`analytic.numerics.spectrum.Region` at ``k``), with the default ``solver="moments"``:
+:class:`analytic.numerics.spectrum.Region` at ``k``), with the default ``solver="linear"``:
 
 1. FE count: the argument principle on ``log det T_h`` along the boundary of ``R``
    (:meth:`forms.solvers.condensed.CondensedOperator.count_and_samples`: adaptive contour points,
    ``det T_h = det M_II prod_j (z^2 + w_j) det S(z)`` by the Schur-complement identity on the
    quadratic interior block, the same determinant as one banded LU per point,
    ``count="banded"``) gives ``N_FE``;
-2. FE eigenvalues, with no exact root as input: contour-integral moments of ``T_h(z)^{-1} V`` on
-   the same contour points (Beyn's method,
-   :meth:`forms.solvers.banded.BandedOperator.moment_eigs`), each predictor polished by Newton
-   on the discrete nonlinear eigenproblem; the count closes when the distinct values found
-   inside ``R`` are ``N_FE`` (the count does not come from the moments, so a missed eigenvalue
-   shows);
+2. FE eigenvalues, with no exact root as input: the eigenvalues of one dense linear
+   eigenproblem of the condensed form
+   (:meth:`forms.solvers.condensed.CondensedOperator.linear_eigs`), each polished by Newton on
+   the discrete nonlinear eigenproblem; where they are fewer than ``N_FE`` (or with
+   ``solver="moments"``), contour-integral moments of ``T_h(z)^{-1} V`` on the same contour
+   points (Beyn's method, :meth:`forms.solvers.banded.BandedOperator.moment_eigs`), each
+   predictor polished the same way; the count closes when the distinct values found inside
+   ``R`` are ``N_FE`` (the count comes from neither, so a missed eigenvalue shows);
 3. error estimate: one Newton solve on the degree ``p + 1`` discretisation started from the
    FE value gives ``|Lambda_p - Lambda_{p+1}| / |Lambda_{p+1}|``;
 4. with ``check_exact`` (default) the exact side is consulted afterwards: the argument-principle
@@ -58,7 +60,8 @@ from forms.solvers.partial import NearModel
 #: Columns of one spectrum row, in CSV order.
 ROW_FIELDS = ("k", "label", "re_lambda", "im_lambda", "re_lambda_exact", "im_lambda_exact",
               "rel_error", "error_estimate", "residual", "status", "certificate")
-#: Ways of finding the FE eigenvalues (``--solver``): contour moments first, or exact-seeded.
+#: Ways of finding the FE eigenvalues (``--solver``): linearised predictors (moments where they
+#: fall short), contour moments only, or exact-seeded.
 SOLVERS = ("linear", "moments", "newton")
 #: Ways of evaluating ``det T_h`` on the contour: condensed (default) or one banded LU a point.
 COUNTS = ("condensed", "banded")
@@ -275,9 +278,10 @@ class CertifiedSolver:
             ``None``: homogeneous).
         check_exact: Match the FE eigenvalues to the exact roots afterwards (labels, errors);
             ``False``: ``analytic``'s roots and families are never consulted.
-        solver: ``"moments"`` (FE first, :meth:`forms.solvers.banded.BandedOperator.
-            moment_eigs`) or ``"newton"`` (FE Newton from every exact root; needs
-            ``check_exact``).
+        solver: ``"linear"`` (FE first, :meth:`forms.solvers.condensed.CondensedOperator.
+            linear_eigs`, the moments where they fall short), ``"moments"`` (FE first,
+            :meth:`forms.solvers.banded.BandedOperator.moment_eigs`) or ``"newton"`` (FE
+            Newton from every exact root; needs ``check_exact``).
         count: ``"condensed"`` (``log det T_h`` and the moments' solves in the condensed form
             of :class:`forms.solvers.condensed.CondensedOperator`, the same determinant) or
             ``"banded"`` (one banded LU per contour point, kept for comparison).

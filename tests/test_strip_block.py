@@ -20,7 +20,7 @@ from analytic.params import Params  # noqa: E402
 from forms.mode_postprocessing import interface_stresses  # noqa: E402
 from forms.models.strip import build_strip_problem, solve_modes  # noqa: E402
 from forms.solvers.continuation import follow_fe_branch  # noqa: E402
-from forms.solvers.spatial_stability import kulikovskii_limit  # noqa: E402
+from forms.solvers.spatial_stability import curve_peak, kulikovskii_limit  # noqa: E402
 from forms.studies import block  # noqa: E402
 from meshes.strip import strip_mesh  # noqa: E402
 
@@ -112,6 +112,24 @@ def test_long_block_stress_top_reaches_saddle_point():
     assert abs(k_s.real + 1.5224) < 1e-3 and 0 < k_s.imag < 0.02
     assert 0 < kul["lambda"][0] - lam.real < 3e-4
     assert abs(kul["lambda"][1] - lam.imag) < 2e-3  # measured 7.9e-4
+
+
+@pytest.mark.parametrize("shift", [0.0, 0.03])
+@pytest.mark.parametrize("curvature", [-1.0, -1e-9, 0.0, 1.0])
+def test_curve_peak_stays_within_the_samples(curvature, shift):
+    """The Kulikovskii curve's largest growth: the parabola's vertex only between the samples
+    that bracket the best one, else the best sample (a flat fit once gave Re 4.32 against the
+    strip's 0.196: stress top, alpha_pc = 0.1, L = 8)."""
+    om = np.linspace(-5.75, -5.45, 7)
+    sig = 0.13 + curvature * (om + 5.6 - shift) ** 2 + 1e-3 * (om + 5.6)
+    s, w = curve_peak(om[::-1], sig[::-1])  # the order of the samples does not matter
+    assert om[0] <= w <= om[-1]
+    assert s >= sig.max() - 1e-15
+    if curvature == -1.0:  # an exact parabola: its vertex
+        w0 = -5.6 + shift + 1e-3 / 2
+        assert abs(w - w0) < 1e-12 and abs(s - (0.13 + 1e-3 * (w0 + 5.6) - 0.25e-6)) < 1e-12
+    else:  # nearly flat or convex: the best sample
+        assert s == sig.max() and w == om[int(np.argmax(sig))]
 
 
 @pytest.mark.slow  # measured 6 .. 15 s per case (2026-11-22, serial pass)

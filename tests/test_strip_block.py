@@ -276,6 +276,21 @@ def test_extrapolate_fallback_and_short():
 
 
 @pytest.mark.serial
+@pytest.mark.parametrize("switch", [None, 3, 4])
+def test_same_mode_tail_stops_where_the_fastest_changes_mode(switch):
+    """The stress top at alpha_pc = 0.1 (committed targets search): the fastest block mode is
+    the 0+ one (|Im| 5.6) up to L = 32 and a 1+ one (|Im| 19.3) at L = 64; the extrapolation
+    uses the lengths of the largest length's mode only."""
+    L = np.array([4.0, 8.0, 16.0, 32.0, 64.0])
+    lam = np.array([0.10 - 5.65j, 0.129 - 5.609j, 0.140 - 5.571j, 0.143 - 5.561j, 0.144 - 5.56j])
+    if switch is not None:  # from index `switch` on, another thickness mode
+        lam[switch:] = 0.15 - 19.27j + 1e-3 * np.arange(len(L) - switch)
+    tail_L, tail = block.same_mode_tail(L[::-1], lam[::-1])
+    first = 0 if switch is None else switch
+    assert list(tail_L) == list(L[first:]) and np.all(tail == lam[first:])
+
+
+@pytest.mark.serial
 def test_rows_and_long_block_limit(monkeypatch):
     ref = block.StripReference([("0-", 1.75, 0.33 - 7.1j)], "0-", 1.75, 0.33 - 7.1j, [])
     failed = block.BlockMode(8.0, None, float("nan"), 0).row(ref)

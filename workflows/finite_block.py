@@ -264,7 +264,8 @@ def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, b
                       f" {complex(*kul['k1_at_block']):.4f}, k2 ="
                       f" {complex(*kul['k2_at_block']):.4f})", flush=True)
         if len(L_all):
-            g_inf, order_p = block.extrapolate(L_all, lam_all.real)
+            L_tail, lam_tail = block.same_mode_tail(L_all, lam_all)  # one global mode
+            g_inf, order_p = block.extrapolate(L_tail, lam_tail.real)
             meta["extrapolated_growth"], meta["extrapolation_order"] = g_inf, order_p
             plot_convergence(L_all, lam_all, g_inf, order_p, ref.lam_inf, ref.k_inf,
                              os.path.join(args.out, "finite_block.png"), title, meta, kul)

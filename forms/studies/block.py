@@ -15,7 +15,8 @@ Used by ``workflows/finite_block.py``:
   argument principle, conjugate symmetry, the estimate against degree + 1), rows of
   :data:`SPECTRUM_COLUMNS`;
 - :func:`converged_rows`: lengths and eigenvalues of the rows that converged;
-- :func:`extrapolate`: the limit ``L -> infinity`` (Richardson, observed order);
+- :func:`extrapolate`: the limit ``L -> infinity`` (Richardson, observed order), along
+  :func:`same_mode_tail`;
 - :func:`long_block_limit`: the cross-section model's long-block limit at the largest ``L``
   (:func:`forms.solvers.spatial_stability.kulikovskii_limit`; rigid substrate only);
 - :func:`estimate_seconds`: the up-front estimate of a scan (``finite_block.py`` prints it).
@@ -581,6 +582,33 @@ def converged_rows(rows: Sequence[dict[str, str]]) -> tuple[np.ndarray, np.ndarr
     lam = np.array([complex(float(r["re_lambda"]), float(r["im_lambda"])) for r in ok])
     order = np.argsort(L)
     return L[order], lam[order]
+
+
+#: Relative distance in ``|Im Lambda|`` within which the fastest modes of consecutive lengths
+#: are taken as the same global mode (:func:`same_mode_tail`). The same mode moves by 1.5 %
+#: from ``L = 8`` to 64 (stress top, ``alpha_pc = 0.1``: ``|Im|`` 5.609 to 5.561); the fastest
+#: there changed thickness mode at ``L = 64``, to ``|Im| = 19.27``.
+SAME_MODE_IM = 0.1
+
+
+def same_mode_tail(L: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The largest lengths whose fastest mode is the largest length's.
+
+    Each length's ``|Im|`` within :data:`SAME_MODE_IM` (relative) of its next-longer
+    neighbour's.
+    An extrapolation ``L -> infinity`` is meaningful only along one global mode: where a
+    higher thickness mode takes over as the fastest, the lengths before it are left out.
+
+    Returns:
+        ``(L, lam)`` of that tail, sorted by ``L``.
+    """
+    order = np.argsort(L)
+    L, lam = np.asarray(L)[order], np.asarray(lam)[order]
+    j = len(L) - 1
+    while j > 0 and (abs(abs(lam[j - 1].imag) - abs(lam[j].imag))
+                     <= SAME_MODE_IM * max(abs(lam[j].imag), 1.0)):
+        j -= 1
+    return L[j:], lam[j:]
 
 
 def extrapolate(L: np.ndarray, values: np.ndarray) -> tuple[float, float]:

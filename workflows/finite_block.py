@@ -139,7 +139,11 @@ def plot_convergence(L: np.ndarray, lam: np.ndarray, g_inf: float, order_p: floa
 
     fig, axes = plt.subplots(1, 2, figsize=(11.5, 4.3))
     ax = axes[0]
-    ax.plot(L, lam.real, "o-", label="finite block: most unstable Re $\\Lambda$")
+    ax.plot(L, lam.real, "o-", label="finite block: most unstable Re $\\Lambda$"
+            " (labels: |Im $\\Lambda$|, which tell the thickness modes apart)")
+    for x, z in zip(L, lam, strict=True):
+        ax.annotate(f"{abs(z.imag):.3g}", (x, z.real), textcoords="offset points",
+                    xytext=(0, 6), ha="center", fontsize=7)
     ax.axhline(lam_inf.real, color="k", ls="--",
                label=f"infinite strip ({meta.get('reference_branch', '')}): max over k of"
                      f" Re $\\Lambda$ = {lam_inf.real:.5f} (k = {k_inf:.4g})")

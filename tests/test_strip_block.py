@@ -228,6 +228,27 @@ def test_finite_block_complete_search_is_certified_and_deterministic(tmp_path):
             complex(float(s["re_lambda"]), float(s["im_lambda"])), rel=1e-9)
 
 
+@pytest.mark.slow  # one small complete search of an empty box (measured ~10 s)
+@pytest.mark.serial
+def test_finite_block_empty_box_says_the_fastest_is_below_it(tmp_path):
+    """A box above every eigenvalue counts 0, the length is done (an answer), and the run says
+    once that the fastest mode is below RE_MIN (alpha_pc = 0.1, L = 4 at the auto box's floor:
+    0.1083 against 0.1085 once gave an empty spectrum without a word)."""
+    env = dict(os.environ)
+    env.pop("DISPLAY", None)
+    out = tmp_path / "out"
+    res = subprocess.run(
+        [sys.executable, SCRIPT, "--out", str(out), "--search", "complete", "--lengths", "2",
+         "--cells-per-unit", "4", "--ny", "3", "--nev", "8", "--k-scan", "0.5:3:6",
+         "--box", "0.6:0.9:10", "--no-kulikovskii"],  # above the 4 found in 0.05 .. 0.6 (above)
+        capture_output=True, text=True, env=env, timeout=600)
+    assert res.returncode == 0, res.stderr[-3000:]
+    cert = json.loads((out / "finite_block.json").read_text())["certificates"]["2"]
+    assert cert["closed"] and cert["found"] == cert["counted"] == 0
+    line = "L = 2: no eigenvalue in the box (counted 0)"
+    assert res.stderr.count(line) == 1 and "lower RE_MIN of --box" in res.stderr
+
+
 @pytest.mark.slow  # two small complete searches (~20-40 s each, loaded machine)
 @pytest.mark.serial
 def test_finite_block_complete_search_resume_writes_each_length_once(tmp_path):

@@ -142,11 +142,16 @@ def solve_length(comm, args: argparse.Namespace, params, L: float, ref, keep_mod
             degree=args.degree, lateral=args.lateral, targets=targets, nev=args.nev,
             keep_mode=keep_mode)
         return mode, mode.eigenvalue is not None
+    box = box_for(parse_box(args.box), ref.lam_inf, params, args)
     spec = block.block_spectrum(
         comm, params, L, cells_per_unit=args.cells_per_unit, ny=args.ny, degree=args.degree,
-        lateral=args.lateral, box=box_for(parse_box(args.box), ref.lam_inf, params, args),
-        nev=args.nev, estimate=True, keep_mode=keep_mode, half=args.half,
-        split_count=args.count_ranks == "split", divide=args.count_reference == "elastic")
+        lateral=args.lateral, box=box, nev=args.nev, estimate=True, keep_mode=keep_mode,
+        half=args.half, split_count=args.count_ranks == "split",
+        divide=args.count_reference == "elastic")
+    if spec.closed and not spec.found:  # an answer, but not the fastest mode: say so
+        _cli.say(f"L = {L:g}: no eigenvalue in the box (counted 0): every mode of this block "
+                 f"with |Im| <= {box[3]:.6g} grows slower than Re = {box[0]:.6g}; to find the "
+                 "fastest, lower RE_MIN of --box", err=True)
     if comm.rank == 0:
         certificates[f"{L:g}"] = {**spec.record(), "spectrum": [
             [f"{v:.12g}" if isinstance(v, float) else v for v in r] for r in spec.rows()]}

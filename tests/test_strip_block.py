@@ -114,12 +114,28 @@ def test_long_block_stress_top_reaches_saddle_point():
     assert abs(kul["lambda"][1] - lam.imag) < 2e-3  # measured 7.9e-4
 
 
+@pytest.mark.serial
+def test_kulikovskii_curve_into_a_pinch_gives_the_saddle():
+    """Stress top, alpha_pc = 0.1, the block's 0+ mode at L = 8 (committed complete search):
+    its waves are 0.79 apart, so the curve Im k1 = Im k2 is followed; it rises to an end where
+    they are 0.13 apart, and the limit is the saddle point there, the one found directly from
+    the L = 16 eigenvalue (whose waves already pinch). Before, the curve ran on past the pinch
+    with both tracked roots on one root (Im k1 = Im k2 trivially) and gave Re 4.32."""
+    params = Params(bc="stress", alpha_pc=0.1)
+    kul = kulikovskii_limit(params, 0.128972810025 - 5.60850884943j)
+    direct = kulikovskii_limit(params, 0.140324092837 - 5.57051923848j)
+    assert kul["type"] == direct["type"] == "saddle"
+    assert all(abs(c[2] - c[4]) + abs(c[3] - c[5]) > 0.1 for c in kul["curve"])  # never merged
+    # the same saddle from two starts: measured equal to 1e-12; the saddle's tolerance is 1e-10
+    assert abs(complex(*kul["lambda"]) - complex(*direct["lambda"])) < 1e-8
+    assert 0.128972810025 < kul["lambda"][0] < 0.19602  # below the strip's fastest (1+)
+
+
 @pytest.mark.parametrize("shift", [0.0, 0.03])
 @pytest.mark.parametrize("curvature", [-1.0, -1e-9, 0.0, 1.0])
 def test_curve_peak_stays_within_the_samples(curvature, shift):
     """The Kulikovskii curve's largest growth: the parabola's vertex only between the samples
-    that bracket the best one, else the best sample (a flat fit once gave Re 4.32 against the
-    strip's 0.196: stress top, alpha_pc = 0.1, L = 8)."""
+    that bracket the best one, else the best sample."""
     om = np.linspace(-5.75, -5.45, 7)
     sig = 0.13 + curvature * (om + 5.6 - shift) ** 2 + 1e-3 * (om + 5.6)
     s, w = curve_peak(om[::-1], sig[::-1])  # the order of the samples does not matter
@@ -604,7 +620,8 @@ REGULARISED = os.path.join("finite_block_regularised")
 #: the target search): README "The fastest mode over all thickness modes".
 REGULARISED_RUNS = {
     "velocity": ({"velocity_complete": 8.0}, {8.0: 6.6, 16.0: 6.6, 32.0: 6.53, 64.0: 6.53}),
-    "stress": ({"stress_complete": 8.0, "stress_complete_L16": 16.0},
+    "stress": ({"stress_complete": 8.0, "stress_complete_L16": 16.0,
+                "stress_complete_wide": 8.0},
                {8.0: 5.61, 16.0: 5.57, 32.0: 5.56, 64.0: 19.27}),
 }
 
@@ -659,6 +676,12 @@ def test_committed_regularised_block_search(top):
         assert cert["fastest_estimate"] < 1e-3  # measured 1.8e-4, 2.9e-5, (L = 16) below
         box = cert["box"]
         assert box[0] < best.real and box[1] >= 2 * strip.real * 0.999
+        if folder == "stress_complete_wide":  # twice |Im|, twice the ceiling: the same set
+            narrow = _spectrum_rows(os.path.join(REGULARISED, "stress_complete"), length)
+            assert len(z) == len(narrow)
+            # other tiles, other shifts: the CSVs' 12 digits differ by 1 in the last (measured)
+            assert all(np.min(np.abs(narrow - v)) < 1e-10 * abs(v) for v in z)
+            assert cert["box"][3] >= 2 * 125.67 and cert["box"][1] >= 2 * 0.4
         if length == 16.0:  # stress: the 0+ mode's limit (a saddle) is below the 1+ mode's
             assert cmeta["kulikovskii"]["type"] == "saddle"
             assert best.real < cmeta["kulikovskii"]["lambda"][0] < kul["lambda"][0]

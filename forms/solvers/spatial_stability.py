@@ -140,9 +140,8 @@ def curve_peak(om: np.ndarray, sig: np.ndarray) -> tuple[float, float]:
     """Largest ``sig`` on a sampled curve ``sig(om)``: a parabola through the best three samples.
 
     The parabola's vertex is used only where it lies between the outer two of them (a concave
-    fit); otherwise the best sample is. Before, an almost flat fit put the vertex far outside
-    the samples (stress top, ``alpha_pc = 0.1``, ``L = 8``: ``Re Lambda = 4.32`` against the
-    strip's 0.196).
+    fit); otherwise the best sample is: a vertex outside them (a nearly flat or convex fit) is
+    not a peak of the sampled curve.
 
     Returns:
         ``(sig_max, om_max)``.
@@ -162,6 +161,36 @@ def curve_peak(om: np.ndarray, sig: np.ndarray) -> tuple[float, float]:
     return float(np.polyval([a2, a1, a0], vertex)), float(vertex)
 
 
+def _follow_curve(model: CrossSectionModel, lam_block: complex, k1: complex, k2: complex,
+                  oms: np.ndarray) -> list[tuple[complex, complex, complex]]:
+    """Samples ``(Lambda, k1, k2)`` of the curve ``Im k1 = Im k2`` at the frequencies ``oms``.
+
+    Followed from the sample nearest the block's frequency outwards, each from its neighbour.
+    A direction ends where the two tracked roots merge (``k1 = k2`` satisfies ``Im k1 = Im k2``
+    trivially) or a root jumps by more than the pair's separation (another root taken): stress
+    top, ``alpha_pc = 0.1``, ``L = 8``, both roots ran to ``-2.81 - 2.54i`` two samples from the
+    centre and the curve's "peak" was ``Re Lambda = 4.17`` against the strip's 0.196.
+
+    Returns:
+        The valid samples, ordered by frequency.
+    """
+    centre = int(np.argmin(np.abs(oms - lam_block.imag)))
+    curve = {}
+    for direction in (range(centre, len(oms)), range(centre - 1, -1, -1)):
+        sigma, a, b = lam_block.real, k1, k2
+        for i in direction:
+            try:
+                lam, a2, b2 = kulikovskii_growth(model, float(oms[i]), sigma, a, b)
+            except RuntimeError:
+                break
+            if (abs(a2 - b2) < 1e-6 * max(abs(a2), 1.0)
+                    or max(abs(a2 - a), abs(b2 - b)) > abs(a - b)):
+                break
+            curve[i] = (lam, a2, b2)
+            sigma, a, b = lam.real, a2, b2
+    return [curve[i] for i in sorted(curve)]
+
+
 def kulikovskii_limit(params: Params, lam_block: complex, span: float = 0.15, points: int = 7,
                       pinch: float = 0.5) -> dict | None:
     """Long-block limit from the cross-section model alone.
@@ -172,11 +201,18 @@ def kulikovskii_limit(params: Params, lam_block: complex, span: float = 0.15, po
     ``dLambda/dk = 0`` (absolute instability), :func:`saddle_point`. Otherwise (Kulikovskii's
     condition) the curve ``Im k1 = Im k2`` is followed over ``omega`` in
     ``Im(lam_block) +- span`` and its largest growth rate found by a parabola through the best
-    three points. Runs on one rank.
+    three points; if that curve rises to an end where its two waves are within ``pinch``, it
+    runs into their pinch and the limit is the saddle point there (stress top, ``alpha_pc =
+    0.1``, the ``0+`` mode at ``L = 8``: the curve rises to 0.1438 where ``|k1 - k2| = 0.13``,
+    the saddle is at 0.1441, as from ``L = 16``, whose waves already pinch). Runs on one rank.
 
     Returns:
         ``{"type": "kulikovskii" | "saddle", "lambda": [re, im], "k1_at_block", "k2_at_block",
-        ...}``, or ``None`` if fewer than two roots were found.
+        ...}``, or ``None`` if fewer than two roots were found. The Kulikovskii curve keeps
+        only the samples :func:`_follow_curve` could follow.
+
+    Raises:
+        RuntimeError: The saddle point not converged, or no sample of the curve followed.
     """
     model = CrossSectionModel(MPI.COMM_SELF, params, degree=3, k_max=8.0)
     try:
@@ -190,14 +226,21 @@ def kulikovskii_limit(params: Params, lam_block: complex, span: float = 0.15, po
             lam_s, k_s = saddle_point(model, lam_block, k1, k2)
             return {"type": "saddle", "lambda": [lam_s.real, lam_s.imag],
                     "k_saddle": [k_s.real, k_s.imag], **info}
-        curve = []
-        for om in np.linspace(lam_block.imag - span, lam_block.imag + span, points):
-            lam, a, b = kulikovskii_growth(model, float(om), lam_block.real, k1, k2)
-            curve.append((lam, a, b))
+        curve = _follow_curve(model, lam_block, k1, k2,
+                              np.linspace(lam_block.imag - span, lam_block.imag + span, points))
+        if not curve:
+            raise RuntimeError(f"Kulikovskii curve not followed from Lambda = {lam_block:.6g}:"
+                               " the two spatial waves merged or were lost at once")
+        samples = [[c[0].real, c[0].imag, c[1].real, c[1].imag, c[2].real, c[2].imag]
+                   for c in curve]
+        end = max((curve[0], curve[-1]), key=lambda c: c[0].real)
+        if end[0].real >= max(c[0].real for c in curve) and abs(end[1] - end[2]) < pinch:
+            # the curve rises into the pinch of its two waves: the limit is the saddle point
+            lam_s, k_s = saddle_point(model, end[0], end[1], end[2])
+            return {"type": "saddle", "lambda": [lam_s.real, lam_s.imag],
+                    "k_saddle": [k_s.real, k_s.imag], "curve": samples, **info}
     finally:
         model.destroy()
     sig_max, om_max = curve_peak(np.array([c[0].imag for c in curve]),
                                  np.array([c[0].real for c in curve]))
-    return {"type": "kulikovskii", "lambda": [sig_max, om_max],
-            "curve": [[c[0].real, c[0].imag, c[1].real, c[1].imag, c[2].real, c[2].imag]
-                      for c in curve], **info}
+    return {"type": "kulikovskii", "lambda": [sig_max, om_max], "curve": samples, **info}

@@ -615,7 +615,7 @@ def test_committed_grid_probes_find_faster_unconverged_block_modes(top, grid_deg
     assert all(abs(fast[a] - fast[b]) > 1 for a, b in zip(degrees[:-1], degrees[1:], strict=True))
 
 
-REGULARISED = os.path.join("finite_block_regularised")
+REGULARISED = "finite_block_regularised"
 #: top -> (complete-search folders and their lengths, the thickness mode's |Im| per length of
 #: the target search): README "The fastest mode over all thickness modes".
 REGULARISED_RUNS = {

@@ -169,7 +169,8 @@ def _follow_curve(model: CrossSectionModel, lam_block: complex, k1: complex, k2:
     A direction ends where the two tracked roots merge (``k1 = k2`` satisfies ``Im k1 = Im k2``
     trivially) or a root jumps by more than the pair's separation (another root taken): stress
     top, ``alpha_pc = 0.1``, ``L = 8``, both roots ran to ``-2.81 - 2.54i`` two samples from the
-    centre and the curve's "peak" was ``Re Lambda = 4.17`` against the strip's 0.196.
+    centre, that sample had ``Re Lambda = 4.17`` and the reported limit was 4.32, against the
+    strip's 0.196.
 
     Returns:
         The valid samples, ordered by frequency.
@@ -222,25 +223,25 @@ def kulikovskii_limit(params: Params, lam_block: complex, span: float = 0.15, po
         k1, k2 = min(((a, b) for i, a in enumerate(roots) for b in roots[i + 1:]),
                      key=lambda ab: abs(ab[0].imag - ab[1].imag))
         info = {"k1_at_block": [k1.real, k1.imag], "k2_at_block": [k2.real, k2.imag]}
-        if abs(k1 - k2) < pinch:
-            lam_s, k_s = saddle_point(model, lam_block, k1, k2)
+        pinched = (lam_block, k1, k2) if abs(k1 - k2) < pinch else None
+        if pinched is None:
+            curve = _follow_curve(model, lam_block, k1, k2, np.linspace(
+                lam_block.imag - span, lam_block.imag + span, points))
+            if not curve:
+                raise RuntimeError("Kulikovskii curve not followed from Lambda ="
+                                   f" {lam_block:.6g}: the two spatial waves merged or were"
+                                   " lost at once")
+            info["curve"] = [[c[0].real, c[0].imag, c[1].real, c[1].imag, c[2].real, c[2].imag]
+                             for c in curve]
+            end = max((curve[0], curve[-1]), key=lambda c: c[0].real)
+            if end[0].real >= max(c[0].real for c in curve) and abs(end[1] - end[2]) < pinch:
+                pinched = end  # the curve rises into the pinch of its two waves
+        if pinched is not None:  # the limit is the saddle point
+            lam_s, k_s = saddle_point(model, *pinched)
             return {"type": "saddle", "lambda": [lam_s.real, lam_s.imag],
                     "k_saddle": [k_s.real, k_s.imag], **info}
-        curve = _follow_curve(model, lam_block, k1, k2,
-                              np.linspace(lam_block.imag - span, lam_block.imag + span, points))
-        if not curve:
-            raise RuntimeError(f"Kulikovskii curve not followed from Lambda = {lam_block:.6g}:"
-                               " the two spatial waves merged or were lost at once")
-        samples = [[c[0].real, c[0].imag, c[1].real, c[1].imag, c[2].real, c[2].imag]
-                   for c in curve]
-        end = max((curve[0], curve[-1]), key=lambda c: c[0].real)
-        if end[0].real >= max(c[0].real for c in curve) and abs(end[1] - end[2]) < pinch:
-            # the curve rises into the pinch of its two waves: the limit is the saddle point
-            lam_s, k_s = saddle_point(model, end[0], end[1], end[2])
-            return {"type": "saddle", "lambda": [lam_s.real, lam_s.imag],
-                    "k_saddle": [k_s.real, k_s.imag], "curve": samples, **info}
     finally:
         model.destroy()
     sig_max, om_max = curve_peak(np.array([c[0].imag for c in curve]),
                                  np.array([c[0].real for c in curve]))
-    return {"type": "kulikovskii", "lambda": [sig_max, om_max], "curve": samples, **info}
+    return {"type": "kulikovskii", "lambda": [sig_max, om_max], **info}

@@ -595,9 +595,9 @@ def same_mode_tail(L: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, np.ndarr
     """The largest lengths whose fastest mode is the largest length's.
 
     Each length's ``|Im|`` within :data:`SAME_MODE_IM` (relative) of its next-longer
-    neighbour's.
-    An extrapolation ``L -> infinity`` is meaningful only along one global mode: where a
-    higher thickness mode takes over as the fastest, the lengths before it are left out.
+    neighbour's. An extrapolation ``L -> infinity`` is meaningful only along one global mode:
+    where a higher thickness mode takes over as the fastest, the lengths before it are left
+    out.
 
     Returns:
         ``(L, lam)`` of that tail, sorted by ``L``.

@@ -336,6 +336,23 @@ def test_most_unstable_is_the_maximum_of_the_exact_roots(tmp_path, bc):
     assert best["certificate"]["fastest_mode"]
 
 
+@pytest.mark.serial
+@pytest.mark.parametrize("alpha_pc, proven", [(0.0, True), (0.1, False)])
+def test_result_line_says_when_r_is_not_proven_to_hold_the_fastest_mode(tmp_path, alpha_pc,
+                                                                        proven):
+    """Stress top: with alpha_pc > 0 no tail bound is derived, so the printed "most unstable"
+    is the largest in R only, and the line says so (it used to read "certified" alone)."""
+    out = tmp_path / "o"
+    proc = run_workflow("sweep_k.py", ["--bc", "stress", "--alpha-pc", str(alpha_pc), "--k",
+                                       "2,8", "--check-exact", "no", *QUIET, "--out",
+                                       str(out)])
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    cert = json.loads((out / "summary.json").read_text())["most_unstable"]["certificate"]
+    assert cert["fastest_mode"] is proven and cert["certified"]
+    line = next(x for x in proc.stdout.splitlines() if x.startswith("most unstable"))
+    assert ("R not proven to hold the fastest mode" in line) is not proven
+
+
 @pytest.mark.slow  # 12 s of CPU, measured 138 s wall on the loaded 2-core machine
 @pytest.mark.serial
 def test_most_unstable_is_the_fastest_mode_far_beyond_4_c_d(tmp_path):

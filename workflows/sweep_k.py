@@ -277,6 +277,8 @@ def report(summary: dict, n_k: int, wall: float, ranks: int, out: str, quiet: bo
     # the result line, also with --quiet (it removes progress only)
     if (best := summary["most_unstable"]) is not None:
         sure = "certified" if best["certificate"]["certified"] else "NOT certified"
+        if not best["certificate"]["fastest_mode"]:  # the largest in R only: say so
+            sure += "; in R only, R not proven to hold the fastest mode: see summary.json"
         print(f"most unstable ({sure}): {best['branch']} at k = {best['k']:.6g}: "
               f"Lambda = {best['re_lambda']:.10g} {best['im_lambda']:+.10g}i "
               f"({cert['rows']} eigenvalues in R over {n_k} k values, {wall:.1f} s"

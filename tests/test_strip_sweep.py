@@ -98,6 +98,8 @@ def _strip_scene(tmp_path, nproc: int) -> tuple[list[dict], dict]:
     res = run_workflow("sweep_k.py", [*STRIP_ARGS, "--out", str(tmp_path / f"np{nproc}")],
                        nproc, timeout=900)
     assert res.returncode == 0, res.stderr[-2000:]
+    # the result line says the most unstable is the largest in R only (no tail bound in 2D)
+    assert "most unstable in R (no tail bound for the 2D cell" in res.stdout
     folder = tmp_path / f"np{nproc}"
     with open(folder / "spectrum.csv") as fh:
         rows = list(csv.DictReader(fh))

@@ -265,5 +265,6 @@ def report(summary: dict, out: str) -> int:
           f"{cert['rows_ok']} ok (largest estimate {summary['accuracy']['max_error_estimate']}"
           f", rtol {summary['accuracy']['rtol']:g}); harmonic 1: {one['strip']} (1D: "
           f"{one['section']}), max relative distance {one['max_rel_distance']}; most unstable "
-          f"{top} -> {out}", flush=True)
+          f"in R (no tail bound for the 2D cell: R not proven to hold the fastest mode) {top}"
+          f" -> {out}", flush=True)
     return code

@@ -95,7 +95,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="relative accuracy every eigenvalue must reach to be 'ok'; sets the "
                     f"default discretisation (default {DEFAULT_RTOL:g}; --model strip: "
                     f"{_sweep_strip.STRIP_RTOL:g})")
-    ap.add_argument("--degree", type=int, default=0, help="Lagrange degree 1..6 (0: auto, P4)")
+    ap.add_argument("--degree", type=int, default=0, help="Lagrange degree 1..6 (0: auto, P6)")
     ap.add_argument("--cells", type=int, default=0,
                     help="cells of the interval mesh (0: chosen from the region and --rtol)")
     ap.add_argument("--solver", default="linear",

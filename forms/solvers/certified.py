@@ -181,8 +181,8 @@ def _condensed(fe: BandedOperator, model: CondensedModel | None = None, k: float
         return None
 
 
-def default_discretisation(p: Params, region: Region, k_max: float, rtol: float = 1e-8
-                           ) -> tuple[int, int, float]:
+def default_discretisation(p: Params, region: Region, k_max: float, rtol: float = 1e-8,
+                           degree: int = 0) -> tuple[int, int, float]:
     """``(degree, cells, grading ratio)`` meeting ``rtol`` on every root of the region.
 
     The fastest-oscillating mode of the region has a transverse wavenumber of at most
@@ -201,8 +201,27 @@ def default_discretisation(p: Params, region: Region, k_max: float, rtol: float 
     The mesh is uniform: the region holds modes that oscillate through the whole strip (up to
     ``W``) as well as modes that decay over ``1/k >= 1/W`` above the interface, and both need
     the same cell size (a graded mesh, ``k H = 25``, ratio 6.4, left the top roots at 2e-6).
+
+    Other degrees ``p`` (``degree``; 0: :data:`DEFAULT_DEGREE`): the P4 rule times
+    :data:`DEGREE_RATIO` ``[p]``, with the exponent ``1/(2p)`` (errors as ``h^(2p)``).
     """
-    return 4, _cells(region.im_max(p, k_max), p.H, 1.0, rtol, _per_wave(p)), 1.0
+    d = degree or DEFAULT_DEGREE
+    return d, _cells(region.im_max(p, k_max), p.H, 1.0, rtol, _per_wave(p), d), 1.0
+
+
+#: Lagrange degree of the sweep's cross-section model (session 16: P4 before). At ``rtol =
+#: 1e-8`` P6 needs 0.56x P4's unknowns (eigh of the interior ~0.2x), so the default stress
+#: sweep took 9.4-10.7 s against 16.4 s with P4 (``mpirun -n 2``, the same 1 805 eigenvalues,
+#: values within 1.8e-9); the velocity sweep 2.7-3.7 s against 4.4 s.
+DEFAULT_DEGREE = 6
+#: Cells per wavelength of degree ``p`` over P4's at the error ``2e-10``, measured on the
+#: hardest root of the default stress sweep (``k = 6``, the 16 ``c_d`` rung, ``|Im| = 217``,
+#: 17.3 shear wavelengths in ``H``): P4 needs 8.5 cells per wavelength (96 cells: 6.2e-9),
+#: P2 175 (400 cells: 6.5e-7, ``h^4``), P3 24.4 (400: 2.7e-10), P5 4.4 (70: 4.2e-10, 80:
+#: 1.1e-10), P6 2.7 (40: 1.2e-9, 50: 8.9e-11, slope ``h^11.7``), P1 about 51 000 (2 000
+#: cells: 3.9e-5, extrapolated as ``h^2``: P1 cannot reach such errors). The P4 rule's margins
+#: (graded meshes, few cells, ``alpha_pc``) are kept as factors.
+DEGREE_RATIO = {1: 6000.0, 2: 20.4, 3: 2.85, 4: 1.0, 5: 0.515, 6: 0.315}
 
 
 def _per_wave(p: Params) -> float:
@@ -210,18 +229,26 @@ def _per_wave(p: Params) -> float:
     return 12.5 if p.alpha_pc > 0 else 11.0
 
 
-def _cells(w: float, height: float, c_s: float, rtol: float, per_wave: float = 11.0) -> int:
-    """P4 cells of a layer: ``per_wave (2e-10/rtol)^(1/8)`` per shear wavelength ``2 pi c_s/w``."""
+def _cells(w: float, height: float, c_s: float, rtol: float, per_wave: float = 11.0,
+           degree: int = 4) -> int:
+    """Cells of a layer of height ``height`` for the shear wavelength ``2 pi c_s / w``.
+
+    ``per_wave DEGREE_RATIO[degree] (2e-10/rtol)^(1/(2 degree))`` per wavelength (``per_wave``
+    that of P4), at least 6.
+    """
     waves = w * height / (2.0 * math.pi * c_s)
-    return int(max(6, math.ceil(per_wave * (2e-10 / rtol) ** 0.125 * waves)))
+    per = per_wave * DEGREE_RATIO[degree] * (2e-10 / rtol) ** (1.0 / (2 * degree))
+    return int(max(6, math.ceil(per * waves)))
 
 
-def substrate_cells(p: Params, region: Region, k_max: float, rtol: float = 1e-8) -> int:
+def substrate_cells(p: Params, region: Region, k_max: float, rtol: float = 1e-8,
+                    degree: int = 0) -> int:
     """Cells of a deformable substrate (finite ``H2``).
 
     The rule of :func:`default_discretisation` with the substrate's shear-wave speed ``c_s2``.
     """
-    return _cells(region.im_max(p, k_max), p.H2, math.sqrt(p.mu2 / p.rho2), rtol, _per_wave(p))
+    return _cells(region.im_max(p, k_max), p.H2, math.sqrt(p.mu2 / p.rho2), rtol, _per_wave(p),
+                  degree or DEFAULT_DEGREE)
 
 
 @dataclass
@@ -303,7 +330,7 @@ class CertifiedSolver:
         self.params, self.region, self.rtol = params, region, rtol
         self.check_exact, self.solver = check_exact, solver
         # the one 1D model; rigid and homogeneous it is the CrossSectionModel of these cells
-        self.cells2 = substrate_cells(params, region, k_max, rtol) if params.two_body else 0
+        self.cells2 = substrate_cells(params, region, k_max, rtol, degree) if params.two_body else 0
         stack = section_stack(params, material, degree=degree, cells=cells, k_max=k_max,
                               ratio=ratio, cells2=self.cells2 or None, ratio2=1.0)
         self.models = [SectionModel(MPI.COMM_SELF, stack, params, degree=d)

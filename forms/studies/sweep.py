@@ -434,6 +434,8 @@ MESH_K_RATIO = 1.25
 #: a solve on so few cells takes 0.05-0.16 s (stress top, 16-48 cells) and a new mesh 0.07-0.1 s
 #: to build, so smaller meshes cost more than they save (measured, session 13: the velocity
 #: sweep, 40 cells at ``k_max``, took 0.82x the CPU with a mesh per ``k`` bucket down to 14 cells).
+#: P4 cells; other degrees ``MIN_CELLS 4 / degree`` (about the same unknowns: P6's 32 made the
+#: default stress sweep 9.4, 9.5 s against 48's 10.3, 10.0 s, side by side, session 16).
 MIN_CELLS = 48
 
 
@@ -481,16 +483,18 @@ class RungSolvers:
     def discretisation(self, c: float, k: float | None = None) -> tuple[int, int, float]:
         """``(degree, cells, ratio)`` of rung ``c`` at ``k`` (``None``: the sweep's ``k_max``)."""
         reg = self.region.fixed(c)
-        degree, cells, ratio = default_discretisation(self.params, reg, self.mesh_k(k), self.rtol)
-        top = default_discretisation(self.params, reg, self.k_max, self.rtol)[1]
-        cells = max(cells, min(top, MIN_CELLS))
+        d0 = self.fixed[0]
+        degree, cells, ratio = default_discretisation(self.params, reg, self.mesh_k(k), self.rtol,
+                                                      d0)
+        top = default_discretisation(self.params, reg, self.k_max, self.rtol, d0)[1]
+        cells = max(cells, min(top, math.ceil(MIN_CELLS * 4 / degree)))
         return self.fixed[0] or degree, self.fixed[1] or cells, self.fixed[2] or ratio
 
     def __call__(self, c: float, k: float | None = None) -> CertifiedSolver:
         """The solver of rung ``c`` at ``k`` (``None``: the mesh of ``k_max``)."""
         km = self.mesh_k(k)
         disc = self.discretisation(c, k)
-        cells2 = (substrate_cells(self.params, self.region.fixed(c), km, self.rtol)
+        cells2 = (substrate_cells(self.params, self.region.fixed(c), km, self.rtol, disc[0])
                   if self.params.two_body else 0)
         key = (*disc, cells2)
         if key not in self.solvers:

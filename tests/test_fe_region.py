@@ -148,4 +148,32 @@ def test_the_mesh_of_a_k_is_never_coarser_than_the_rule_at_that_k(bc, k_max):
             rule = default_discretisation(p, region.fixed(c), k, 1e-8)[1]
             finer = default_discretisation(p, region.fixed(c), sweep.MESH_K_RATIO * k, 1e-8)[1]
             top = default_discretisation(p, region.fixed(c), k_max, 1e-8)[1]
-            assert rule <= cells <= max(finer, min(top, sweep.MIN_CELLS)) and cells <= top
+            least = min(top, sweep.min_cells(rungs.discretisation(c, k)[0]))
+            assert rule <= cells <= max(finer, least) and cells <= top
+
+
+@pytest.mark.serial  # one rank's 1D solves
+@pytest.mark.parametrize("degree", [3, 4, 5, 6])
+def test_the_cells_rule_of_each_degree_meets_rtol_on_the_hardest_root(degree):
+    """default_discretisation(degree=p): DEGREE_RATIO[p] was measured on this case (stress top,
+    k = 6, the 16 c_d rung, |Im| up to 217): every eigenvalue of the region within rtol (its P(p+1)
+    estimate), the count closed; and the rule's mesh is not wastefully fine: half its cells miss
+    rtol on some root (so a ratio set too large would fail here as well as one set too small)."""
+    from forms.solvers.certified import CertifiedSolver, default_discretisation
+
+    p, region, k, rtol = Params(bc="stress"), Region(c_max=16.0), 6.0, 1e-8
+    deg, cells, ratio = default_discretisation(p, region, k, rtol, degree)
+    assert deg == degree
+    worst = {}
+    for n in (cells, cells // 2):
+        cs = CertifiedSolver(p, region, deg, n, ratio, k, rtol, check_exact=False)
+        try:
+            res = cs.solve(k)
+        finally:
+            cs.destroy()
+        assert res.closed, res.note
+        worst[n] = max(r["error_estimate"] for r in res.rows)
+    # measured (session 16): P3 283 cells 2.2e-9, 141: 1.4e-7; P4 117: 1.3e-9, 58: 3.3e-7;
+    # P5 67: 6.5e-10, 33: 4.3e-7; P6 44: 4.0e-10, 22: 1.2e-6 (20 eigenvalues each)
+    assert worst[cells] <= rtol, worst
+    assert worst[cells // 2] > rtol, worst

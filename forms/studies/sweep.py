@@ -439,6 +439,11 @@ MESH_K_RATIO = 1.25
 MIN_CELLS = 48
 
 
+def min_cells(degree: int) -> int:
+    """:data:`MIN_CELLS` for Lagrange degree ``degree`` (about the same unknowns as P4's)."""
+    return math.ceil(MIN_CELLS * 4 / degree)
+
+
 class RungSolvers:
     """The :class:`forms.solvers.certified.CertifiedSolver` of each rung ``c`` at each ``k``.
 
@@ -487,7 +492,7 @@ class RungSolvers:
         degree, cells, ratio = default_discretisation(self.params, reg, self.mesh_k(k), self.rtol,
                                                       d0)
         top = default_discretisation(self.params, reg, self.k_max, self.rtol, d0)[1]
-        cells = max(cells, min(top, math.ceil(MIN_CELLS * 4 / degree)))
+        cells = max(cells, min(top, min_cells(degree)))
         return self.fixed[0] or degree, self.fixed[1] or cells, self.fixed[2] or ratio
 
     def __call__(self, c: float, k: float | None = None) -> CertifiedSolver:

@@ -10,7 +10,7 @@ from _workflows import run_workflow
 
 from analytic import Params, roots_in_box
 from analytic.numerics.branches import polish_root
-from analytic.numerics.spectrum import Region, fastest_root
+from analytic.numerics.spectrum import Region, fastest_mode, fastest_root
 from analytic.studies.growth import (
     best_over_k,
     curve_shape,
@@ -40,6 +40,24 @@ def test_envelope_is_the_fastest_exact_root(tmp_path, nproc):
     best = s["global_max_on_grid"]
     assert best["re_lambda"] >= max(float(r["re_lambda_max"]) for r in rows)
     assert (out / "envelope.png").stat().st_size > 10000
+    # paper defaults, 4 c_d: the tail bound proves the region at k = 1, 3, 6, and the line says so
+    for r in rows:
+        assert r["fastest_proven"] == str(int(fastest_mode(p, float(r["k"]), region).proven))
+    assert [r["fastest_proven"] for r in rows] == ["1", "1", "1"]
+    assert s["fastest_proven"]["proven_k"] == s["fastest_proven"]["k_with_root"] == 3
+    assert "R proven to hold the fastest mode at all 3 k with a root" in proc.stdout
+
+
+def test_envelope_says_in_r_only_where_no_tail_bound_exists(tmp_path):
+    """Stress top with alpha_pc > 0: no tail bound is derived (analytic.physics.tail), so the
+    global maximum is the largest in R only, and the printed line and summary.json say so."""
+    out = tmp_path / "env"
+    proc = run_workflow("envelope.py", ["--bc", "stress", "--alpha-pc", "0.1", "--k", "1,3",
+                                        "--refine-rounds", "0", "--out", str(out)])
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    s = json.loads((out / "summary.json").read_text())
+    assert s["fastest_proven"] == {**s["fastest_proven"], "proven_k": 0, "k_with_root": 2}
+    assert "in R only, R proven to hold the fastest mode at 0 of 2 k with a root" in proc.stdout
 
 
 @pytest.mark.parametrize("nproc", [1, 2])
@@ -59,6 +77,11 @@ def test_contrast_rigid_limit_and_rows(tmp_path, nproc):
     # mu2 = 1e6: roots move by O(1/mu2) (docs/twobody.md: first order in 1/mu2)
     assert rows[1]["re_lambda"] == pytest.approx(exact, abs=1e-4)
     assert rows[0]["re_lambda"] < rows[1]["re_lambda"]
+    # neither case can be proven in the 4 c_d region: mu2 = 3 (rho2 = 1) has incommensurate
+    # phase rates (no tail bound), mu2 = 1e6 a bound that is inf below 2 k c_d2 (c_d2 = 2000);
+    # the line says the maximum is the largest in R only
+    assert [(r["proven_k_count"], r["k_with_root"]) for r in rows] == [(0, 2), (0, 2)]
+    assert "in R only, R proven to hold the fastest mode at 0 of 4 k with a root" in proc.stdout
 
 
 @pytest.mark.parametrize("script, bad, word", [("contrast.py", ["--H2s", "0"], "--H2s"),

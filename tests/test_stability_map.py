@@ -56,6 +56,13 @@ def test_small_map_matches_exact_roots(tmp_path, nproc):
             roots = roots_in_box(p, kh, region.box(p, kh))
             assert z.real >= max((w.value.real for w in roots), default=0.0) - 1e-12
     assert (out / "stability_map.png").stat().st_size > 10000
+    # the line says whether R was proven to hold the fastest mode, from the rows' own counts
+    proven = sum(int(r["proven_k_count"]) for r in rows)
+    with_root = sum(int(r["unstable_k_count"]) for r in rows)
+    assert 0 < proven <= with_root
+    assert (f"at all {with_root} k with a root" if proven == with_root
+            else f"in R only, R proven to hold the fastest mode at {proven} of {with_root}"
+            ) in proc.stdout
 
 
 @pytest.mark.slow  # four runs of the scene: 48 s for three on the loaded machine

@@ -67,6 +67,7 @@ from _grids import (
     check_sweep_limits,
     parse_grid,
     progress_mapper,
+    proof_clause,
     region_from_args,
     require_finite_heights,
 )

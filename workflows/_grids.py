@@ -228,6 +228,20 @@ def region_from_args(c_max: str, re_min: float, re_max: float = 2.0,
         raise ParameterError("--" + str(err).replace("_", "-", 1)) from None
 
 
+def proof_clause(proven: int, with_root: int) -> str:
+    """What a printed maximum over ``R`` means: proven the fastest mode, or the largest in R only.
+
+    Args:
+        proven: ``k`` samples at which the tail bound proves that no root outside ``R`` grows
+            faster than the fastest inside (:func:`analytic.numerics.spectrum.fastest_mode`).
+        with_root: ``k`` samples with a root in ``R`` (the proof needs one).
+    """
+    if with_root and proven >= with_root:
+        return f"R proven to hold the fastest mode at all {with_root} k with a root"
+    return (f"in R only, R proven to hold the fastest mode at {proven} of {with_root} k with a "
+            "root: see summary.json")
+
+
 def progress_mapper(comm: Any, desc: str, quiet: bool = False, unit: str = " k values"
                     ) -> Callable[[Sequence[float], Callable[[int], Any]], dict[int, Any]]:
     """A ``mapper(costs, fn)`` (:func:`_sharing.map_shared` on ``comm``) with rank 0's bar.

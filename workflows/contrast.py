@@ -107,8 +107,11 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                 _cli.json_dump(summary, fh, indent=1)
             plot(run.file("contrast.png"), p0, rows, h2s, config)
             for h, c in curves.items():
+                mine = [r for r in rows if str(r["H2"]) == h]
+                proof = _cli.proof_clause(sum(r["proven_k_count"] for r in mine),
+                                          sum(r["k_with_root"] for r in mine))
                 _cli.say(f"H2 = {h}: max growth {c['max_growth']:.4f} at mu2 = "
-                         f"{c['mu2_at_max']:.3g}; monotonic in mu2: {c['monotonic']}")
+                         f"{c['mu2_at_max']:.3g}; monotonic in mu2: {c['monotonic']}; {proof}")
     failed = sum(r["failed_counts"] for r in res.values())
     if failed:
         _cli.say(f"warning: the count failed at {failed} grid k value(s) (those k are left out "

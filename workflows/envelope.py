@@ -30,7 +30,7 @@ import _plots
 import numpy as np
 
 from analytic.numerics.roots import ContourError
-from analytic.numerics.spectrum import Region, fastest_root
+from analytic.numerics.spectrum import Region, fastest_mode
 from analytic.params import require_rigid
 from analytic.physics import halfspace
 from analytic.studies.growth import (
@@ -42,6 +42,10 @@ from analytic.studies.growth import (
 )
 
 PETSC_PREFIXES: tuple[str, ...] = ()
+#: summary.json ``fastest_proven``: what its counts mean.
+FASTEST_PROVEN = ("proven_k: samples at which the tail bound (analytic.physics.tail) at the "
+                  "region's edge is below the fastest root inside, so no root outside R grows "
+                  "faster; elsewhere the value is the largest in R only")
 OUTPUTS = ("envelope.csv", "summary.json", "envelope.png", "dependence.png", "run.json",
            "run.lock")
 
@@ -89,12 +93,12 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                       "refinement,", counts_seconds([[(p, float(v))] for v in k], region,
                                                     comm.size), "for the grid")
 
-        def fastest(kk: float) -> tuple[complex | None, int, str]:
+        def fastest(kk: float) -> tuple[complex | None, int, str, bool]:
             try:
-                z, n, _ = fastest_root(p, kk, region)
+                m = fastest_mode(p, kk, region)
             except ContourError as err:  # reported (by rank 0, below), the run goes on
-                return None, -1, str(err)
-            return z, n, ""
+                return None, -1, str(err), False
+            return m.root, m.count, "", bool(m.proven)
 
         def sample(ks_new: list[float]) -> dict[float, tuple]:
             first = region if region.c_max is not None else region.fixed(4.0)
@@ -121,13 +125,19 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
             hs = halfspace.max_growth("dilatational", p.replace(H=math.inf))
             with _cli.atomic_open(run.file("envelope.csv"), "w", newline="") as fh:
                 w = csv.writer(fh)
-                w.writerow(["k", "kH", "re_lambda_max", "im_lambda", "roots_in_region"])
+                w.writerow(["k", "kH", "re_lambda_max", "im_lambda", "roots_in_region",
+                            "fastest_proven"])
                 for i, kk in enumerate(ks):
-                    z, n, _ = rows[i]
+                    z, n, _, proof = rows[i]
                     w.writerow([repr(kk), repr(kk * p.H), repr(z.real) if z else "",
-                                repr(z.imag) if z else "", n])  # n = -1: count failed
+                                repr(z.imag) if z else "", n,  # n = -1: count failed
+                                int(proof)])
+            with_root = sum(r[0] is not None for r in rows)
+            proven = sum(r[3] for r in rows)
             summary = {"parameters": p.as_dict(), "region": region.as_dict(p),
                        "global_max_on_grid": best,
+                       "fastest_proven": {"k_with_root": with_root, "proven_k": proven,
+                                          "meaning": FASTEST_PROVEN},
                        "halfspace_dilatational_max": {"growth": hs.growth, "q": hs.q_growth},
                        "large_kH": {"kH": ks[-1] * p.H, "re_lambda_max":
                                     float(re[-1]) if np.isfinite(re[-1]) else None},
@@ -153,7 +163,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                 _cli.say(f"global maximum on [{ks[0]:g}, {ks[-1]:g}]: Re Lambda = "
                          f"{best['re_lambda']:.6f} at k = {best['k']:.5g} (k H = "
                          f"{best['kH']:.4g}), Im Lambda = {best['im_lambda']:.6g}; at k H = "
-                         f"{ks[-1] * p.H:g}: {re[-1]:.6f}")
+                         f"{ks[-1] * p.H:g}: {re[-1]:.6f}; {_cli.proof_clause(proven, with_root)}")
             if failed:
                 _cli.say(f"warning: the count failed at {len(failed)} of {len(ks)} k value(s) "
                          "(no value there; the maximum is over the others); see "

@@ -136,10 +136,12 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                        "versions": _cli.versions(), "command": _cli.command()}
             _cli.write_json(run.file("summary.json"), summary)
             plot(run.file("stability_map.png"), rows, x, y, base, config)
+            proof = _cli.proof_clause(sum(r["proven_k_count"] for r in rows),
+                                      sum(r["unstable_k_count"] for r in rows))
             _cli.say(f"{summary['stable_on_grid']} of {nx * ny} points stable on the k H grid "
                      f"(kH <= {args.kH_max:g}); fastest: " + ("none" if fastest is None else
                      f"Re Lambda = {fastest['re_lambda']:.5g} at {x[0]} = {fastest['x']:g}, "
-                     f"{y[0]} = {fastest['y']:g}, k H = {fastest['kH']:.4g}"))
+                     f"{y[0]} = {fastest['y']:g}, k H = {fastest['kH']:.4g}; {proof}"))
             if failed:
                 _cli.say(f"warning: {failed} root count(s) failed (see failed_counts in "
                          "stability_map.csv)", err=True)

@@ -24,7 +24,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from analytic.numerics.roots import ContourError
-from analytic.numerics.spectrum import Region, family_peak, fastest_root
+from analytic.numerics.spectrum import Region, family_peak, fastest_mode, fastest_root
 from analytic.params import Params
 
 #: What ``workflows/envelope.py`` reports about its refinement.
@@ -190,17 +190,24 @@ def best_over_k(p: Params, ks: np.ndarray, region: Region) -> dict:
 
     Returns:
         ``k``, ``re_lambda`` and ``im_lambda`` of the fastest root found (``None``: no root in
-        the region at any sample) and ``failed_counts``, the grid ``k`` whose count failed.
+        the region at any sample), ``failed_counts``, the grid ``k`` whose count failed, and
+        ``proven_k_count`` / ``k_with_root``: grid ``k`` at which the tail bound proves that
+        no root outside the region grows faster than the fastest inside, of those with a root
+        inside (:func:`analytic.numerics.spectrum.fastest_mode`).
     """
+    proven: dict[float, bool] = {}
 
     def growth(k: float) -> tuple[float, complex | None, int]:
         try:
-            z, n, _ = fastest_root(p, float(k), region)
+            m = fastest_mode(p, float(k), region)
         except ContourError:
             return -np.inf, None, -1
-        return (z.real if z is not None else -np.inf), z, n
+        proven[float(k)] = bool(m.proven)
+        return (m.root.real if m.root is not None else -np.inf), m.root, m.count
 
     vals = [growth(k) for k in ks]
+    grid_proven = sum(proven.get(float(k), False) for k in ks)
+    with_root = sum(v[1] is not None for v in vals)
     re = np.array([v[0] for v in vals])
     failed = int(sum(v[2] < 0 for v in vals))
     best = (float(ks[int(np.argmax(re))]), *vals[int(np.argmax(re))])
@@ -214,7 +221,8 @@ def best_over_k(p: Params, ks: np.ndarray, region: Region) -> dict:
                 best = (float(k), *g)
     k, g, z, _ = best
     return {"k": k, "re_lambda": g if np.isfinite(g) else None,
-            "im_lambda": z.imag if z is not None else None, "failed_counts": failed}
+            "im_lambda": z.imag if z is not None else None, "failed_counts": failed,
+            "proven_k_count": grid_proven, "k_with_root": with_root}
 
 
 #: Seconds of one count (:func:`fastest_root`) per ``S^COUNT_EXPONENT``, ``S`` the region's

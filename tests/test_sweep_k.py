@@ -402,7 +402,10 @@ def test_two_ranks_give_the_same_spectrum_and_plot(tmp_path):
                                        (["--H", "inf"], "H"), (["-beta", "0.8"], "-beta"),
                                        (["--be", "0.6"], "--be"),
                                        (["--mu2", "3"], "H2"), (["--c-max", "fast"], "c-max"),
-                                       (["--c-max", "-1"], "c-max")])
+                                       (["--c-max", "-1"], "c-max"),
+                                       # P1 at rtol 1e-8: 108 642 unknowns at k = 6 (the cells
+                                       # rule), above SECTION_UNKNOWNS_MAX
+                                       (["--degree", "1"], "--degree = 1")])
 def test_bad_input_one_line_exit_2_nothing_written(tmp_path, bad, word, nproc):
     out = tmp_path / "bad"
     proc = run_workflow("sweep_k.py", [*bad, "--out", str(out)], nproc=nproc)

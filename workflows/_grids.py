@@ -120,17 +120,30 @@ def check_section_options(args: Any) -> None:
         raise ParameterError(f"--omega0 = {args.omega0} is outside its allowed range >= 0")
 
 
-def check_sweep_limits(params: Any, k: np.ndarray, region: Any) -> None:
+#: Unknowns of the 1D section model the sweep's first rung may plan at its largest ``k`` (the
+#: cells rule of ``--degree`` at ``--rtol``,
+#: :func:`forms.solvers.certified.default_discretisation`).
+#: The largest measured (``k = 100``, 12 ``c_d``, P4): 10 418 unknowns, 56.6 s for one ``k``
+#: (README). The default P6 plans at most about 2 000 within :data:`SWEEP_WH_MAX`; P2 up to
+#: 22 500, P1 over a million (P1 cannot reach ``rtol = 1e-8`` in bounded time).
+SECTION_UNKNOWNS_MAX = 50000
+
+
+def check_sweep_limits(params: Any, k: np.ndarray, region: Any, degree: int = 0, cells: int = 0,
+                       rtol: float = 1e-8) -> None:
     """Refuse a sweep the certified solver cannot finish in bounded time; say when it is long.
 
     Args:
         params: The run's :class:`analytic.params.Params`.
         k: The wavenumbers.
         region: The :class:`analytic.numerics.spectrum.Region`.
+        degree: ``--degree`` (0: the default).
+        cells: ``--cells`` (0: the rule's; a fixed count is not checked).
+        rtol: ``--rtol``.
 
     Raises:
-        ParameterError: One line naming the limit (:data:`SWEEP_WH_MAX`, :data:`SWEEP_W_MAX`)
-            and why.
+        ParameterError: One line naming the limit (:data:`SWEEP_WH_MAX`, :data:`SWEEP_W_MAX`,
+            :data:`SECTION_UNKNOWNS_MAX`) and why.
     """
     if abs(params.Delta) > SWEEP_DELTA_MAX:
         raise ParameterError(f"Delta = {params.Delta:g} is outside [-{SWEEP_DELTA_MAX:g}, "
@@ -155,6 +168,16 @@ def check_sweep_limits(params: Any, k: np.ndarray, region: Any) -> None:
             f"{kmax * params.H:g}), above {1.3 * SWEEP_WH_MAX:.0f}, the most the certified "
             "sweep follows in a few minutes per k value; use a smaller k or H, or a smaller "
             "--c-max")
+    if not cells and math.isfinite(params.H):
+        from forms.solvers.certified import default_discretisation
+
+        d, n_cells, _ = default_discretisation(params, region, kmax, rtol, degree)
+        if 2 * d * n_cells > SECTION_UNKNOWNS_MAX:
+            raise ParameterError(
+                f"--degree = {d} with --rtol = {rtol:g} needs about {2 * d * n_cells} unknowns at "
+                f"k = {kmax:g} (the cells rule of each degree), above {SECTION_UNKNOWNS_MAX}, the "
+                "most the sweep solves in bounded time; use a higher --degree (default 6) or a "
+                "larger --rtol")
 
 
 #: The exact roots' region (envelope.py, contrast.py: argument principle on det_M at every k),

@@ -167,7 +167,7 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
     args.layered = sweep.layered_summary(params, args.material, region) if layered else None
     if layered:  # phase velocities in units of the stack's largest c_d; no tail bound
         region = sweep.layered_region(params, args.material, region)
-    _cli.check_sweep_limits(params, k, region)
+    _cli.check_sweep_limits(params, k, region, args.degree, args.cells, args.rtol)
     merged = len(k_all) - len(k)
     args.notes = ([f"note: {merged} duplicate k value(s) merged"] if merged else []) + (
         [sweep.LAYERED_NOTE] if layered else [])  # said once the run folder is taken

@@ -686,3 +686,37 @@ def test_committed_regularised_block_search(top):
         if top == "stress" and length == 16.0:  # 0+ limit (a saddle) below the 1+ one
             assert cmeta["kulikovskii"]["type"] == "saddle"
             assert best.real < cmeta["kulikovskii"]["lambda"][0] < kul["lambda"][0]
+
+
+@pytest.mark.serial
+def test_committed_regularised_block_search_on_a_finer_mesh():
+    """README "The fastest mode over all thickness modes", stress top: the same searches on a
+    finer mesh (12 cells per unit, ny = 12, P2) as on the table's (8, 8). The target search's
+    fastest mode per length has the same thickness mode (0+ up to L = 32, 1+ at L = 64) and
+    moves by less than 1e-3 relative (measured 2.3e-5, 1.4e-5, 1.4e-5, 7.1e-4 at L = 8 .. 64); the
+    complete search at L = 8 counts and finds 6 again, its fastest is the fine target search's
+    and lies within the table mesh's P3 estimate of the table's (moved 2.3e-5, estimate 2.9e-5)."""
+    coarse, _ = _results(os.path.join(REGULARISED, "stress_targets"))
+    fine, meta = _results(os.path.join(REGULARISED, "stress_targets_fine"))
+    assert (meta["params"]["bc"], meta["params"]["alpha_pc"], meta["cells_per_unit"], meta["ny"],
+            meta["degree"], meta["search"]) == ("stress", 0.1, 12, 12, 2, "targets")
+    assert sorted(fine) == sorted(coarse) == [8.0, 16.0, 32.0, 64.0]
+
+    def value(r: dict) -> complex:
+        return complex(float(r["re_lambda"]), float(r["im_lambda"]))
+
+    for L in fine:
+        a, b = value(coarse[L]), value(fine[L])
+        assert abs(abs(b.imag) - REGULARISED_RUNS["stress"][1][L]) < 0.02  # the same mode
+        assert abs(a - b) < 1e-3 * abs(b)
+    z = _spectrum_rows(os.path.join(REGULARISED, "stress_complete_fine"), 8.0)
+    _, cmeta = _results(os.path.join(REGULARISED, "stress_complete_fine"))
+    cert = cmeta["certificates"]["8"]
+    assert (cmeta["cells_per_unit"], cmeta["ny"], cmeta["search"]) == (12, 12, "complete")
+    assert cert["closed"] and cert["found"] == cert["counted"] == len(z) == 6
+    best = z[int(np.argmax(z.real))]
+    assert abs(best - value(fine[8.0]).conjugate() if best.imag > 0
+               else best - value(fine[8.0])) < 1e-10 * abs(best)
+    _, table = _results(os.path.join(REGULARISED, "stress_complete"))
+    assert abs(best - value(coarse[8.0])) < table["certificates"]["8"]["fastest_estimate"] \
+        * abs(best)

@@ -201,3 +201,27 @@ def test_committed_maps_close_every_count_and_their_h0_1_row_is_the_fastest_root
     z = complex(float(r["re_lambda"]), float(r["im_lambda"]))
     zf = fastest_root(p, float(r["k"]), Region(1e-6, 2.0, None))[0]
     assert abs(zf - z) <= 1e-8 * abs(z)
+
+
+@pytest.mark.serial
+def test_committed_41_by_41_velocity_map_and_its_reading():
+    """README, the 41 x 41 velocity map (session 16): every count closed, no point stable, the
+    plateau's ``H max Re Lambda`` in 0.166-0.183 for ``H <= 1`` (rounded to 5e-4), the slower
+    fastest mode only in the pocket 1.6 <= H <= 6.3, Delta <= -0.45; two points recomputed by
+    ``fastest_root`` (adaptive region) at their ``k``: one in the pocket (phase velocity below
+    c_d), one on the plateau (above it), each to 1e-8 (both polish the same root)."""
+    rows = _rows(Path(RESULTS) / "stability_map_velocity_41")
+    assert len(rows) == 41 * 41 and all(int(r["failed_counts"]) == 0 for r in rows)
+    assert not any(r["stable_on_grid"] == "True" for r in rows)
+    slow = [r for r in rows if float(r["phase_velocity_over_c_d"]) <= 1.0]
+    assert slow and all(1.5 < float(r["y"]) < 6.4 and float(r["x"]) <= -0.45 + 1e-9
+                        for r in slow)
+    hmax = [float(r["y"]) * float(r["re_lambda"]) for r in rows if float(r["y"]) <= 1.0 + 1e-9]
+    assert 0.166 - 5e-4 <= min(hmax) and max(hmax) <= 0.183 + 5e-4
+    fast = next(r for r in rows if r["ix"] == "40" and r["iy"] == "20")  # Delta = 1, H = 1
+    for r in (slow[len(slow) // 2], fast):
+        p = Params(Delta=float(r["x"]), H=float(r["y"]))
+        z = complex(float(r["re_lambda"]), float(r["im_lambda"]))
+        zf = fastest_root(p, float(r["k"]), Region(1e-6, 2.0, None))[0]
+        assert abs(zf - z) <= 1e-8 * abs(z)
+    assert float(fast["phase_velocity_over_c_d"]) > 1.0

@@ -144,11 +144,11 @@ def test_the_mesh_of_a_k_is_never_coarser_than_the_rule_at_that_k(bc, k_max):
         km = rungs.mesh_k(k)
         assert k <= km * (1 + 1e-12) and km < sweep.MESH_K_RATIO * k * (1 + 1e-12)
         for c in C_LADDER:
-            cells = rungs.discretisation(c, k)[1]
+            deg, cells, _ = rungs.discretisation(c, k)
             rule = default_discretisation(p, region.fixed(c), k, 1e-8)[1]
             finer = default_discretisation(p, region.fixed(c), sweep.MESH_K_RATIO * k, 1e-8)[1]
             top = default_discretisation(p, region.fixed(c), k_max, 1e-8)[1]
-            least = min(top, sweep.min_cells(rungs.discretisation(c, k)[0]))
+            least = min(top, sweep.min_cells(deg))
             assert rule <= cells <= max(finer, least) and cells <= top
 
 

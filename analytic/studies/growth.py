@@ -195,18 +195,16 @@ def best_over_k(p: Params, ks: np.ndarray, region: Region) -> dict:
         no root outside the region grows faster than the fastest inside, of those with a root
         inside (:func:`analytic.numerics.spectrum.fastest_mode`).
     """
-    proven: dict[float, bool] = {}
 
-    def growth(k: float) -> tuple[float, complex | None, int]:
+    def growth(k: float) -> tuple[float, complex | None, int, bool]:
         try:
             m = fastest_mode(p, float(k), region)
         except ContourError:
-            return -np.inf, None, -1
-        proven[float(k)] = bool(m.proven)
-        return (m.root.real if m.root is not None else -np.inf), m.root, m.count
+            return -np.inf, None, -1, False
+        return (m.root.real if m.root is not None else -np.inf), m.root, m.count, bool(m.proven)
 
     vals = [growth(k) for k in ks]
-    grid_proven = sum(proven.get(float(k), False) for k in ks)
+    grid_proven = sum(v[3] for v in vals)
     with_root = sum(v[1] is not None for v in vals)
     re = np.array([v[0] for v in vals])
     failed = int(sum(v[2] < 0 for v in vals))
@@ -219,7 +217,7 @@ def best_over_k(p: Params, ks: np.ndarray, region: Region) -> dict:
             g = growth(k)
             if g[0] > best[1]:
                 best = (float(k), *g)
-    k, g, z, _ = best
+    k, g, z, _, _ = best
     return {"k": k, "re_lambda": g if np.isfinite(g) else None,
             "im_lambda": z.imag if z is not None else None, "failed_counts": failed,
             "proven_k_count": grid_proven, "k_with_root": with_root}

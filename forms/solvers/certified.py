@@ -210,9 +210,10 @@ def default_discretisation(p: Params, region: Region, k_max: float, rtol: float 
 
 
 #: Lagrange degree of the sweep's cross-section model (session 16: P4 before). At ``rtol =
-#: 1e-8`` P6 needs 0.56x P4's unknowns (eigh of the interior ~0.2x), so the default stress
-#: sweep took 9.4-10.7 s against 16.4 s with P4 (``mpirun -n 2``, the same 1 805 eigenvalues,
-#: values within 1.8e-9); the velocity sweep 2.7-3.7 s against 4.4 s.
+#: 1e-8`` P6 needs 0.56x P4's unknowns (the interior's eigh 0.3x: 2.47 -> 0.75 s in a profile
+#: of ``--bc stress --k 4:6:21``); side by side on one rank (tests/timing/sweep_speed.py) the
+#: default stress sweep cost 1.54x less CPU, the velocity sweep 1.24x less, the same counts and
+#: statuses, values within 2.3e-9.
 DEFAULT_DEGREE = 6
 #: Cells per wavelength of degree ``p`` over P4's at the error ``2e-10``, measured on the
 #: hardest root of the default stress sweep (``k = 6``, the 16 ``c_d`` rung, ``|Im| = 217``,
@@ -229,8 +230,8 @@ def _per_wave(p: Params) -> float:
     return 12.5 if p.alpha_pc > 0 else 11.0
 
 
-def _cells(w: float, height: float, c_s: float, rtol: float, per_wave: float = 11.0,
-           degree: int = 4) -> int:
+def _cells(w: float, height: float, c_s: float, rtol: float, per_wave: float, degree: int
+           ) -> int:
     """Cells of a layer of height ``height`` for the shear wavelength ``2 pi c_s / w``.
 
     ``per_wave DEGREE_RATIO[degree] (2e-10/rtol)^(1/(2 degree))`` per wavelength (``per_wave``

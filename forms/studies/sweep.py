@@ -488,12 +488,11 @@ class RungSolvers:
     def discretisation(self, c: float, k: float | None = None) -> tuple[int, int, float]:
         """``(degree, cells, ratio)`` of rung ``c`` at ``k`` (``None``: the sweep's ``k_max``)."""
         reg = self.region.fixed(c)
-        d0 = self.fixed[0]
         degree, cells, ratio = default_discretisation(self.params, reg, self.mesh_k(k), self.rtol,
-                                                      d0)
-        top = default_discretisation(self.params, reg, self.k_max, self.rtol, d0)[1]
+                                                      self.fixed[0])  # degree: the fixed one
+        top = default_discretisation(self.params, reg, self.k_max, self.rtol, degree)[1]
         cells = max(cells, min(top, min_cells(degree)))
-        return self.fixed[0] or degree, self.fixed[1] or cells, self.fixed[2] or ratio
+        return degree, self.fixed[1] or cells, self.fixed[2] or ratio
 
     def __call__(self, c: float, k: float | None = None) -> CertifiedSolver:
         """The solver of rung ``c`` at ``k`` (``None``: the mesh of ``k_max``)."""

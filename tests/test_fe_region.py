@@ -38,7 +38,7 @@ class _Fake:
         self.c = c
         return self
 
-    def solve(self, k: float, fams: list, region: Region) -> KResult:
+    def solve(self, k: float, fams: list, region: Region, *, follow: bool = False) -> KResult:
         self.calls.append(region.c_max)
         rows = [{"re_lambda": self.fastest[b],
                  "im_lambda": 0.99 * region.fixed(b).im_max(self.p, k)}

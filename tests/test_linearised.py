@@ -131,3 +131,61 @@ def test_moments_take_over_when_the_linearisation_falls_short(how, monkeypatch):
     assert expect in b.note and "moments" in b.note
     va, vb = _values(a), _values(b)
     assert np.max(np.abs(va - vb) / np.abs(va)) < SAME_VALUE_RTOL
+
+
+def _followed(p, region, ks, monkeypatch=None, lose=False):
+    """``follow=True`` solves at ``ks`` on one solver; the last one's predictors may lose one."""
+    s = _solver(p, region, ks[-1], "linear")
+    if lose:
+        orig = CertifiedSolver.predictors
+
+        def lose_fastest(self, k):
+            pred = orig(self, k)
+            if pred is None or k != ks[-1]:
+                return pred
+            keep = np.argsort(pred[0].real)[:-1]  # the fastest eigenvalue's predictor is lost
+            return pred[0][keep], pred[1][:, keep]
+
+        monkeypatch.setattr(CertifiedSolver, "predictors", lose_fastest)
+    try:
+        return [s.solve(k, follow=True) for k in ks]
+    finally:
+        s.destroy()
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_a_followed_sweep_finds_the_same_eigenvalues_by_continuation(case):
+    """The FE's own eigenpairs of the previous ``k`` (extrapolated in ``k``) are the
+    predictors: after the first ``k`` no linearisation is needed where no eigenvalue enters
+    the region (steps of 0.01 here; on the stress top's 16 ``c_d`` box one enters between
+    ``k = 2.9`` and 3), and the values are the linearised path's at every ``k``."""
+    p, k, c_max = CASES[case]
+    region = Region(c_max=c_max)
+    ks = [k - 0.03, k - 0.02, k - 0.01, k]
+    followed = _followed(p, region, ks)
+    assert [r.found_by for r in followed] == ["linearised"] + ["continuation"] * 3
+    for kk, res in zip(ks, followed, strict=True):
+        s = _solver(p, region, ks[-1], "linear")
+        try:
+            alone = s.solve(kk)
+        finally:
+            s.destroy()
+        assert alone.found_by == "linearised" and res.closed
+        assert res.n_fe == alone.n_fe == len(res.rows) > 0
+        va, vb = _values(alone), _values(res)
+        assert np.max(np.abs(va - vb) / np.abs(va)) < SAME_VALUE_RTOL
+
+
+@pytest.mark.parametrize("case", ["velocity", "stress"])
+def test_a_lost_continued_predictor_sends_the_search_to_the_linearisation(case, monkeypatch):
+    """The count, not the predictors, decides: one predictor short, the linearised
+    eigenproblem runs and finds the missing eigenvalue."""
+    p, k, c_max = CASES[case]
+    region = Region(c_max=c_max)
+    ks = [k - 0.02, k - 0.01, k]
+    lost = _followed(p, region, ks, monkeypatch, lose=True)
+    assert lost[1].found_by == "continuation" and lost[-1].found_by == "linearised"
+    assert lost[-1].closed and lost[-1].n_fe == len(lost[-1].rows) > 0
+    _, alone = _moments_and_linear(p, region, k)
+    va, vb = _values(alone), _values(lost[-1])
+    assert np.max(np.abs(va - vb) / np.abs(va)) < SAME_VALUE_RTOL

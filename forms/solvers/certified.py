@@ -15,7 +15,10 @@ docs/design.md section 8. For every requested ``k`` and a rectangle ``R`` (by de
    ``solver="moments"``), contour-integral moments of ``T_h(z)^{-1} V`` on the same contour
    points (Beyn's method, :meth:`forms.solvers.banded.BandedOperator.moment_eigs`), each
    predictor polished the same way; the count closes when the distinct values found inside
-   ``R`` are ``N_FE`` (the count comes from neither, so a missed eigenvalue shows);
+   ``R`` are ``N_FE`` (the count comes from neither, so a missed eigenvalue shows). In a sweep
+   (``follow=True``) the FE's own eigenpairs of the previous ``k``, extrapolated in ``k``
+   (:meth:`CertifiedSolver.predictors`), are tried first, and the linearisation runs only
+   where they do not give ``N_FE`` values (an eigenvalue entering ``R``, a Newton failure);
 3. error estimate: one Newton solve on the degree ``p + 1`` discretisation started from the
    FE value gives ``|Lambda_p - Lambda_{p+1}| / |Lambda_{p+1}|``;
 4. with ``check_exact`` (default) the exact side is consulted afterwards: the argument-principle
@@ -71,6 +74,9 @@ COUNTS = ("condensed", "banded")
 #: predictors, one rank, 2026-11-28) the two cost 0.062 s against 0.056 s at 384 interior rows,
 #: 0.23 against 0.25 s at 728, 0.40 against 0.44 s at 1 007 and 1.23 against 2.22 s at 1 760.
 NEAR_MIN = 900
+#: Solves of a sweep (:meth:`CertifiedSolver.predictors`) through which each eigenvalue is
+#: extrapolated in ``k`` (3: quadratic).
+FOLLOW_POINTS = 3
 #: Largest count of one box of contour moments (:func:`split_box`): the moments' cost per contour
 #: point grows with the block width (about ``3/4`` of the count), the count's does not.
 MAX_PER_BOX = 16
@@ -121,24 +127,34 @@ def split_box(counter: Callable[[Box], tuple[int, np.ndarray]], box: Box, count:
 
 
 def _find(fe: BandedOperator, counter: Callable, box: Box, count: int, t: np.ndarray,
-          most: int, sums: Callable | None, lin: Callable | None = None
-          ) -> tuple[list[Eigen], bool, str]:
-    """The eigenpairs in ``box``: linearised predictors, else moments per part of :func:`split_box`.
+          most: int, sums: Callable | None, lin: Callable | None = None,
+          pred: tuple[np.ndarray, np.ndarray] | None = None
+          ) -> tuple[list[Eigen], bool, str, str]:
+    """The eigenpairs in ``box``: continued or linearised predictors, else moments per part.
 
+    ``pred`` (``(values, vectors)``, vectors in banded order: the FE's own eigenpairs of the
+    previous ``k``, :meth:`CertifiedSolver.predictors`) are Newton-polished first; then
     ``lin(box)`` (:meth:`forms.solvers.condensed.CondensedOperator.linear_eigs`) gives
-    predictors with vectors for the whole box; each is Newton-polished, and they are kept when
-    as many distinct values as ``count`` lie inside. Otherwise (too large a pencil, or a value
-    missing) the moments run and the note says why.
+    predictors with vectors for the whole box. A set is kept when as many distinct values as
+    ``count`` lie inside (the count comes from neither: a missed eigenvalue sends the search
+    on). Otherwise (too large a pencil, or a value missing) the moments run per part of
+    :func:`split_box` and the note says why.
 
     Returns:
-        ``(found, the parts' counts add up to count, note)``.
+        ``(found, the parts' counts add up to count, note, found_by)``: ``found_by`` is
+        ``continuation``, ``linearised`` or ``moments``.
     """
     note = ""
+    bx = tuple(float(v) for v in box)
+    if pred is not None and count > 0 and pred[0].size:
+        found = fe.polish(pred[0], pred[1], bx)
+        if len(found) == count:
+            return found, True, "", "continuation"
     if lin is not None and count > 0:
         try:
-            found = fe.polish(*lin(box), tuple(float(v) for v in box), exact_start=True)
+            found = fe.polish(*lin(box), bx, exact_start=True)
             if len(found) == count:
-                return found, True, ""
+                return found, True, "", "linearised"
             note = f"linearised predictors gave {len(found)} of {count}: moments"
         except NotImplementedError as err:
             note = f"moments: {err}"
@@ -154,7 +170,7 @@ def _find(fe: BandedOperator, counter: Callable, box: Box, count: int, t: np.nda
     found: list[Eigen] = []
     for part in parts:
         found += _moments_in(fe, *part, sums)
-    return found, ok, note
+    return found, ok, note, "moments"
 
 
 def _moments_in(fe: BandedOperator, box: Box, count: int, t: np.ndarray,
@@ -167,6 +183,19 @@ def _moments_in(fe: BandedOperator, box: Box, count: int, t: np.ndarray,
             if all(abs(e.value - f.value) > 1e-9 * max(1.0, abs(e.value)) for f in found):
                 found.append(e)
     return found
+
+
+def _label_by_frequency(rows: list[dict]) -> bool:
+    """Labels ``fe0, fe1, ...`` in the order of ``|Im Lambda|`` (no exact check); ``True``."""
+    for j, row in enumerate(sorted(rows, key=lambda r: (abs(r["im_lambda"]), r["im_lambda"]))):
+        row["label"] = f"fe{j}"
+    return True
+
+
+def _distinct(values: list[complex]) -> bool:
+    """No two of ``values`` within ``1e-9`` relative (the count's distinct eigenvalues)."""
+    return all(abs(values[a] - values[b]) > 1e-9 * max(1.0, abs(values[a]))
+               for a in range(len(values)) for b in range(a))
 
 
 def _condensed(fe: BandedOperator, model: CondensedModel | None = None, k: float = 0.0
@@ -266,6 +295,9 @@ class KResult:
         note: Why not, or other remarks.
         seconds: Wall time of this ``k``.
         factorizations: Banded LU factorisations spent (Newton + counts).
+        found_by: How the FE eigenvalues were found (:func:`_find`): ``continuation`` (the
+            FE's own eigenpairs of the previous ``k`` as predictors), ``linearised``,
+            ``moments``; ``""``: no count, or ``solver="newton"``.
     """
 
     k: float
@@ -277,18 +309,20 @@ class KResult:
     note: str = ""
     seconds: float = 0.0
     factorizations: int = 0
+    found_by: str = ""
 
     def as_dict(self) -> dict:
         """Plain-JSON form."""
         return {"k": self.k, "rows": self.rows, "n_exact": self.n_exact, "n_fe": self.n_fe,
                 "box": list(self.box), "closed": self.closed, "note": self.note,
-                "seconds": self.seconds, "factorizations": self.factorizations}
+                "seconds": self.seconds, "factorizations": self.factorizations,
+                "found_by": self.found_by}
 
     @classmethod
     def from_dict(cls, d: dict) -> KResult:
         """Inverse of :meth:`as_dict`."""
         return cls(d["k"], d["rows"], d["n_exact"], d["n_fe"], tuple(d["box"]), d["closed"],
-                   d["note"], d["seconds"], d.get("factorizations", 0))
+                   d["note"], d["seconds"], d.get("factorizations", 0), d.get("found_by", ""))
 
 
 class CertifiedSolver:
@@ -338,6 +372,8 @@ class CertifiedSolver:
                        for d in (degree, degree + 1)]
         self.banded = [BandedModel(m) for m in self.models]
         self._cmodel: NearModel | CondensedModel | bool | None = None
+        #: ``(k, values, vectors)`` of the last two closed solves with ``follow``.
+        self._history: list[tuple[float, np.ndarray, np.ndarray]] = []
         self.degree, self.cells, self.ratio = degree, cells, ratio
 
     def _condensed_model(self) -> NearModel | CondensedModel | None:
@@ -363,8 +399,50 @@ class CertifiedSolver:
         """Unknowns of the degree-``p`` model."""
         return self.models[0].size
 
+    def predictors(self, k: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """Predictors at ``k`` from this solver's last closed solves (``follow=True``).
+
+        ``(values, vectors)`` (vectors in banded order): each eigenvalue of the last ``k``
+        extrapolated in ``k`` by the polynomial through it and its chain of mutual nearest
+        values at the solves before (up to :data:`FOLLOW_POINTS` points; a value without a
+        partner is taken as it is), with its vector. ``None``: no closed solve yet.
+        """
+        if not self._history:
+            return None
+        ks = [h[0] for h in self._history]
+        chains = [np.arange(self._history[-1][1].size)]  # indices into each earlier solve
+        for (_, za, _), (_, zb, _) in zip(self._history[-2::-1], self._history[:0:-1],
+                                             strict=True):
+            if not (za.size and zb.size):
+                break
+            dist = np.abs(zb[:, None] - za[None, :])
+            near, back = np.argmin(dist, axis=1), np.argmin(dist, axis=0)
+            prev = chains[-1]
+            chains.append(np.where(back[near[prev]] == prev, near[prev], -1))
+        z_last = self._history[-1][1]
+        pred = z_last.copy()
+        for i in range(z_last.size):
+            pts = [(ks[-1 - j], self._history[-1 - j][1][c[i]]) for j, c in enumerate(chains)]
+            pts = pts[:next((j for j, c in enumerate(chains) if c[i] < 0), len(pts))]
+            pred[i] = sum(z * math.prod((k - kb) / (ka - kb) for kb, _ in pts if kb != ka)
+                          for ka, z in pts)
+        return pred, self._history[-1][2]
+
+    def _remember(self, k: float, found: list[Eigen], perm: np.ndarray) -> None:
+        """Keep the eigenpairs of a closed solve at ``k`` for :meth:`predictors`.
+
+        The last :data:`FOLLOW_POINTS` distinct ``k`` (a second solve at the same ``k``, e.g.
+        another rung sharing this mesh, replaces the first).
+        """
+        keep = [h for h in self._history if h[0] != float(k)][-(FOLLOW_POINTS - 1):]
+        self._history = [*keep, (
+            float(k), np.array([e.value for e in found], dtype=complex),
+            np.stack([e.vector[perm] for e in found], axis=1) if found
+            else np.zeros((perm.size, 0), dtype=complex))]
+
     def solve(self, k: float, fams: list[BranchResult] | None = None,
-              region: Region | None = None, box: Box | None = None) -> KResult:
+              region: Region | None = None, box: Box | None = None, *,
+              follow: bool = False) -> KResult:
         """The certified spectrum at ``k`` (see the module docstring).
 
         Args:
@@ -374,6 +452,9 @@ class CertifiedSolver:
                 region: see :func:`forms.studies.sweep.region_at_k`.
             box: The rectangle (default: the region's at ``k``; with ``check_exact`` the
                 rectangle of the exact count, which may be a nudged copy).
+            follow: A sweep in ``k``: this solver's eigenpairs of its last closed solves
+                are the first predictors (:meth:`predictors`; ``solver="linear"`` only), and
+                this solve's are kept for the next.
         """
         region = region if region is not None else self.region
         if self.solver == "newton":
@@ -408,21 +489,18 @@ class CertifiedSolver:
         found, parts_ok = [], True
         if t is not None:
             lin = cond.linear_eigs if cond is not None and self.solver == "linear" else None
-            found, parts_ok, why = _find(fe, counter, used, out.n_fe, t, self.max_per_box, sums,
-                                         lin)
+            pred = self.predictors(k) if follow and lin is not None else None
+            found, parts_ok, why, out.found_by = _find(fe, counter, used, out.n_fe, t,
+                                                       self.max_per_box, sums, lin, pred)
             out.note = "; ".join(x for x in (out.note, why) if x)
         rows = [self._row(k, e, fine) for e in found]
-        matched = self._match_exact(rows, labelled, exact_box, used) if self.check_exact else True
-        if not self.check_exact:
-            for j, row in enumerate(sorted(rows, key=lambda r: (abs(r["im_lambda"]),
-                                                                r["im_lambda"]))):
-                row["label"] = f"fe{j}"
-        vals = np.array([e.value for e in found], dtype=complex)
-        distinct = all(abs(vals[a] - vals[b]) > 1e-9 * max(1.0, abs(vals[a]))
-                       for a in range(len(vals)) for b in range(a))
-        fe_closed = (out.n_fe is not None and out.n_fe == len(found) and distinct
-                     and parts_ok)
+        matched = (self._match_exact(rows, labelled, exact_box, used) if self.check_exact
+                   else _label_by_frequency(rows))
+        distinct = _distinct([e.value for e in found])
+        fe_closed = out.n_fe is not None and out.n_fe == len(found) and distinct and parts_ok
         out.closed = fe_closed and matched
+        if follow and fe_closed:
+            self._remember(k, found, fe.perm)
         for row in rows:
             row["certificate"] = "+".join(
                 name for name, ok in (("fe", fe_closed and row["error_estimate"] <= rtol),

@@ -541,7 +541,7 @@ def climb(params: Params, region: Region, k: float, fams: list[BranchResult],
 
     def solve(c: float) -> KResult:
         if c not in got:
-            got[c] = rungs(c, k).solve(k, fams, region.fixed(c))
+            got[c] = rungs(c, k).solve(k, fams, region.fixed(c), follow=True)
         return got[c]
 
     def fastest_inside(c: float) -> float | None:
@@ -583,6 +583,8 @@ def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.nda
 
     With a ``material`` and no exact check (``rungs``), every row is also continued to the next
     swept ``k`` (:func:`continue_rows`), for the labels of :func:`label_by_continuation`.
+    Every solve follows the earlier ones of its solver (``follow=True``: their eigenpairs,
+    extrapolated in ``k``, are tried before the linearisation; the count decides).
     """
     t0 = time.perf_counter()
     track = rungs.material is not None and not rungs.check_exact
@@ -591,7 +593,8 @@ def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.nda
         for i in sorted(mine):  # in k: each climb starts at the previous k's rung
             if c_max_at_k is not None:
                 c = c_max_at_k[i]
-                res = rungs(c, float(k[i])).solve(float(k[i]), fams, region.fixed(c))
+                res = rungs(c, float(k[i])).solve(float(k[i]), fams, region.fixed(c),
+                                                  follow=True)
             else:
                 res, c = climb(params, region, float(k[i]), fams, rungs, start)
                 start = c
@@ -798,6 +801,8 @@ def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResu
     return {
         "region": region.as_dict(params) | (layered or {}),
         "certificate": {"k_values": len(results), "k_closed": len(results) - len(open_k),
+                        "found_by": {w: sum(res.found_by == w for res in results)
+                                     for w in sorted({res.found_by for res in results})},
                         "k_not_closed": open_k, "rows": len(rows),
                         "rows_ok": len(rows) - len(flagged),
                         "rows_flagged": flagged[:MAX_FLAGGED_LISTED]},
@@ -809,7 +814,7 @@ def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResu
         **({"labels": TRACK_STATEMENT} if any("re_next" in r for r in rows) else {}),
         "per_k": [{"k": res.k, "n_fe": res.n_fe, "n_exact": res.n_exact, "closed": res.closed,
                    "box": list(res.box), **tail, "seconds": res.seconds,
-                   "factorizations": res.factorizations,
+                   "factorizations": res.factorizations, "found_by": res.found_by,
                    "certificate": [r.get("certificate", "") for r in res.rows]}
                   for res, tail in zip(results, tails, strict=True)],
     }

@@ -95,3 +95,20 @@ def test_divided_count_equals_the_plain_count(bc):
         problem.destroy()
     assert plain[0] == div[0] >= 1
 
+
+
+def test_progress_reports_the_count_and_the_tiles():
+    """``progress`` hears the count's samples as they grow (the last line's number is the
+    count's evaluations) and every tile, then the estimate's (prefixed): what the scene prints
+    every 30 s of a long block's search (serial and ``mpirun -n 2``: every rank hears them,
+    the scene prints on rank 0)."""
+    comm, p = MPI.COMM_WORLD, Params()
+    lines: list[str] = []
+    spec = block.block_spectrum(comm, p, 2.0, box=(0.05, 0.6, -10.0, 10.0), estimate=True,
+                                progress=lines.append, **SMALL)
+    counts = [int(x.split()[1]) for x in lines if x.startswith("count: ")]
+    tiles = [x for x in lines if x.startswith("tiles: ")]
+    assert spec.closed and spec.found >= 2
+    assert counts == sorted(counts) and counts[-1] == spec.count_evaluations
+    assert len(tiles) == spec.tiles and tiles[-1].endswith(f"{spec.found} of {spec.found} found")
+    assert any(x.startswith("P3 estimate, tiles: ") for x in lines)

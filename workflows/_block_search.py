@@ -13,6 +13,9 @@ from __future__ import annotations
 import argparse
 import csv
 import os
+import sys
+import time
+from collections.abc import Callable
 
 import _cli
 import numpy as np
@@ -128,6 +131,29 @@ def write_spectrum(out: str, certificates: dict) -> None:
         w.writerows(rows)
 
 
+#: Seconds between two progress lines of one length's complete search (rank 0, stderr).
+PROGRESS_EVERY = 30.0
+
+
+def progress_printer(comm, L: float, every: float = PROGRESS_EVERY) -> Callable[[str], None]:
+    """Rank 0 writes ``L = 32: <line>`` at most every ``every`` seconds, above the lengths' bar.
+
+    The complete search of one long block runs for tens of minutes inside one step of the bar:
+    its count's samples and its tiles (``forms.studies.block.block_spectrum``'s ``progress``).
+    """
+    from tqdm import tqdm
+
+    last = [time.perf_counter()]
+
+    def report(line: str) -> None:
+        now = time.perf_counter()
+        if comm.rank == 0 and now - last[0] >= every:
+            last[0] = now
+            tqdm.write(f"L = {L:g}: {line}", file=sys.stderr)
+
+    return report
+
+
 def solve_length(comm, args: argparse.Namespace, params, L: float, ref, keep_mode: bool,
                  certificates: dict) -> tuple[block.BlockMode, bool]:
     """One length by ``args.search``; its certificate (with the spectrum's rows) kept.
@@ -147,7 +173,7 @@ def solve_length(comm, args: argparse.Namespace, params, L: float, ref, keep_mod
         comm, params, L, cells_per_unit=args.cells_per_unit, ny=args.ny, degree=args.degree,
         lateral=args.lateral, box=box, nev=args.nev, estimate=True, keep_mode=keep_mode,
         half=args.half, split_count=args.count_ranks == "split",
-        divide=args.count_reference == "elastic")
+        divide=args.count_reference == "elastic", progress=progress_printer(comm, L))
     if spec.closed and not spec.found:  # an answer, but not the fastest mode: say so
         _cli.say(f"L = {L:g}: no eigenvalue in the box (counted 0): every mode of this block "
                  f"with |Im| <= {box[3]:.6g} grows slower than Re = {box[0]:.6g}; to find the "

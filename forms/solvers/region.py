@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -345,7 +345,8 @@ def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
                  spurious: Sequence[complex] = (-1.0 + 0j,), *, cleared_rows: int = 0,
                  prefix: str = "region_det_", n_initial: int = 16, nudge: float = 1e-3,
                  tries: int = 3, split: bool = False,
-                 reference: Sequence[PETSc.Mat] | None = None) -> tuple[int, Box, dict]:
+                 reference: Sequence[PETSc.Mat] | None = None,
+                 progress: Callable[[str], object] | None = None) -> tuple[int, Box, dict]:
     """Discrete eigenvalues of ``T_h`` in ``box``: the winding number of ``det T_h`` on its edge.
 
     ``det T_h`` is a polynomial in ``Lambda`` (no poles), so the winding number is the number of
@@ -374,6 +375,9 @@ def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
     (measured, block L = 16, P2, 8 x 8 per unit, edge ``Re = 0.2``, ``Im`` 60 to 61: 149 rad per
     unit of arc for ``F``, 0.24 for the quotient).
 
+    ``progress``: called with ``"count: N samples, T s"`` after every batch of samples (the
+    caller prints it, e.g. on rank 0 at most every so often).
+
     Returns:
         ``(count, box_used, info)`` with ``info`` = evaluations (LU factorisations) and seconds.
     """
@@ -390,6 +394,9 @@ def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
             # an integer multiple of 2 pi i across the branch cut: the wrapped increments of
             # :func:`winding` do not see it
             out = out - cleared_rows * np.log(z - s)
+        if progress is not None:
+            spent = logdet.seconds + (logref.seconds if logref else 0.0)
+            progress(f"count: {logdet.evaluations} samples, {spent:.0f} s")
         return out
 
     try:
@@ -606,7 +613,8 @@ class RegionSolver:
               spurious: Sequence[complex] = (-1.0 + 0j,), *, count: bool = True,
               expected: int | None = None, tiles: tuple[int, int] | None = None,
               cleared_rows: int = 0, split_count: bool = False,
-              reference: Sequence[PETSc.Mat] | None = None) -> RegionResult:
+              reference: Sequence[PETSc.Mat] | None = None,
+              progress: Callable[[str], object] | None = None) -> RegionResult:
         """Every eigenpair in ``box``; with ``count``, the argument-principle count too.
 
         Args:
@@ -626,6 +634,8 @@ class RegionSolver:
                 of a whole copy of the matrices (:class:`LogDet`); the tiles stay parallel.
             reference: An operator without eigenvalues in the box whose determinant divides
                 the count's samples (:func:`count_in_box`).
+            progress: Called with a short line after every batch of the count's samples and
+                every tile (``"tiles: 3 solved, 5 of 12 found"``).
 
         Returns:
             :class:`RegionResult` (``closed`` is the certificate).
@@ -635,7 +645,7 @@ class RegionSolver:
         if count:
             counted, bx, info = count_in_box(matrices, bx, spurious, cleared_rows=cleared_rows,
                                              prefix=self.prefix + "det_", split=split_count,
-                                             reference=reference)
+                                             reference=reference, progress=progress)
         a, b, c, d = bx
         nev = self.pep.getDimensions()[0]
         stop_at = counted if count else expected
@@ -666,6 +676,9 @@ class RegionSolver:
             pairs, covered = self._tile(centre, radius, nev)
             solved += 1
             _keep_new(pairs, kept, bx, scale, spurious)
+            if progress is not None:
+                progress(f"tiles: {solved} solved, {len(kept)}"
+                         + (f" of {stop_at}" if stop_at is not None else "") + " found")
             # SLEPc may converge fewer than nev pairs: a tile that small is not split further
             # (without this, measured: endless splits towards a box corner, 7 of 8 converged)
             if not covered and radius > 1e-3 * scale:

@@ -29,7 +29,7 @@ comes from the exact two-body roots (:func:`analytic.numerics.branches.follow_br
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 
@@ -454,7 +454,7 @@ def _region_solve(comm: MPI.Comm, params: Params, length: float, cells_per_unit:
                   degree: int, lateral: str, box: Sequence[float], nev: int, count: bool,
                   keep_mode: bool, friction: FrictionProfile | None, prefix: str,
                   expected: int | None = None, split: bool = False,
-                  divide: bool = False):
+                  divide: bool = False, progress: Callable[[str], object] | None = None):
     """One region solve of the block; ``keep_mode``: the fastest found, as a function.
 
     The mode is that of the value of ``Im <= 0`` (a conjugated vector if only ``Im > 0`` was
@@ -470,7 +470,7 @@ def _region_solve(comm: MPI.Comm, params: Params, length: float, cells_per_unit:
         try:
             res = solver.solve(op.matrices, box, op.law.spurious, count=count,
                                cleared_rows=op.cleared_rows, expected=expected,
-                               split_count=split, reference=ref)
+                               split_count=split, reference=ref, progress=progress)
             u = None
             if keep_mode and res.found:
                 if res.values[0].imag > 0:
@@ -507,7 +507,8 @@ def block_spectrum(comm: MPI.Comm, params: Params, length: float, *, cells_per_u
                    estimate: bool = True, keep_mode: bool = False,
                    friction: FrictionProfile | None = None,
                    prefix: str = "block_region_", half: bool = False,
-                   split_count: bool = False, divide: bool = False) -> BlockSpectrum:
+                   split_count: bool = False, divide: bool = False,
+                   progress: Callable[[str], object] | None = None) -> BlockSpectrum:
     """Every eigenvalue of the block ``0 < x < length`` in ``box``, with its certificate.
 
     The region solve (:class:`forms.solvers.region.RegionSolver`, options prefix
@@ -542,11 +543,16 @@ def block_spectrum(comm: MPI.Comm, params: Params, length: float, *, cells_per_u
         divide: The count's samples divided by the frictionless block's determinant
             (:func:`elastic_reference`; only for ``re_min > 0``, where it has no eigenvalue):
             the same count, far fewer samples.
+        progress: Called with a short line as the count and the tiles advance (the
+            estimate's lines prefixed ``P(p+1) estimate``); the caller throttles and prints.
     """
     tail = (friction, prefix)
+    fine_progress = None if progress is None else (
+        lambda line: progress(f"P{degree + 1} estimate, {line}"))
     res, u = _region_solve(comm, params, length, cells_per_unit, ny, degree, lateral,
                            half_box(box) if half else box, nev, True, keep_mode, *tail,
-                           split=split_count, divide=divide and float(box[0]) > 0)
+                           split=split_count, divide=divide and float(box[0]) > 0,
+                           progress=progress)
     values, source = res.values, np.arange(res.found)
     full = res.box
     if half:
@@ -558,7 +564,8 @@ def block_spectrum(comm: MPI.Comm, params: Params, length: float, *, cells_per_u
     if estimate and res.found:
         t0 = time.perf_counter()
         fine, _ = _region_solve(comm, params, length, cells_per_unit, ny, degree + 1, lateral,
-                                res.box, nev, False, False, *tail, expected=res.found)
+                                res.box, nev, False, False, *tail, expected=res.found,
+                                progress=fine_progress)
         if fine.found:
             est = np.array([np.min(np.abs(fine.values - z)) / abs(z) for z in res.values])
         seconds["estimate"] = time.perf_counter() - t0

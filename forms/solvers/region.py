@@ -664,10 +664,30 @@ class RegionSolver:
             self._inv = inverted(matrices, self._pole)
         norms = np.array([m.norm(PETSc.NormType.FROBENIUS) for m in matrices])
         scale = max(b - a, d - c)
-        todo = _tile_list(bx, n_re, n_im)
+        t0 = time.perf_counter()
+        kept, solved = self._cover(_tile_list(bx, n_re, n_im), bx, spurious, nev, stop_at,
+                                   progress)
+        t_solve = time.perf_counter() - t0
+        self._release()
+        # by decreasing real part; a conjugate pair (real parts equal to rounding) in a fixed
+        # order, Im <= 0 first, so that "the fastest" is the same value in every run
+        kept.sort(key=lambda p: (-round(p[0].real / scale, 9), p[0].imag))
+        values = np.array([p[0] for p in kept], dtype=complex)
+        residuals = np.array([_residual(matrices, norms, lam, v) for lam, v in kept])
+        return RegionResult(bx, values, residuals, [v for _, v in kept], counted, solved,
+                            {"solve": t_solve, "count": info["seconds"]},
+                            info["evaluations"], self._restarts)
+
+    def _cover(self, todo: list[Box], bx: Box, spurious: Sequence[complex], nev: int,
+               stop_at: int | None, progress: Callable[[str], object] | None
+               ) -> tuple[list[tuple[complex, PETSc.Vec]], int]:
+        """The tiles ``todo`` solved (last first), the uncovered ones split: ``(kept, solved)``.
+
+        Until ``stop_at`` distinct eigenpairs in ``bx`` are kept, or every tile is covered.
+        """
+        scale = max(bx[1] - bx[0], bx[3] - bx[2])
         kept: list[tuple[complex, PETSc.Vec]] = []
         solved = 0
-        t0 = time.perf_counter()
         while todo and solved < self.max_tiles and (stop_at is None
                                                      or len(kept) < stop_at):
             ta, tb, tc, td = todo.pop()
@@ -684,16 +704,7 @@ class RegionSolver:
             if not covered and radius > 1e-3 * scale:
                 xm, ym = 0.5 * (ta + tb), 0.5 * (tc + td)
                 todo += [(ta, xm, tc, ym), (xm, tb, tc, ym), (ta, xm, ym, td), (xm, tb, ym, td)]
-        t_solve = time.perf_counter() - t0
-        self._release()
-        # by decreasing real part; a conjugate pair (real parts equal to rounding) in a fixed
-        # order, Im <= 0 first, so that "the fastest" is the same value in every run
-        kept.sort(key=lambda p: (-round(p[0].real / scale, 9), p[0].imag))
-        values = np.array([p[0] for p in kept], dtype=complex)
-        residuals = np.array([_residual(matrices, norms, lam, v) for lam, v in kept])
-        return RegionResult(bx, values, residuals, [v for _, v in kept], counted, solved,
-                            {"solve": t_solve, "count": info["seconds"]},
-                            info["evaluations"], self._restarts)
+        return kept, solved
 
     def _release(self) -> None:
         for b in getattr(self, "_inv", []):

@@ -13,7 +13,7 @@ import pytest
 
 from analytic import Params
 from analytic.numerics.spectrum import Region
-from forms.solvers import condensed
+from forms.solvers import certified, condensed
 from forms.solvers.certified import CertifiedSolver, _condensed, default_discretisation
 
 #: Same discrete eigenvalue from the two paths (both Newton-polished): measured at most
@@ -189,3 +189,26 @@ def test_a_lost_continued_predictor_sends_the_search_to_the_linearisation(case, 
     _, alone = _moments_and_linear(p, region, k)
     va, vb = _values(alone), _values(lost[-1])
     assert np.max(np.abs(va - vb) / np.abs(va)) < SAME_VALUE_RTOL
+
+
+def test_predictors_gone_astray_pause_the_continuation(monkeypatch):
+    """Predictors that end on the same eigenvalue (all of them copies of one here, as on a
+    grid too coarse for the extrapolation) lose the others: the linearisation finds them, and
+    the next FOLLOW_PAUSE solves try no continuation (then it resumes)."""
+    p, k, c_max = CASES["velocity"]
+    region = Region(c_max=c_max)
+    ks = [k + 0.01 * i for i in range(4 + certified.FOLLOW_PAUSE)]
+    orig = CertifiedSolver.predictors
+
+    def astray(self, kk):
+        pred = orig(self, kk)
+        if pred is None or kk != ks[2]:
+            return pred
+        return np.full_like(pred[0], pred[0][0]), np.repeat(pred[1][:, :1], pred[0].size, 1)
+
+    monkeypatch.setattr(CertifiedSolver, "predictors", astray)
+    res = _followed(p, region, ks)
+    assert [r.found_by for r in res] == (["linearised", "continuation", "linearised"]
+                                         + ["linearised"] * certified.FOLLOW_PAUSE
+                                         + ["continuation"])
+    assert all(r.closed and r.n_fe == len(r.rows) > 0 for r in res)

@@ -323,8 +323,8 @@ class BandedOperator:
                 acc += weights[lo + j][:, None, None] * y[None]
         return acc
 
-    def polish(self, lam: np.ndarray, vecs: np.ndarray, bx: Box, *, exact_start: bool = False
-               ) -> list[Eigen]:
+    def polish(self, lam: np.ndarray, vecs: np.ndarray, bx: Box, *, exact_start: bool = False,
+               maxit: int = 12) -> list[Eigen]:
         """Newton from each approximation inside ``bx`` (widened 10 %); distinct, inside.
 
         Args:
@@ -334,6 +334,7 @@ class BandedOperator:
             exact_start: Each vector is ``T``'s near-null vector at its predictor (as
                 :meth:`forms.solvers.condensed.CondensedOperator.linear_eigs` gives): the first
                 step's rule of :meth:`newton` without a start vector applies.
+            maxit: Newton steps per predictor (:meth:`newton`).
         """
         a0, b0, c0, d0 = bx
         mw, mh = 0.1 * (b0 - a0), 0.1 * (d0 - c0)
@@ -346,7 +347,7 @@ class BandedOperator:
             x0 = np.empty(self.n, dtype=complex)
             x0[self.perm] = vecs[:, i]
             finite = bool(np.all(np.isfinite(x0)))
-            e = self.newton(z0, x0 if finite else None, exact_start=exact_start)
+            e = self.newton(z0, x0 if finite else None, exact_start=exact_start, maxit=maxit)
             if exact_start and finite and not e.converged:
                 # the predicted vector is poor where T_II(z) is nearly singular (a mode that
                 # hardly moves the interface, Re Lambda ~ 0): start by inverse iteration

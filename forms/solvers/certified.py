@@ -77,6 +77,15 @@ NEAR_MIN = 900
 #: Solves of a sweep (:meth:`CertifiedSolver.predictors`) through which each eigenvalue is
 #: extrapolated in ``k`` (3: quadratic).
 FOLLOW_POINTS = 3
+#: Newton steps a continued predictor may take (two or three where it is good: the default
+#: sweeps, session 17).
+FOLLOW_MAXIT = 5
+#: Solves without continuation after one whose predictors went astray (one of them inside the
+#: box did not end on a distinct eigenvalue in it). A grid too coarse for the predictors
+#: (``--bc stress --k 0.5:30:60 --c-max 4``: 49 of 60 ``k`` fell back, most with one or two
+#: of 6-39 predictors lost) cost 1.17x the CPU of no continuation before this rule; on the
+#: default stress sweep one attempt of 123 lost a predictor (session 17).
+FOLLOW_PAUSE = 4
 #: Largest count of one box of contour moments (:func:`split_box`): the moments' cost per contour
 #: point grows with the block width (about ``3/4`` of the count), the count's does not.
 MAX_PER_BOX = 16
@@ -128,14 +137,14 @@ def split_box(counter: Callable[[Box], tuple[int, np.ndarray]], box: Box, count:
 
 def _find(fe: BandedOperator, counter: Callable, box: Box, count: int, t: np.ndarray,
           most: int, sums: Callable | None, lin: Callable | None = None,
-          pred: tuple[np.ndarray, np.ndarray] | None = None
+          cont: Callable[[Box, int], list[Eigen]] | None = None
           ) -> tuple[list[Eigen], bool, str, str]:
     """The eigenpairs in ``box``: continued or linearised predictors, else moments per part.
 
-    ``pred`` (``(values, vectors)``, vectors in banded order: the FE's own eigenpairs of the
-    previous ``k``, :meth:`CertifiedSolver.predictors`) are Newton-polished first; then
-    ``lin(box)`` (:meth:`forms.solvers.condensed.CondensedOperator.linear_eigs`) gives
-    predictors with vectors for the whole box. A set is kept when as many distinct values as
+    ``cont(box, count)`` (the FE's own eigenpairs of the previous ``k``, continued and
+    Newton-polished: :meth:`CertifiedSolver.predictors`) is tried first; then ``lin(box)``
+    (:meth:`forms.solvers.condensed.CondensedOperator.linear_eigs`) gives predictors with
+    vectors for the whole box. A set is kept when as many distinct values as
     ``count`` lie inside (the count comes from neither: a missed eigenvalue sends the search
     on). Otherwise (too large a pencil, or a value missing) the moments run per part of
     :func:`split_box` and the note says why.
@@ -146,8 +155,8 @@ def _find(fe: BandedOperator, counter: Callable, box: Box, count: int, t: np.nda
     """
     note = ""
     bx = tuple(float(v) for v in box)
-    if pred is not None and count > 0 and pred[0].size:
-        found = fe.polish(pred[0], pred[1], bx)
+    if cont is not None and count > 0:
+        found = cont(bx, count)
         if len(found) == count:
             return found, True, "", "continuation"
     if lin is not None and count > 0:
@@ -374,6 +383,7 @@ class CertifiedSolver:
         self._cmodel: NearModel | CondensedModel | bool | None = None
         #: ``(k, values, vectors)`` of the last two closed solves with ``follow``.
         self._history: list[tuple[float, np.ndarray, np.ndarray]] = []
+        self._pause = 0  #: solves left without continuation (:meth:`_continuation`)
         self.degree, self.cells, self.ratio = degree, cells, ratio
 
     def _condensed_model(self) -> NearModel | CondensedModel | None:
@@ -427,6 +437,38 @@ class CertifiedSolver:
             pred[i] = sum(z * math.prod((k - kb) / (ka - kb) for kb, _ in pts if kb != ka)
                           for ka, z in pts)
         return pred, self._history[-1][2]
+
+    def _continuation(self, fe: BandedOperator, k: float
+                      ) -> Callable[[Box, int], list[Eigen]] | None:
+        """``(box, count) -> eigenpairs`` from :meth:`predictors` at ``k``, or ``None``.
+
+        ``None``: no predictors, or paused. Fewer predictors inside the box (widened 10 %, as
+        :meth:`forms.solvers.banded.BandedOperator.polish`) than ``count`` (eigenvalues have
+        entered it: the linearisation must run anyway) are not polished. Otherwise each gets
+        :data:`FOLLOW_MAXIT` Newton steps on ``fe``; when one of them is lost, the next
+        :data:`FOLLOW_PAUSE` solves try none.
+        """
+        if self._pause > 0:
+            self._pause -= 1
+            return None
+        pred = self.predictors(k)
+        if pred is None or not pred[0].size:
+            return None
+
+        def attempt(bx: Box, count: int) -> list[Eigen]:
+            a, b, c, d = bx
+            mw, mh = 0.1 * (b - a), 0.1 * (d - c)
+            z = pred[0]
+            inside = int(np.sum((z.real >= a - mw) & (z.real <= b + mw)
+                                & (z.imag >= c - mh) & (z.imag <= d + mh)))
+            if inside < count:
+                return []
+            found = fe.polish(pred[0], pred[1], bx, maxit=FOLLOW_MAXIT)
+            if len(found) < inside:
+                self._pause = FOLLOW_PAUSE
+            return found
+
+        return attempt
 
     def _remember(self, k: float, found: list[Eigen], perm: np.ndarray) -> None:
         """Keep the eigenpairs of a closed solve at ``k`` for :meth:`predictors`.
@@ -489,9 +531,9 @@ class CertifiedSolver:
         found, parts_ok = [], True
         if t is not None:
             lin = cond.linear_eigs if cond is not None and self.solver == "linear" else None
-            pred = self.predictors(k) if follow and lin is not None else None
+            cont = self._continuation(fe, k) if follow and lin is not None else None
             found, parts_ok, why, out.found_by = _find(fe, counter, used, out.n_fe, t,
-                                                       self.max_per_box, sums, lin, pred)
+                                                       self.max_per_box, sums, lin, cont)
             out.note = "; ".join(x for x in (out.note, why) if x)
         rows = [self._row(k, e, fine) for e in found]
         matched = (self._match_exact(rows, labelled, exact_box, used) if self.check_exact

@@ -80,11 +80,11 @@ FOLLOW_POINTS = 3
 #: Newton steps a continued predictor may take (two or three where it is good: the default
 #: sweeps, session 17).
 FOLLOW_MAXIT = 5
-#: Solves without continuation after one whose predictors went astray (one of them inside the
-#: box did not end on a distinct eigenvalue in it). A grid too coarse for the predictors
-#: (``--bc stress --k 0.5:30:60 --c-max 4``: 49 of 60 ``k`` fell back, most with one or two
-#: of 6-39 predictors lost) cost 1.17x the CPU of no continuation before this rule; on the
-#: default stress sweep one attempt of 123 lost a predictor (session 17).
+#: Solves without continuation after one whose predictors went astray (as many inside the box
+#: as counted, or more, but fewer distinct eigenvalues in it). A grid too coarse for the
+#: predictors (``--bc stress --k 0.5:30:60 --c-max 4``: 49 of 60 ``k`` fell back, most with
+#: one or two of 6-39 predictors lost) cost 1.17x the CPU of no continuation before this rule;
+#: on the default stress sweep one attempt of 123 went astray (session 17).
 FOLLOW_PAUSE = 4
 #: Largest count of one box of contour moments (:func:`split_box`): the moments' cost per contour
 #: point grows with the block width (about ``3/4`` of the count), the count's does not.
@@ -445,8 +445,8 @@ class CertifiedSolver:
         ``None``: no predictors, or paused. Fewer predictors inside the box (widened 10 %, as
         :meth:`forms.solvers.banded.BandedOperator.polish`) than ``count`` (eigenvalues have
         entered it: the linearisation must run anyway) are not polished. Otherwise each gets
-        :data:`FOLLOW_MAXIT` Newton steps on ``fe``; when one of them is lost, the next
-        :data:`FOLLOW_PAUSE` solves try none.
+        :data:`FOLLOW_MAXIT` Newton steps on ``fe``; when they do not give ``count`` distinct
+        eigenvalues in the box, the next :data:`FOLLOW_PAUSE` solves try none.
         """
         if self._pause > 0:
             self._pause -= 1
@@ -464,7 +464,7 @@ class CertifiedSolver:
             if inside < count:
                 return []
             found = fe.polish(pred[0], pred[1], bx, maxit=FOLLOW_MAXIT)
-            if len(found) < inside:
+            if len(found) < count:  # enough predictors, but they did not give the count
                 self._pause = FOLLOW_PAUSE
             return found
 

@@ -156,14 +156,15 @@ def _followed(p, region, ks, monkeypatch=None, lose=False):
 @pytest.mark.parametrize("case", list(CASES))
 def test_a_followed_sweep_finds_the_same_eigenvalues_by_continuation(case):
     """The FE's own eigenpairs of the previous ``k`` (extrapolated in ``k``) are the
-    predictors: after the first ``k`` no linearisation is needed where no eigenvalue enters
-    the region (steps of 0.01 here; on the stress top's 16 ``c_d`` box one enters between
-    ``k = 2.9`` and 3), and the values are the linearised path's at every ``k``."""
+    predictors: after the first two ``k`` (an extrapolation needs two) no linearisation is
+    needed where no eigenvalue enters the region (steps of 0.01 here; on the stress top's 16
+    ``c_d`` box one enters between ``k = 2.9`` and 3), and the values are the linearised
+    path's at every ``k``."""
     p, k, c_max = CASES[case]
     region = Region(c_max=c_max)
     ks = [k - 0.03, k - 0.02, k - 0.01, k]
     followed = _followed(p, region, ks)
-    assert [r.found_by for r in followed] == ["linearised"] + ["continuation"] * 3
+    assert [r.found_by for r in followed] == ["linearised"] * 2 + ["continuation"] * 2
     for kk, res in zip(ks, followed, strict=True):
         s = _solver(p, region, ks[-1], "linear")
         try:
@@ -182,9 +183,9 @@ def test_a_lost_continued_predictor_sends_the_search_to_the_linearisation(case, 
     eigenproblem runs and finds the missing eigenvalue."""
     p, k, c_max = CASES[case]
     region = Region(c_max=c_max)
-    ks = [k - 0.02, k - 0.01, k]
+    ks = [k - 0.03, k - 0.02, k - 0.01, k]
     lost = _followed(p, region, ks, monkeypatch, lose=True)
-    assert lost[1].found_by == "continuation" and lost[-1].found_by == "linearised"
+    assert lost[2].found_by == "continuation" and lost[-1].found_by == "linearised"
     assert lost[-1].closed and lost[-1].n_fe == len(lost[-1].rows) > 0
     _, alone = _moments_and_linear(p, region, k)
     va, vb = _values(alone), _values(lost[-1])
@@ -197,18 +198,28 @@ def test_predictors_gone_astray_pause_the_continuation(monkeypatch):
     the next FOLLOW_PAUSE solves try no continuation (then it resumes)."""
     p, k, c_max = CASES["velocity"]
     region = Region(c_max=c_max)
-    ks = [k + 0.01 * i for i in range(4 + certified.FOLLOW_PAUSE)]
+    ks = [k + 0.01 * i for i in range(5 + certified.FOLLOW_PAUSE)]
     orig = CertifiedSolver.predictors
 
     def astray(self, kk):
         pred = orig(self, kk)
-        if pred is None or kk != ks[2]:
+        if pred is None or kk != ks[3]:
             return pred
         return np.full_like(pred[0], pred[0][0]), np.repeat(pred[1][:, :1], pred[0].size, 1)
 
     monkeypatch.setattr(CertifiedSolver, "predictors", astray)
     res = _followed(p, region, ks)
-    assert [r.found_by for r in res] == (["linearised", "continuation", "linearised"]
+    assert [r.found_by for r in res] == (["linearised"] * 2 + ["continuation", "linearised"]
                                          + ["linearised"] * certified.FOLLOW_PAUSE
                                          + ["continuation"])
     assert all(r.closed and r.n_fe == len(r.rows) > 0 for r in res)
+
+
+def test_no_continuation_farther_than_its_reach():
+    """A ``k`` more than FOLLOW_REACH times the last spacing away (``--k 50,51``-like jumps)
+    is not continued: the extrapolation would be a guess."""
+    p, k, c_max = CASES["velocity"]
+    ks = [k - 0.02, k - 0.01, k + 0.005, k + 0.005 + 3 * 0.015]  # 1.5x, then 3x the spacing
+    res = _followed(p, Region(c_max=c_max), ks)
+    assert [r.found_by for r in res] == ["linearised", "linearised", "continuation",
+                                         "linearised"]

@@ -385,7 +385,7 @@ class CertifiedSolver:
                        for d in (degree, degree + 1)]
         self.banded = [BandedModel(m) for m in self.models]
         self._cmodel: NearModel | CondensedModel | bool | None = None
-        #: ``(k, values, vectors)`` of the last two closed solves with ``follow``.
+        #: ``(k, values, vectors)`` of the last FOLLOW_POINTS closed solves with ``follow``.
         self._history: list[tuple[float, np.ndarray, np.ndarray]] = []
         self._pause = 0  #: solves left without continuation (:meth:`_continuation`)
         self.degree, self.cells, self.ratio = degree, cells, ratio

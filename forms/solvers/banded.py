@@ -337,12 +337,11 @@ class BandedOperator:
             maxit: Newton steps per predictor (:meth:`newton`).
         """
         a0, b0, c0, d0 = bx
-        mw, mh = 0.1 * (b0 - a0), 0.1 * (d0 - c0)
+        near = predicted_near(lam, bx)
         found: list[Eigen] = []
         for i in np.argsort(lam.real):
             z0 = lam[i]
-            if not (np.isfinite(z0) and a0 - mw <= z0.real <= b0 + mw
-                    and c0 - mh <= z0.imag <= d0 + mh):
+            if not near[i]:
                 continue
             x0 = np.empty(self.n, dtype=complex)
             x0[self.perm] = vecs[:, i]
@@ -444,6 +443,17 @@ class BandedOperator:
         # backward error at rounding level also counts as converged.
         converged = (converged and res < 1e-10) or res < 1e-13
         return Eigen(z, out, res, it, converged, step)
+
+
+def predicted_near(lam: np.ndarray, bx: Box) -> np.ndarray:
+    """Which predictors :meth:`BandedOperator.polish` starts from (a mask over ``lam``).
+
+    Finite, and inside ``bx`` widened by 10 % of its size on every side.
+    """
+    a, b, c, d = bx
+    mw, mh = 0.1 * (b - a), 0.1 * (d - c)
+    return (np.isfinite(lam) & (lam.real >= a - mw) & (lam.real <= b + mw)
+            & (lam.imag >= c - mh) & (lam.imag <= d + mh))
 
 
 def contour_rule(box: Box, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -56,7 +56,7 @@ from analytic.numerics.spectrum import Region, certified_roots, on_usable_box
 from analytic.params import Params
 from forms.models.profiles import SliderMaterial
 from forms.models.section import SectionModel, contour_samples, section_stack
-from forms.solvers.banded import BandedModel, BandedOperator, Eigen
+from forms.solvers.banded import BandedModel, BandedOperator, Eigen, predicted_near
 from forms.solvers.condensed import CondensedModel, CondensedOperator
 from forms.solvers.partial import NearModel
 
@@ -447,9 +447,9 @@ class CertifiedSolver:
                       ) -> Callable[[Box, int], list[Eigen]] | None:
         """``(box, count) -> eigenpairs`` from :meth:`predictors` at ``k``, or ``None``.
 
-        ``None``: no predictors, or paused. Fewer predictors inside the box (widened 10 %, as
-        :meth:`forms.solvers.banded.BandedOperator.polish`) than ``count`` (eigenvalues have
-        entered it: the linearisation must run anyway) are not polished. Otherwise each gets
+        ``None``: no predictors, or paused. Fewer predictors near the box (those polish
+        starts from, :func:`forms.solvers.banded.predicted_near`) than ``count`` (eigenvalues
+        have entered it: the linearisation must run anyway) are not polished. Otherwise each gets
         :data:`FOLLOW_MAXIT` Newton steps on ``fe``; when they do not give ``count`` distinct
         eigenvalues in the box, the next :data:`FOLLOW_PAUSE` solves try none.
         """
@@ -461,12 +461,7 @@ class CertifiedSolver:
             return None
 
         def attempt(bx: Box, count: int) -> list[Eigen]:
-            a, b, c, d = bx
-            mw, mh = 0.1 * (b - a), 0.1 * (d - c)
-            z = pred[0]
-            inside = int(np.sum((z.real >= a - mw) & (z.real <= b + mw)
-                                & (z.imag >= c - mh) & (z.imag <= d + mh)))
-            if inside < count:
+            if int(np.sum(predicted_near(pred[0], bx))) < count:
                 return []
             found = fe.polish(pred[0], pred[1], bx, maxit=FOLLOW_MAXIT)
             if len(found) < count:  # enough predictors, but they did not give the count

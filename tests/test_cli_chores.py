@@ -402,6 +402,24 @@ def test_share_by_cost_is_lpt(size, n):
     assert max(loads, default=0.0) <= 4 / 3 * best + 1e-12  # Graham's bound for LPT
 
 
+@pytest.mark.parametrize("slow_rank", [0, 1])
+@pytest.mark.parametrize("n", [0, 1, 9])
+def test_claim_shared_gives_each_index_once_and_the_free_rank_takes_more(n, slow_rank):
+    """Under mpirun -n 2 the rank that is slower per index takes fewer indices."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    mine = []
+    for i in _cli.claim_shared(comm, n):
+        mine.append(i)
+        time.sleep(0.2 if comm.rank == slow_rank else 0.01)
+    every = comm.allgather(mine)
+    assert sorted(i for part in every for i in part) == list(range(n))
+    assert all(part == sorted(part) for part in every)  # claimed in order
+    if comm.size == 2 and n == 9:  # 0.2 s against 0.01 s per index: the slow rank takes 1 or 2
+        assert len(every[slow_rank]) <= 2 < len(every[1 - slow_rank])
+
+
 @pytest.mark.serial
 def test_split_keeps_values_with_their_options():
     p = _cli.make_parser("x", ("strip_",))

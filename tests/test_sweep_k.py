@@ -394,6 +394,10 @@ def test_two_ranks_give_the_same_spectrum_and_plot(tmp_path):
         assert float(ra["im_lambda"]) == pytest.approx(float(rb["im_lambda"]), abs=1e-11)
     assert json.loads((two / "summary.json").read_text())["mpi"]["ranks"] == 2
     assert (two / "dispersion.png").stat().st_size > 10000
+    for run in (one, two):  # rank 0's post-processing includes the picture's early import
+        t = json.loads((run / "summary.json").read_text())["timing_s"]
+        assert 0 < t["matplotlib_import_rank0"] <= t["post_processing_rank0"] < t["wall"]
+        assert 0 < t["serial_tail"] < t["wall"]
 
 
 @pytest.mark.serial

@@ -133,7 +133,10 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         print(f"MPI: sweep speed-up {m['sweep_speedup']:.2f} = "
               f"{m['speedup_fraction_of_two_copy_throughput']:.2f} of the two-copy throughput "
               f"{m['two_copy_throughput']:.2f} (target >= 0.9); post-processing "
-              f"{100 * m['post_processing_share_2_ranks']:.1f} % of the 2-rank wall time")
+              f"{100 * m['post_processing_share_2_ranks']:.1f} % of the 2-rank wall time"
+              + ("" if m.get("serial_tail_share_2_ranks") is None else
+                 f" (serial tail after the last rank's share: "
+                 f"{100 * m['serial_tail_share_2_ranks']:.1f} %)"))
     for name, case in report.get("sweeps", {}).get("cases", {}).items():
         walls = ", ".join(f"{m} {r.get('wall_s', float('nan')):.2f} s" for m, r in
                           case["runs"].items())

@@ -54,7 +54,7 @@ import time  # noqa: E402
 import _cli  # noqa: E402
 import _sweep_strip  # noqa: E402
 import numpy as np  # noqa: E402
-from _plot_dispersion import plot_dispersion  # noqa: E402
+from _plot_dispersion import plot_dispersion, preload  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from analytic.numerics.spectrum import Region  # noqa: E402
@@ -226,10 +226,11 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
             def fam_share(n: int) -> object:  # progress from the first second
                 if not args.quiet:
                     _cli.say(f"following {n} root families (continuation in k) ...", err=True)
-                mine = _cli.my_share(comm, [1.0] * n)  # about equal costs (LPT)
+                # costs 0.002-0.8 s each, unpredictable: each rank takes the next when free
+                mine = _cli.claim_shared(comm, n)
                 return mine if comm.rank or args.quiet else tqdm(
-                    mine, desc=f"root families (rank 0 of {comm.size})", unit=" families",
-                    file=sys.stderr)
+                    mine, desc=f"root families (taken by rank 0 of {comm.size})",
+                    unit=" families", file=sys.stderr)
             fams = sweep.follow_all(comm, params, plan.big, k, fam_share)
         t_fam = time.perf_counter() - t_fam
         mine = [todo[j] for j in _cli.my_share(comm, sweep.k_costs(params, plan.big, k, todo))]
@@ -243,13 +244,17 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                                      plan.given)
         if bar is not None:
             bar.close()
+        share_end = time.time()  # one host's clock: when this rank's share ended
+        # rank 0 imports the picture's matplotlib while the other ranks finish their shares
+        t_pre = preload() if comm.rank == 0 and not args.no_plot else 0.0
         times = comm.gather({"rank": comm.rank, "families_s": t_fam, "solve_s": share.seconds,
                              "k_values": share.k_values, "unknowns": share.rungs,
-                             "cells": share.rung_cells})
+                             "cells": share.rung_cells, "share_end": share_end})
         comm.Barrier()
         code = 0
         if comm.rank == 0:
             t2 = time.perf_counter()
+            last = max(t.pop("share_end") for t in times)  # when the last rank's share ended
             results, used = sweep.results_from_json(parts.load(i) for i in range(len(k)))
             meta = sweep.sweep_meta(params, args.k, k, merged, rungs, used, share, args.solver,
                                     check, times, run.resumed, len(todo)) | {
@@ -259,7 +264,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
             summary["region"] = plan.referee(k, used, check) | summary["region"]  # layered: "by"
             wall = time.perf_counter() - t_start
             summary["timing_s"] = {"wall": wall, "post_processing_rank0": time.perf_counter()
-                                   - t2}
+                                   - t2 + t_pre, "matplotlib_import_rank0": t_pre,
+                                   "serial_tail": time.time() - last}
             _cli.write_json(os.path.join(out, "summary.json"), summary)  # strict JSON
             code = report(summary, len(k), wall, comm.size, out, args.quiet)
         code = comm.bcast(code)

@@ -300,14 +300,17 @@ def mpi_scaling(sweep_script: str, k_spec: str) -> dict:
     """Two-copy throughput of :data:`KERNEL`; 1- and 2-rank wall times of a sweep.
 
     The sweep (``sweep_script --k k_spec --quiet --out TMP`` under ``mpirun -n 1`` and ``-n
-    2``) must write ``summary.json`` with ``timing_s`` (``wall``, ``post_processing_rank0``)
-    and ``mpi.per_rank``, as ``workflows/sweep_k.py`` does.
+    2``) must write ``summary.json`` with ``timing_s`` (``wall``, ``post_processing_rank0``;
+    optional ``serial_tail``: from the end of the last rank's share to the end) and
+    ``mpi.per_rank``, as ``workflows/sweep_k.py`` does.
 
     Returns:
         Keys ``kernel_one_copy_s``, ``kernel_two_copies_s``, ``two_copy_throughput``,
         ``sweep_k``, ``n1`` and ``n2`` (times, or ``error``: the end of the failed run's
         output) and, if both ran, ``sweep_speedup``, its fraction of the two-copy throughput,
-        the post-processing share of the 2-rank wall time and the ``targets``.
+        the post-processing share of the 2-rank wall time (rank 0's work: the picture's
+        import, made while the other ranks finish, included), the serial tail's share and the
+        ``targets``.
     """
     env = _env()
     one = float(subprocess.run([sys.executable, "-c", KERNEL], capture_output=True, text=True,
@@ -333,6 +336,7 @@ def mpi_scaling(sweep_script: str, k_spec: str) -> dict:
                 s = json.load(fh)
             res[f"n{n}"] = {"wall_s": s["timing_s"]["wall"],
                             "post_processing_s": s["timing_s"]["post_processing_rank0"],
+                            "serial_tail_s": s["timing_s"].get("serial_tail"),
                             "per_rank": s["mpi"]["per_rank"]}
     if "wall_s" in res.get("n1", {}) and "wall_s" in res.get("n2", {}):
         sp = res["n1"]["wall_s"] / res["n2"]["wall_s"]
@@ -340,6 +344,8 @@ def mpi_scaling(sweep_script: str, k_spec: str) -> dict:
         res["speedup_fraction_of_two_copy_throughput"] = sp / res["two_copy_throughput"]
         res["post_processing_share_2_ranks"] = (res["n2"]["post_processing_s"]
                                                 / res["n2"]["wall_s"])
+        tail = res["n2"]["serial_tail_s"]  # after the last rank's share: what all ranks wait for
+        res["serial_tail_share_2_ranks"] = None if tail is None else tail / res["n2"]["wall_s"]
         res["targets"] = {"speedup_fraction": 0.9, "post_processing_share": 0.10}
     return res
 

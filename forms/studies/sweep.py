@@ -237,7 +237,7 @@ def regions_at_k(params: Params, region: Region, k: np.ndarray, exact: bool,
 
 
 def follow_all(comm: object, params: Params, region: Region, k: np.ndarray,
-               share_of: Callable[[int], Sequence[int]]) -> list[BranchResult]:
+               share_of: Callable[[int], Iterable[int]]) -> list[BranchResult]:
     """:func:`family_plan` and :func:`follow_families`: ``share_of(n)`` is this rank's share."""
     plan, items = family_plan(comm, params, region, float(k[-1]))
     return follow_families(comm, params, region, plan, items, k, share_of(len(items)))
@@ -373,7 +373,7 @@ def family_plan(comm: object, params: Params, region: Region, k_max: float
 
 
 def follow_families(comm: object, params: Params, region: Region, plan: FamilyPlan,
-                    items: list[tuple], k: np.ndarray, mine: Sequence[int]
+                    items: list[tuple], k: np.ndarray, mine: Iterable[int]
                     ) -> list[BranchResult]:
     """Every item of the plan followed to every ``k``; each rank follows ``mine`` (collective).
 
@@ -384,7 +384,8 @@ def follow_families(comm: object, params: Params, region: Region, plan: FamilyPl
         plan: The plan of :func:`family_plan`.
         items: Its items.
         k: The requested wavenumbers, sorted.
-        mine: This rank's indices into ``items``; the ranks' shares together cover them once.
+        mine: This rank's indices into ``items`` (any iterable, e.g. claimed as the rank gets
+            free); the ranks' shares together cover them once.
 
     Returns:
         The followed families in the order of ``items``, on every rank.

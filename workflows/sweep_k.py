@@ -244,7 +244,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                                      plan.given)
         if bar is not None:
             bar.close()
-        share_end = time.time()  # one host's clock: when this rank's share ended
+        share_end = time.time()  # epoch s, one host's clock (mpi.per_rank): serial tail below
         # rank 0 imports the picture's matplotlib while the other ranks finish their shares
         t_pre = preload() if comm.rank == 0 and not args.no_plot else 0.0
         times = comm.gather({"rank": comm.rank, "families_s": t_fam, "solve_s": share.seconds,
@@ -254,7 +254,6 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         code = 0
         if comm.rank == 0:
             t2 = time.perf_counter()
-            last = max(t.pop("share_end") for t in times)  # when the last rank's share ended
             results, used = sweep.results_from_json(parts.load(i) for i in range(len(k)))
             meta = sweep.sweep_meta(params, args.k, k, merged, rungs, used, share, args.solver,
                                     check, times, run.resumed, len(todo)) | {
@@ -265,7 +264,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
             wall = time.perf_counter() - t_start
             summary["timing_s"] = {"wall": wall, "post_processing_rank0": time.perf_counter()
                                    - t2 + t_pre, "matplotlib_import_rank0": t_pre,
-                                   "serial_tail": time.time() - last}
+                                   "serial_tail": time.time() - max(t["share_end"] for t in times)}
             _cli.write_json(os.path.join(out, "summary.json"), summary)  # strict JSON
             code = report(summary, len(k), wall, comm.size, out, args.quiet)
         code = comm.bcast(code)

@@ -38,9 +38,7 @@ def plot_dispersion(path: str, params: Params, region: Region, results: list[KRe
     ``ok`` points, one legend entry each (no exact-line legend then); ``title`` replaces the
     region's title.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
+    preload()  # matplotlib with Agg (already imported when the sweep preloaded it)
     import matplotlib.pyplot as plt
 
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 8), sharex=True)

@@ -80,7 +80,6 @@ def map_shared(comm: Any, costs: Sequence[float], fn: Callable[[int], Any]) -> d
     return merged
 
 
-
 def claim_shared(comm: Any, n: int) -> Iterator[int]:
     """The indices ``0 .. n-1``, each on one rank, claimed in order by whichever rank is free.
 

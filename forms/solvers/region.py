@@ -16,7 +16,10 @@ friction law's ``(Lambda + 1)`` denominator already cleared (as for
   A tile is *covered* when the solve at its centre returned ``nev`` converged pairs and the
   farthest lies outside the tile's circumscribed disc (then every eigenvalue of the tile is among
   them: shift-and-invert returns the eigenvalues nearest the shift); a tile not covered is split
-  in four. The result carries ``found`` and ``counted``: ``found == counted`` is the certificate.
+  in four. The result carries ``found`` and ``counted``: ``found == counted`` is the certificate,
+  verified by a second count with the found values divided out where the first count and the
+  tiles disagree or found values sit closer to the contour than the samples there
+  (:func:`unresolved`).
 
 The cleared denominator adds the spurious roots ``spurious`` (``Lambda = -1``, ...): the box must
 not contain them (:class:`RegionSolver` and :func:`count_in_box` refuse it), the solver drops
@@ -53,10 +56,13 @@ Box = tuple[float, float, float, float]
 #: a polynomial of degree ~ (number of unknowns), its modulus changes by many decades along the
 #: contour, and that rule took 10284 LU factorisations for the block L = 4 (2210 unknowns, box
 #: (0.05, 0.6, -16, 16)); its verification pass, repeated after every refinement, took 2992 for a
-#: box with no zero in it (0.1, 0.6, -4, 4). A pair of zeros straddling the edge between two
-#: samples could go unseen by this count, but the eigenvalue inside is found by the tiles: found >
-#: counted, and the certificate fails instead of passing wrongly.
+#: box with no zero in it (0.1, 0.6, -4, 4). A cluster of zeros next to the edge can be counted
+#: short with it (:func:`unresolved`): :meth:`RegionSolver.solve` then verifies the count.
 MAX_DLOG = 2.0
+
+#: Most verification counts of one :meth:`RegionSolver.solve` (each followed by more tiles
+#: while it finds eigenvalues not yet found).
+MAX_RECOUNTS = 3
 
 
 def _wrap(x: np.ndarray) -> np.ndarray:
@@ -105,8 +111,8 @@ def _keep_new(pairs: list, kept: list, box: Box, scale: float,
 
 def _local_stage(logf, point, increments, perimeter: float, t: np.ndarray,  # noqa: ANN001
                  f: np.ndarray, max_dphase: float, max_dlog: float, levels: int,
-                 max_points: int) -> tuple[int, int]:
-    """Stage 2 of :func:`winding` from the samples ``(t, f)``: ``(total, samples added)``.
+                 max_points: int) -> tuple[int, int, np.ndarray]:
+    """Stage 2 of :func:`winding` from the samples ``(t, f)``: ``(total, samples added, t)``.
 
     Every interval starts verified once (the samples are a uniform doubling).
     """
@@ -118,7 +124,7 @@ def _local_stage(logf, point, increments, perimeter: float, t: np.ndarray,  # no
         dph, bad = increments(t, f)
         todo = bad | (ok < levels)
         if not todo.any():
-            return int(round(float(dph.sum()) / (2.0 * math.pi))), added
+            return int(round(float(dph.sum()) / (2.0 * math.pi))), added, t
         if np.any((tn - t)[todo] < 1e-12 * perimeter) or t.size + todo.sum() > max_points:
             z = point(t[todo][:1])[0]
             raise ContourError(f"phase of det T_h not resolved near z = {z:.6g}: move the edge")
@@ -139,9 +145,34 @@ def _local_stage(logf, point, increments, perimeter: float, t: np.ndarray,  # no
         t, f, ok = t[order], f[order], ok[order]
 
 
+def _contour(box: Box) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Corners (counter-clockwise from ``(re_min, im_min)``, closed), side lengths, arc length."""
+    a, b, c, d = box
+    corners = np.array([a + 1j * c, b + 1j * c, b + 1j * d, a + 1j * d, a + 1j * c])
+    lengths = np.abs(np.diff(corners))
+    return corners, lengths, np.concatenate([[0.0], np.cumsum(lengths)])
+
+
+def arc_position(box: Box, z: complex) -> tuple[float, float]:
+    """Where ``z`` projects onto the contour: ``(t, distance)``.
+
+    ``t`` is the arc length (:func:`winding`'s parameter) of the contour point nearest ``z``.
+    """
+    corners, lengths, cum = _contour(box)
+    best = (math.inf, 0.0)
+    for side in range(4):
+        p, q = corners[side], corners[side + 1]
+        s = min(max(((z - p) * np.conj(q - p)).real / lengths[side] ** 2, 0.0), 1.0)
+        dist = abs(z - (p + s * (q - p)))
+        if dist < best[0]:
+            best = (dist, float(cum[side] + s * lengths[side]))
+    return best[1], best[0]
+
+
 def winding(logf, box: Box, *, n_initial: int = 64,  # noqa: ANN001
             max_dphase: float = math.pi / 3, max_dlog: float = MAX_DLOG,
-            levels: int = 1, max_points: int = 40000) -> int:
+            levels: int = 1, max_points: int = 40000,
+            samples: bool = False) -> int | tuple[int, np.ndarray]:
     """Winding number of ``F`` on the counter-clockwise edge of ``box`` from ``log F`` samples.
 
     ``logf(z)`` is vectorised and returns ``log|F| + i arg F`` (any branch). Uniform (in arc
@@ -163,13 +194,13 @@ def winding(logf, box: Box, *, n_initial: int = 64,  # noqa: ANN001
       alone had to agree; the block L = 4 at the table's mesh, box ``(0.2, 0.655) x (-0.023,
       125.67)``, took 8206 samples).
 
+    With ``samples``: ``(total, t)``, ``t`` the sorted arc-length parameters of the samples of
+    the level returned (:func:`arc_position` places a point on the same scale).
+
     Raises:
         ContourError: ``log F`` not finite, or the phase not resolved (a zero on the contour).
     """
-    a, b, c, d = box
-    corners = np.array([a + 1j * c, b + 1j * c, b + 1j * d, a + 1j * d, a + 1j * c])
-    lengths = np.abs(np.diff(corners))
-    cum = np.concatenate([[0.0], np.cumsum(lengths)])
+    corners, lengths, cum = _contour(box)
     perimeter = float(cum[-1])
 
     def point(t: np.ndarray) -> np.ndarray:
@@ -191,11 +222,12 @@ def winding(logf, box: Box, *, n_initial: int = 64,  # noqa: ANN001
         _, bad = increments(t, f)
         total = None
         if bad.mean() <= 0.1:
-            total, added = _local_stage(logf, point, increments, perimeter, t, f, max_dphase,
-                                        max_dlog, levels, max_points - used + t.size)
+            total, added, tl = _local_stage(logf, point, increments, perimeter, t, f,
+                                            max_dphase, max_dlog, levels,
+                                            max_points - used + t.size)
             used += added
             if total == previous:
-                return total
+                return (total, tl) if samples else total
         previous = total
         if used + t.size > max_points:
             raise ContourError("phase of det T_h not resolved by uniform sampling")
@@ -204,6 +236,33 @@ def winding(logf, box: Box, *, n_initial: int = 64,  # noqa: ANN001
         used += tm.size
         t = np.stack([t, tm], axis=1).ravel()
         f = np.stack([f, fm], axis=1).ravel()
+
+
+def unresolved(box: Box, t: np.ndarray, values: Sequence[complex]) -> list[complex]:
+    """The ``values`` whose phase steps the count's samples may have missed.
+
+    ``t``: the count's sample parameters (:func:`winding` with ``samples``). A zero at distance
+    ``delta`` turns the phase by about ``pi`` within ``~delta`` of its nearest contour point.
+    One such step in an interval longer than ``delta`` is seen (an increment near ``pi``); two
+    in one interval (``2 pi``) look like none: a cluster of zeros next to an edge is undercounted
+    (measured: the 9 zeros of the block ``L = 32`` at ``Re`` 0.1266-0.1412 next to the edge
+    ``Re = 0.125``, ``Im`` 6.35-6.92, counted as 7 with 16 initial samples a side, as 9, 8, 7
+    with 17, 24, 32; tests/test_region_solver.py). Returned: the values closer to the contour
+    than the length of their sample interval, where an interval holds two or more of them.
+    """
+    if len(values) == 0:
+        return []
+    perimeter = float(_contour(box)[2][-1])
+    ts = np.sort(np.asarray(t, dtype=float))
+    near: dict[int, list[complex]] = {}
+    for z in values:
+        tz, dist = arc_position(box, complex(z))
+        i = int(np.searchsorted(ts, tz))
+        lo = ts[i - 1] if i > 0 else ts[-1] - perimeter
+        hi = ts[i] if i < ts.size else ts[0] + perimeter
+        if dist < hi - lo:
+            near.setdefault(i % ts.size, []).append(complex(z))
+    return [z for group in near.values() if len(group) >= 2 for z in group]
 
 
 def _distance(box: Box, z: complex) -> float:
@@ -346,6 +405,7 @@ def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
                  prefix: str = "region_det_", n_initial: int = 16, nudge: float = 1e-3,
                  tries: int = 3, split: bool = False,
                  reference: Sequence[PETSc.Mat] | None = None,
+                 deflate: Sequence[complex] = (),
                  progress: Callable[[str], object] | None = None) -> tuple[int, Box, dict]:
     """Discrete eigenvalues of ``T_h`` in ``box``: the winding number of ``det T_h`` on its edge.
 
@@ -375,11 +435,12 @@ def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
     (measured, block L = 16, P2, 8 x 8 per unit, edge ``Re = 0.2``, ``Im`` 60 to 61: 149 rad per
     unit of arc for ``F``, 0.24 for the quotient).
 
-    ``progress``: called with ``"count: N samples, T s"`` after every batch of samples (the
-    caller prints it, e.g. on rank 0 at most every so often).
+    ``deflate``: known eigenvalues in the box, divided out: the count of the others
+    (:meth:`RegionSolver._verify`). ``progress``: called with ``"count: N samples, T s"``.
 
     Returns:
-        ``(count, box_used, info)`` with ``info`` = evaluations (LU factorisations) and seconds.
+        ``(count, box_used, info)`` with ``info`` = evaluations (LU factorisations), seconds
+        and ``samples`` (the arc-length parameters of the samples counted: :func:`unresolved`).
     """
     bx = _check_box(box, spurious)
     logdet = LogDet(matrices, prefix, split)
@@ -394,6 +455,8 @@ def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
             # an integer multiple of 2 pi i across the branch cut: the wrapped increments of
             # :func:`winding` do not see it
             out = out - cleared_rows * np.log(z - s)
+        for s in deflate:  # the same: a multiple of 2 pi i, unseen
+            out = out - np.log(z - s)
         if progress is not None:
             spent = logdet.seconds + (logref.seconds if logref else 0.0)
             progress(f"count: {logdet.evaluations} samples, {spent:.0f} s")
@@ -402,7 +465,7 @@ def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
     try:
         for attempt in range(tries):
             try:
-                n = winding(logf, bx, n_initial=n_initial)
+                n, t = winding(logf, bx, n_initial=n_initial, samples=True)
                 break
             except ContourError:
                 if attempt == tries - 1:
@@ -411,7 +474,8 @@ def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
                 da, dc = nudge * (b - a), nudge * (d - c)
                 bx = _check_box((a - da, b + da, c - dc, d + dc), spurious)
         return n, bx, {"evaluations": logdet.evaluations,
-                       "seconds": logdet.seconds + (logref.seconds if logref else 0.0)}
+                       "seconds": logdet.seconds + (logref.seconds if logref else 0.0),
+                       "samples": t}
     finally:
         logdet.destroy()
         if logref is not None:
@@ -432,6 +496,9 @@ class RegionResult:
         seconds: ``{"solve": ..., "count": ...}``.
         count_evaluations: LU factorisations of the count.
         restarts: Most SLEPc restarts (``PEP.getIterationNumber``) of one tile solve.
+        recounts: Verification counts (deflated by the values found, :meth:`RegionSolver.solve`);
+            ``counted`` is then the last one's ``found + count``.
+        counts: The first count and each verification's total (``found`` then ``+`` its count).
     """
 
     box: Box
@@ -443,6 +510,8 @@ class RegionResult:
     seconds: dict = field(default_factory=dict)
     count_evaluations: int = 0
     restarts: int = 0
+    recounts: int = 0
+    counts: list[int] = field(default_factory=list)
 
     @property
     def found(self) -> int:
@@ -467,6 +536,7 @@ class RegionResult:
         return {"box": list(self.box), "found": self.found, "counted": self.counted,
                 "closed": self.closed, "tiles": self.tiles, "seconds": self.seconds,
                 "count_evaluations": self.count_evaluations, "restarts": self.restarts,
+                "recounts": self.recounts, "counts": list(self.counts),
                 "values": [[z.real, z.imag] for z in self.values],
                 "residuals": [float(r) for r in self.residuals]}
 
@@ -635,10 +705,12 @@ class RegionSolver:
             reference: An operator without eigenvalues in the box whose determinant divides
                 the count's samples (:func:`count_in_box`).
             progress: Called with a short line after every batch of the count's samples and
-                every tile (``"tiles: 3 solved, 5 of 12 found"``).
+                every tile (``"tiles: 3 solved, 5 of 12 found"``); the verification's count
+                lines start with ``"verify "``.
 
         Returns:
-            :class:`RegionResult` (``closed`` is the certificate).
+            :class:`RegionResult` (``closed`` is the certificate; with ``count``, verified by
+            :meth:`_verify`).
         """
         bx = _check_box(box, spurious)
         counted, info = None, {"evaluations": 0, "seconds": 0.0}
@@ -651,7 +723,8 @@ class RegionSolver:
         stop_at = counted if count else expected
         if counted == 0:
             return RegionResult(bx, np.zeros(0, complex), np.zeros(0), [], 0, 0,
-                                {"solve": 0.0, "count": info["seconds"]}, info["evaluations"])
+                                {"solve": 0.0, "count": info["seconds"]}, info["evaluations"],
+                                counts=[0])
         n_re, n_im = tiles if tiles is not None else _initial_tiles(bx, stop_at, nev)
         shape = (len(matrices), matrices[0].getSize())
         if getattr(self, "_shape", shape) != shape:
@@ -665,9 +738,17 @@ class RegionSolver:
         norms = np.array([m.norm(PETSc.NormType.FROBENIUS) for m in matrices])
         scale = max(b - a, d - c)
         t0 = time.perf_counter()
-        kept, solved = self._cover(_tile_list(bx, n_re, n_im), bx, spurious, nev, stop_at,
-                                   progress)
+        todo = _tile_list(bx, n_re, n_im)
+        kept: list[tuple[complex, PETSc.Vec]] = []
+        solved = self._cover(todo, kept, bx, spurious, nev, stop_at, progress)
         t_solve = time.perf_counter() - t0
+        counts = [counted]
+        if count:
+            solved, t_more = self._verify(matrices, bx, spurious, todo, kept, counts, info,
+                                          dict(cleared_rows=cleared_rows, split=split_count,
+                                               reference=reference), progress, solved)
+            t_solve += t_more
+        counted, recounts = counts[-1], len(counts) - 1
         self._release()
         # by decreasing real part; a conjugate pair (real parts equal to rounding) in a fixed
         # order, Im <= 0 first, so that "the fastest" is the same value in every run
@@ -676,17 +757,52 @@ class RegionSolver:
         residuals = np.array([_residual(matrices, norms, lam, v) for lam, v in kept])
         return RegionResult(bx, values, residuals, [v for _, v in kept], counted, solved,
                             {"solve": t_solve, "count": info["seconds"]},
-                            info["evaluations"], self._restarts)
+                            info["evaluations"], self._restarts, recounts, counts)
 
-    def _cover(self, todo: list[Box], bx: Box, spurious: Sequence[complex], nev: int,
-               stop_at: int | None, progress: Callable[[str], object] | None
-               ) -> tuple[list[tuple[complex, PETSc.Vec]], int]:
-        """The tiles ``todo`` solved (last first), the uncovered ones split: ``(kept, solved)``.
+    def _verify(self, matrices: Sequence[PETSc.Mat], bx: Box, spurious: Sequence[complex],
+                todo: list[Box], kept: list, counts: list[int], info: dict, options: dict,
+                progress: Callable[[str], object] | None, solved: int) -> tuple[int, float]:
+        """The verification of :meth:`solve`: ``counts`` and ``info`` updated in place.
 
-        Until ``stop_at`` distinct eigenpairs in ``bx`` are kept, or every tile is covered.
+        If the tiles found a number other than the count, or two found values lie in one
+        interval of the count's samples, both closer to the contour than it is long
+        (:func:`unresolved`: the count may have missed them), the box is counted again with the
+        found values divided out (``deflate`` of :func:`count_in_box`): ``found + that count``
+        replaces the count; while it exceeds ``found``, the tiles left by the first pass are
+        solved on (at most :data:`MAX_RECOUNTS` times). Returns the tiles solved in all and
+        the seconds of the tiles added here.
+        """
+        nev, t_solve = self.pep.getDimensions()[0], 0.0
+        samples = info.get("samples", ())
+        while len(counts) <= MAX_RECOUNTS and (
+                len(kept) != counts[-1] or (len(counts) == 1 and unresolved(
+                    bx, samples, [p[0] for p in kept]))):
+            try:
+                extra, _, more = count_in_box(
+                    matrices, bx, spurious, tries=1, prefix=self.prefix + "det_",
+                    deflate=[p[0] for p in kept], **options,
+                    progress=None if progress is None else (lambda x: progress("verify " + x)))
+            except ContourError:
+                break  # counted stays the first count's: not closed if it differs
+            info["evaluations"] += more["evaluations"]
+            info["seconds"] += more["seconds"]
+            counts.append(len(kept) + extra)
+            if extra <= 0 or not todo:
+                break
+            t0 = time.perf_counter()
+            solved += self._cover(todo, kept, bx, spurious, nev, counts[-1], progress)
+            t_solve += time.perf_counter() - t0
+        return solved, t_solve
+
+    def _cover(self, todo: list[Box], kept: list[tuple[complex, PETSc.Vec]], bx: Box,
+               spurious: Sequence[complex], nev: int, stop_at: int | None,
+               progress: Callable[[str], object] | None) -> int:
+        """The tiles ``todo`` solved (last first, popped), the uncovered ones split (pushed).
+
+        New distinct eigenpairs in ``bx`` are appended to ``kept``, until ``stop_at`` are kept
+        or every tile is covered; ``todo`` keeps the tiles not solved. Returns the tiles solved.
         """
         scale = max(bx[1] - bx[0], bx[3] - bx[2])
-        kept: list[tuple[complex, PETSc.Vec]] = []
         solved = 0
         while todo and solved < self.max_tiles and (stop_at is None
                                                      or len(kept) < stop_at):
@@ -704,7 +820,7 @@ class RegionSolver:
             if not covered and radius > 1e-3 * scale:
                 xm, ym = 0.5 * (ta + tb), 0.5 * (tc + td)
                 todo += [(ta, xm, tc, ym), (xm, tb, tc, ym), (ta, xm, ym, td), (xm, tb, ym, td)]
-        return kept, solved
+        return solved
 
     def _release(self) -> None:
         for b in getattr(self, "_inv", []):

@@ -31,7 +31,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -346,7 +346,12 @@ class BlockSpectrum:
         u: The fastest mode, normalised (if asked for).
         mirrored: Values that are conjugates of values found (the half box of
             :func:`block_spectrum`; 0 for a full box); ``found`` and ``counted`` include them.
-        count_evaluations: LU factorisations of the count (its contour's samples).
+        count_evaluations: LU factorisations of the count (its contour's samples), the
+            verification counts' included.
+        recounts: Verification counts (:meth:`forms.solvers.region.RegionSolver.solve`: the
+            count with the values found divided out, made when the first count and the tiles
+            disagree or a value lies closer to the contour than the samples there).
+        counts: The first count and each verification's total (full box).
     """
 
     length: float
@@ -362,6 +367,8 @@ class BlockSpectrum:
     u: dolfinx.fem.Function | None = None
     mirrored: int = 0
     count_evaluations: int = 0
+    recounts: int = 0
+    counts: list = field(default_factory=list)
 
     @property
     def closed(self) -> bool:
@@ -392,7 +399,8 @@ class BlockSpectrum:
                 "max_estimate": float(np.nanmax(self.estimates)) if self.found and
                 np.isfinite(self.estimates).any() else None,
                 "tiles": self.tiles, "seconds": self.seconds, "mirrored": self.mirrored,
-                "count_evaluations": self.count_evaluations}
+                "count_evaluations": self.count_evaluations, "recounts": self.recounts,
+                "counts": list(self.counts)}
 
 
 @contextmanager
@@ -575,7 +583,8 @@ def block_spectrum(comm: MPI.Comm, params: Params, length: float, *, cells_per_u
                        / np.maximum(np.abs(values), 1.0))) if len(values) else 0.0
     return BlockSpectrum(float(length), full, values, res.residuals[source], len(values),
                          counted, gap, est[source], seconds, res.tiles, u, extra,
-                         res.count_evaluations)
+                         res.count_evaluations, res.recounts,
+                         [c + extra for c in res.counts if c is not None])
 
 
 def converged_rows(rows: Sequence[dict[str, str]]) -> tuple[np.ndarray, np.ndarray]:

@@ -619,7 +619,8 @@ REGULARISED = "finite_block_regularised"
 #: top -> (complete-search folders and their lengths, the thickness mode's |Im| per length of
 #: the target search): README "The fastest mode over all thickness modes".
 REGULARISED_RUNS = {
-    "velocity": ({"velocity_complete": 8.0, "velocity_complete_L16": 16.0},
+    "velocity": ({"velocity_complete": 8.0, "velocity_complete_L16": 16.0,
+                  "velocity_complete_L32": 32.0},
                  {8.0: 6.6, 16.0: 6.6, 32.0: 6.53, 64.0: 6.53}),
     "stress": ({"stress_complete": 8.0, "stress_complete_L16": 16.0,
                 "stress_complete_L32": 32.0, "stress_complete_wide": 8.0},

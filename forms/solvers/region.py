@@ -18,7 +18,7 @@ friction law's ``(Lambda + 1)`` denominator already cleared (as for
   them: shift-and-invert returns the eigenvalues nearest the shift); a tile not covered is split
   in four. The result carries ``found`` and ``counted``: ``found == counted`` is the certificate,
   verified by a second count with the found values divided out where the first count and the
-  tiles disagree or found values sit closer to the contour than the samples there
+  tiles disagree or two found values share a sample interval next to the contour
   (:func:`unresolved`).
 
 The cleared denominator adds the spurious roots ``spurious`` (``Lambda = -1``, ...): the box must
@@ -496,9 +496,8 @@ class RegionResult:
         seconds: ``{"solve": ..., "count": ...}``.
         count_evaluations: LU factorisations of the count.
         restarts: Most SLEPc restarts (``PEP.getIterationNumber``) of one tile solve.
-        recounts: Verification counts (deflated by the values found, :meth:`RegionSolver.solve`);
-            ``counted`` is then the last one's ``found + count``.
-        counts: The first count and each verification's total (``found`` then ``+`` its count).
+        counts: The first count and each verification's total (``found`` then ``+`` its count;
+            :meth:`RegionSolver._verify`): ``counted`` is the last; empty without a count.
     """
 
     box: Box
@@ -510,8 +509,12 @@ class RegionResult:
     seconds: dict = field(default_factory=dict)
     count_evaluations: int = 0
     restarts: int = 0
-    recounts: int = 0
     counts: list[int] = field(default_factory=list)
+
+    @property
+    def recounts(self) -> int:
+        """Verification counts made (the count with the values found divided out)."""
+        return max(len(self.counts) - 1, 0)
 
     @property
     def found(self) -> int:
@@ -742,13 +745,13 @@ class RegionSolver:
         kept: list[tuple[complex, PETSc.Vec]] = []
         solved = self._cover(todo, kept, bx, spurious, nev, stop_at, progress)
         t_solve = time.perf_counter() - t0
-        counts = [counted]
+        counts = [counted] if count else []
         if count:
             solved, t_more = self._verify(matrices, bx, spurious, todo, kept, counts, info,
                                           dict(cleared_rows=cleared_rows, split=split_count,
                                                reference=reference), progress, solved)
             t_solve += t_more
-        counted, recounts = counts[-1], len(counts) - 1
+        counted = counts[-1] if counts else None
         self._release()
         # by decreasing real part; a conjugate pair (real parts equal to rounding) in a fixed
         # order, Im <= 0 first, so that "the fastest" is the same value in every run
@@ -757,7 +760,7 @@ class RegionSolver:
         residuals = np.array([_residual(matrices, norms, lam, v) for lam, v in kept])
         return RegionResult(bx, values, residuals, [v for _, v in kept], counted, solved,
                             {"solve": t_solve, "count": info["seconds"]},
-                            info["evaluations"], self._restarts, recounts, counts)
+                            info["evaluations"], self._restarts, counts)
 
     def _verify(self, matrices: Sequence[PETSc.Mat], bx: Box, spurious: Sequence[complex],
                 todo: list[Box], kept: list, counts: list[int], info: dict, options: dict,

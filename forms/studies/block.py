@@ -348,10 +348,10 @@ class BlockSpectrum:
             :func:`block_spectrum`; 0 for a full box); ``found`` and ``counted`` include them.
         count_evaluations: LU factorisations of the count (its contour's samples), the
             verification counts' included.
-        recounts: Verification counts (:meth:`forms.solvers.region.RegionSolver.solve`: the
-            count with the values found divided out, made when the first count and the tiles
-            disagree or a value lies closer to the contour than the samples there).
-        counts: The first count and each verification's total (full box).
+        counts: The first count and each verification's total (full box;
+            :meth:`forms.solvers.region.RegionSolver._verify`: the count with the values found
+            divided out, made when the first count and the tiles disagree or two found values
+            share a sample interval next to the contour).
     """
 
     length: float
@@ -367,8 +367,12 @@ class BlockSpectrum:
     u: dolfinx.fem.Function | None = None
     mirrored: int = 0
     count_evaluations: int = 0
-    recounts: int = 0
     counts: list = field(default_factory=list)
+
+    @property
+    def recounts(self) -> int:
+        """Verification counts made."""
+        return max(len(self.counts) - 1, 0)
 
     @property
     def closed(self) -> bool:
@@ -583,8 +587,7 @@ def block_spectrum(comm: MPI.Comm, params: Params, length: float, *, cells_per_u
                        / np.maximum(np.abs(values), 1.0))) if len(values) else 0.0
     return BlockSpectrum(float(length), full, values, res.residuals[source], len(values),
                          counted, gap, est[source], seconds, res.tiles, u, extra,
-                         res.count_evaluations, res.recounts,
-                         [c + extra for c in res.counts if c is not None])
+                         res.count_evaluations, [c + extra for c in res.counts])
 
 
 def converged_rows(rows: Sequence[dict[str, str]]) -> tuple[np.ndarray, np.ndarray]:

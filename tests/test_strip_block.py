@@ -627,7 +627,8 @@ REGULARISED_RUNS = {
                   "velocity_complete_L32": 32.0, "velocity_complete_L64": 64.0},
                  {8.0: 6.6, 16.0: 6.6, 32.0: 6.53, 64.0: 6.53}),
     "stress": ({"stress_complete": 8.0, "stress_complete_L16": 16.0,
-                "stress_complete_L32": 32.0, "stress_complete_wide": 8.0},
+                "stress_complete_L32": 32.0, "stress_complete_L64": 64.0,
+                "stress_complete_wide": 8.0},
                {8.0: 5.61, 16.0: 5.57, 32.0: 5.56, 64.0: 19.27}),
 }
 

@@ -176,9 +176,10 @@ def solve_length(comm, args: argparse.Namespace, params, L: float, ref, keep_mod
         divide=args.count_reference == "elastic", progress=progress_printer(comm, L))
     # the progress lines are at most every PROGRESS_EVERY seconds: the last one may be stale
     # ("tiles: 8 solved, 0 of 12 found" before the tiles that found them), so say the outcome
-    _cli.say(f"L = {L:g}: found {spec.found}, counted {spec.counted}: "
-             f"{'closed' if spec.closed else 'NOT closed'} ({spec.tiles} tiles, "
-             + ", ".join(f"{k} {v:.0f} s" for k, v in spec.seconds.items()) + ")", err=True)
+    outcome = progress_printer(comm, L, every=0.0)  # above the lengths' bar, like the progress
+    outcome(f"found {spec.found}, counted {spec.counted}: "
+            f"{'closed' if spec.closed else 'NOT closed'} ({spec.tiles} tiles, "
+            + ", ".join(f"{k} {v:.0f} s" for k, v in spec.seconds.items()) + ")")
     if spec.closed and not spec.found:  # an answer, but not the fastest mode: say so
         _cli.say(f"L = {L:g}: no eigenvalue in the box (counted 0): every mode of this block "
                  f"with |Im| <= {box[3]:.6g} grows slower than Re = {box[0]:.6g}; to find the "

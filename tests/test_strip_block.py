@@ -762,4 +762,5 @@ def test_committed_velocity_complete_search_on_a_finer_mesh(fine, length, table,
                   and abs(float(r["im_lambda"])) <= cert["box"][3]]
     assert len(coarse) == len(z)  # the same modes above the floor on both meshes
     for c, est in coarse:
-        assert np.min(np.abs(z - c)) / abs(c) < est
+        moved = np.min(np.abs(z - c)) / abs(c)
+        assert 0.75 < moved / est < 0.85  # measured 0.80 at every pair: 1 - (2/3)^4

@@ -60,6 +60,7 @@ like ``1e-16 / |Lambda|^4`` near the origin and ``1e-16 / (H |k_{s,d}|)`` near
 
 from __future__ import annotations
 
+import cmath
 import math
 
 import numpy as np
@@ -222,6 +223,13 @@ def det_M(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -> np.
     """
     H = _finite_h(p)
     require_rigid(p, "analytic.physics.finite_h")
+    if np.ndim(k) == 0 and np.size(Lambda) <= SMALL_CALL:
+        # a Newton step's five points: the same formula point by point in Python's complex
+        # arithmetic, without numpy's per-operation overhead (None: a point it leaves to the
+        # arrays below)
+        out = _det_M_points(np.asarray(Lambda, dtype=complex), float(k), p)
+        if out is not None:
+            return out
     if np.ndim(k) == 0:  # one k (the usual call): no broadcast copies
         L, kk = np.array(Lambda, dtype=complex), float(k)
     else:
@@ -259,6 +267,105 @@ def det_M(Lambda: np.ndarray | complex, k: np.ndarray | float, p: Params) -> np.
                                      np.broadcast_to(M, shape + (4, 4)).reshape(-1, 4, 4)[idx], p)
         rnd = flat.reshape(shape)
     return rnd * phase / weight
+
+
+#: :func:`det_M` on at most this many points (one ``k``) takes :func:`_det_M_points`: a polish's
+#: Newton step evaluates five (value and difference stencil), and with arrays that small
+#: numpy's per-operation overhead was most of its cost (session 21: 5 points 300 us with the
+#: arrays, 80-95 us point by point; 5-point calls were a third of a stability map's time).
+SMALL_CALL = 8
+
+
+def _det4(m: list[list[complex]]) -> complex:
+    """Determinant of a 4 x 4 matrix (rows as lists, overwritten) by LU with partial pivoting.
+
+    The pivot is the entry of largest ``|Re| + |Im|`` (LAPACK's ``izamax``, which
+    ``numpy.linalg.det`` uses).
+    """
+    d: complex = 1.0
+    for j in range(3):
+        piv, best = j, abs(m[j][j].real) + abs(m[j][j].imag)
+        for i in range(j + 1, 4):
+            v = abs(m[i][j].real) + abs(m[i][j].imag)
+            if v > best:
+                piv, best = i, v
+        if piv != j:
+            m[j], m[piv] = m[piv], m[j]
+            d = -d
+        rj = m[j]
+        a = rj[j]
+        if a == 0:
+            return 0j
+        d *= a
+        for i in range(j + 1, 4):
+            ri = m[i]
+            f = ri[j] / a
+            for c in range(j + 1, 4):
+                ri[c] -= f * rj[c]
+    return d * m[3][3]
+
+
+def _det_M_points(L: np.ndarray, k: float, p: Params) -> np.ndarray | None:  # noqa: N803
+    """:func:`det_M` at a few points of one ``k``, point by point (the same formula).
+
+    The entries are those of :func:`_waves_matrix`, the determinant :func:`_det4`; they differ
+    from the array path by rounding only (relative ``~ 1e-16`` times the matrix's condition
+    number: tests/test_det_m_fast.py). ``None`` if a point needs the array path's special
+    cases (a removable point, ``|Lambda| < NEAR_ORIGIN k``, a value not finite).
+    """
+    H, b2 = p.H, p.beta * p.beta
+    law = FrictionLaw.from_params(p)
+    out: list[complex] = []
+    ik, mik, i2k, mi2k = 1j * k, -1j * k, 2j * k, -2j * k
+    try:
+        for z in L.ravel().tolist():
+            aL = abs(z)
+            if not aL >= NEAR_ORIGIN * k or not math.isfinite(aL):
+                return None
+            L2 = z * z  # noqa: N806
+            ks, kd = cmath.sqrt(L2 + k * k), cmath.sqrt(b2 * L2 + k * k)
+            aks, akd = abs(ks), abs(kd)
+            tiny = 1e-12 * (aL + k)
+            if aks < tiny or akd < tiny:
+                return None
+            es, ed = cmath.exp(-H * ks), cmath.exp(-H * kd)
+            P = L2 + 2.0 * k * k  # noqa: N806
+            # the columns psi, phi, psi, phi: potentials at the top (v, d) and the bottom
+            vt1, vt3 = 1j * ed, 1j
+            dt0, dt1, dt2, dt3 = -ks * es, -1j * kd * ed, ks, 1j * kd
+            vb0, vb1, vb2, vb3 = 1.0, 1j, es, 1j * ed
+            db0, db1, db2, db3 = -dt2, -dt3, -dt0, -dt1
+            if law.cancels:
+                a, bf, c = 1.0 + law.alpha_pc * z, law.f, -z / law.gamma
+            else:
+                a = (1.0 + law.alpha_pc * z) * (z + 1.0)
+                bf = law.f * (z + 1.0) - law.alpha_ld * z
+                c = -z * (z + law.Delta) / law.gamma
+            if p.bc == "velocity":  # u_x at the top
+                r0 = [dt0, mik * vt1, dt2, mik * vt3]
+            else:  # s_xy at the top
+                r0 = [P * es, mi2k * dt1, P * 1.0, mi2k * dt3]
+            rows = [r0,
+                    [i2k * dt0, P * vt1, i2k * dt2, P * vt3],  # s_yy at the top
+                    [ik * vb0, db1, ik * vb2, db3],  # u_y at the bottom
+                    [a * (P * vb0) + bf * (i2k * db0) + c * db0,  # friction at the bottom
+                     a * (mi2k * db1) + bf * (P * vb1) + c * (mik * vb1),
+                     a * (P * vb2) + bf * (i2k * db2) + c * db2,
+                     a * (mi2k * db3) + bf * (P * vb3) + c * (mik * vb3)]]
+            norm = 1.0
+            for r in rows:
+                norm *= math.sqrt(abs(r[0]) ** 2 + abs(r[1]) ** 2 + abs(r[2]) ** 2
+                                  + abs(r[3]) ** 2)
+            u = aL / z
+            phase = cmath.exp(1j * H * (ks.imag + kd.imag)) * (aks / ks) * (akd / kd) \
+                * (u * u) * (u * u)
+            hs, hd = H * aks, H * akd
+            w = aL / (aL + k + 1.0 / H)
+            weight = (hs / (1.0 + hs)) * (hd / (1.0 + hd)) * (w * w) * (w * w)
+            out.append(_det4(rows) / norm * phase / weight)
+    except (OverflowError, ZeroDivisionError, ValueError):
+        return None
+    return np.array(out, dtype=complex).reshape(L.shape)
 
 
 #: ``|Lambda| < NEAR_ORIGIN k``: :func:`det_M` takes the determinant with the partial-wave pairs

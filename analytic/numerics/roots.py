@@ -577,6 +577,7 @@ def zeros_in_box(
     scale: float = 1.0,
     min_size: float = 1e-9,
     total: int | None = None,
+    starts: Sequence[complex] = (),
     **kwargs: float,
 ) -> list[Root]:
     """All zeros of ``fun`` inside ``box``, each polished; the total is checked.
@@ -597,6 +598,10 @@ def zeros_in_box(
         scale: Typical magnitude of ``fun`` (see :func:`polish`).
         min_size: Smallest box edge relative to ``max(|z|, 1)`` before giving up subdividing.
         total: The count of ``box`` if just made with these ``poles``, ``kwargs`` (or None).
+        starts: Guesses of the zeros (e.g. predicted from a neighbouring ``k``): polished
+            first; if they reach ``total`` distinct zeros inside ``box``, those are all of them
+            (the count says so) and nothing is scanned or bisected. Otherwise they are dropped
+            and the box is searched as without them (the same zeros, a few polishes more).
         **kwargs: Passed to :func:`count_zeros`.
 
     Returns:
@@ -642,6 +647,15 @@ def zeros_in_box(
                 return
         raise ContourError(f"could not split box {b} holding {n} zeros consistently")
 
+    if starts and total > 0:
+        guessed: list[Root] = []
+        for z0 in starts:
+            r = polish_at(complex(z0))
+            if r.converged and _inside(r.value, bx) and all(
+                    abs(r.value - q.value) > 1e-9 * max(1.0, abs(r.value)) for q in guessed):
+                guessed.append(r)
+        if len(guessed) == total:
+            return sorted(guessed, key=lambda r: (r.value.real, r.value.imag))
     solve(bx, total)
     nfound = sum(m for _, m in found)
     if nfound != total:

@@ -28,7 +28,7 @@ its finite-element eigenvalues:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, replace
 from typing import TypeVar
 
@@ -428,6 +428,8 @@ class FastestMode:
         tail_bound: Bound on ``Re Lambda`` beyond the region (``None``: none derived).
         proven: ``tail_bound`` is below ``root``'s growth rate (or ``re_min``): no root outside
             the region grows faster.
+        located: The roots located in the first rung's fastest band (``root`` among them):
+            starts for the next ``k`` (:func:`fastest_in_box`, ``starts``).
     """
 
     root: complex | None
@@ -436,6 +438,7 @@ class FastestMode:
     c_max: float
     tail_bound: float | None
     proven: bool
+    located: tuple[complex, ...] = ()
 
 
 #: The fastest-first search locates every root of a box holding at most this many; otherwise it
@@ -449,8 +452,9 @@ BAND_ROOTS = 2
 HINT_WIDTH = 0.02
 
 
-def fastest_in_box(p: Params, k: float, box: Box, hint: float | None = None
-                   ) -> tuple[complex | None, int]:
+def fastest_in_box(p: Params, k: float, box: Box, hint: float | None = None,
+                   starts: Sequence[complex] = ()
+                   ) -> tuple[complex | None, int, tuple[complex, ...]]:
     """The fastest exact root in ``box`` and the box's count, locating as few roots as possible.
 
     One argument-principle count of the whole box (the count reported). Up to
@@ -464,10 +468,14 @@ def fastest_in_box(p: Params, k: float, box: Box, hint: float | None = None
     ``hint`` (a guess of the fastest ``Re``, e.g. the fastest root at a neighbouring ``k``):
     the bisection first cuts at ``hint (1 +- HINT_WIDTH)`` (``+- HINT_WIDTH`` near 0), so a good
     guess brackets the band in two counts instead of about ten; the invariant and so the root
-    found are the same whatever the guess (a bad one costs two counts).
+    found are the same whatever the guess (a bad one costs two counts). ``starts`` (guesses of
+    the roots, e.g. the last ``k``'s located roots moved to this ``k``): Newton's first starts
+    in the band (:func:`analytic.numerics.roots.zeros_in_box`); when they reach all its roots,
+    the band is not scanned (the same roots: the band's count decides).
 
     Returns:
-        ``(root, count)``; ``root`` is ``None`` when the count is 0.
+        ``(root, count, located)``: ``root`` is ``None`` when the count is 0; ``located``: the
+        band's roots.
 
     Raises:
         ContourError: The box's contour is not usable (the caller nudges it:
@@ -484,7 +492,7 @@ def fastest_in_box(p: Params, k: float, box: Box, hint: float | None = None
 
     n = count_zeros(fun, box, n_initial=n_init)
     if n == 0:
-        return None, 0
+        return None, 0, ()
     lo, up, n_lo = box[0], box[1], n  # count(lo..re_max) = n_lo >= 1, count(up..re_max) = 0
     first: list[float] = []
     if hint is not None and math.isfinite(hint) and n > LOCATE_ALL:
@@ -504,30 +512,33 @@ def fastest_in_box(p: Params, k: float, box: Box, hint: float | None = None
         else:
             raise ContourError(f"no usable cut of the band {band(lo)} at k = {k:g}: {err}")
         lo, n_lo, up = (mid, m, up) if m >= 1 else (lo, n_lo, mid)
-    roots = zeros_in_box(fun, band(lo), n_initial=n_init, total=n_lo)
+    roots = zeros_in_box(fun, band(lo), n_initial=n_init, total=n_lo, starts=starts)
     best = max(roots, key=lambda r: r.value.real)
-    return complex(best.value), n
+    return complex(best.value), n, tuple(complex(r.value) for r in roots)
 
 
-def _fastest_in(p: Params, k: float, region: Region, hint: float | None = None
-                ) -> tuple[complex | None, int, Box]:
-    (z, n), bx = on_usable_box(region.box(p, k), k, lambda b: fastest_in_box(p, k, b, hint))
+def _fastest_in(p: Params, k: float, region: Region, hint: float | None = None,
+                starts: Sequence[complex] = ()
+                ) -> tuple[complex | None, int, Box, tuple[complex, ...]]:
+    (z, n, located), bx = on_usable_box(region.box(p, k), k,
+                                        lambda b: fastest_in_box(p, k, b, hint, starts))
     if bx[0] >= region.re_min or n == 0:
-        return z, n, bx
+        return z, n, bx, located
     # a box nudged below re_min: report the region's roots only (every root located)
     roots, bx = exact_roots(p, k, bx)
     roots = [r for r in roots if r.value.real >= region.re_min]
     if not roots:
-        return None, 0, bx
+        return None, 0, bx, ()
     best = max(roots, key=lambda r: r.value.real)
-    return complex(best.value), len(roots), bx
+    return complex(best.value), len(roots), bx, tuple(complex(r.value) for r in roots)
 
 
-def fastest_mode(p: Params, k: float, region: Region, hint: float | None = None
-                 ) -> FastestMode:
+def fastest_mode(p: Params, k: float, region: Region, hint: float | None = None,
+                 starts: Sequence[complex] = ()) -> FastestMode:
     """The fastest-growing exact root at ``k`` with the region of :func:`provable_region`.
 
-    ``hint``: a guess of its ``Re`` (:func:`fastest_in_box`; the same root, fewer counts).
+    ``hint``: a guess of its ``Re``; ``starts``: guesses of the roots near it
+    (:func:`fastest_in_box`; the same root, fewer counts and scans).
 
     For a fixed ``region.c_max`` the region is used as it is (the tail bound is still reported).
     An adaptive region is searched incrementally: every root of the first rung, then for each
@@ -543,12 +554,13 @@ def fastest_mode(p: Params, k: float, region: Region, hint: float | None = None
     from analytic.numerics.roots import count_zeros
 
     fun = spectrum_function(p, float(k))
-    state: dict = {"z": None, "w": None, "n": 0, "box": None}
+    state: dict = {"z": None, "w": None, "n": 0, "box": None, "located": ()}
 
     def inside(c: float) -> float | None:
         w = region.fixed(c).im_max(p, k)
         if state["w"] is None:
-            state["z"], state["n"], state["box"] = _fastest_in(p, k, region.fixed(c), hint)
+            state["z"], state["n"], state["box"], state["located"] = _fastest_in(
+                p, k, region.fixed(c), hint, starts)
         else:
             z = state["z"]
             lo = region.re_min if z is None else max(region.re_min, z.real)
@@ -579,7 +591,8 @@ def fastest_mode(p: Params, k: float, region: Region, hint: float | None = None
             inside(c)
             tail = tail_bound(p, k, region.fixed(c).im_max(p, k))
     z = state["z"]
-    return FastestMode(z, n, bx, c, tail, proven(tail, None if z is None else z.real, region))
+    return FastestMode(z, n, bx, c, tail, proven(tail, None if z is None else z.real, region),
+                       state["located"])
 
 
 def fastest_root(p: Params, k: float, region: Region) -> tuple[complex | None, int, Box]:

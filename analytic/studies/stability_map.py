@@ -105,13 +105,20 @@ def map_point(p: Params, khs: np.ndarray, region: Region, top: int = 2) -> dict:
     zs: list[complex | None] = []
     counts: list[int] = []
     proven, c_used = 0, []
+    located: tuple[complex, ...] = ()
+    k_located = 1.0
     for k in ks:
         hint = next((w.real for w in reversed(zs) if w is not None), None)  # the previous k's
+        # the last located roots as they were (thickness modes at small k keep their Im) and
+        # with Im scaled to this k (waveguide modes keep their phase velocity): Newton's starts
+        # in the fastest band, instead of a scan when they reach its roots
+        starts = [*located, *(complex(w.real, w.imag * k / k_located) for w in located)]
         try:
-            m = fastest_mode(p, k, region, hint)
+            m = fastest_mode(p, k, region, hint, starts)
             z, n = m.root, m.count
             proven += bool(m.proven)
             c_used.append(m.c_max)
+            located, k_located = m.located, k
         except ContourError:
             z, n = None, -1
         zs.append(z)

@@ -567,6 +567,18 @@ def _scan(fun: ComplexFunction, b: Box, n: int, polish_at: Callable[[complex], R
     return None
 
 
+def _from_starts(polish_at: Callable[[complex], Root], b: Box, starts: Sequence[complex]
+                 ) -> list[Root]:
+    """The distinct converged zeros inside ``b`` that Newton reaches from ``starts``."""
+    found: list[Root] = []
+    for z0 in starts:
+        r = polish_at(complex(z0))
+        if r.converged and _inside(r.value, b) and all(
+                abs(r.value - q.value) > 1e-9 * max(1.0, abs(r.value)) for q in found):
+            found.append(r)
+    return found
+
+
 def zeros_in_box(
     fun: ComplexFunction,
     box: Sequence[float],
@@ -647,15 +659,8 @@ def zeros_in_box(
                 return
         raise ContourError(f"could not split box {b} holding {n} zeros consistently")
 
-    if starts and total > 0:
-        guessed: list[Root] = []
-        for z0 in starts:
-            r = polish_at(complex(z0))
-            if r.converged and _inside(r.value, bx) and all(
-                    abs(r.value - q.value) > 1e-9 * max(1.0, abs(r.value)) for q in guessed):
-                guessed.append(r)
-        if len(guessed) == total:
-            return sorted(guessed, key=lambda r: (r.value.real, r.value.imag))
+    if starts and total > 0 and len(guessed := _from_starts(polish_at, bx, starts)) == total:
+        return sorted(guessed, key=lambda r: (r.value.real, r.value.imag))
     solve(bx, total)
     nfound = sum(m for _, m in found)
     if nfound != total:

@@ -567,16 +567,26 @@ def _scan(fun: ComplexFunction, b: Box, n: int, polish_at: Callable[[complex], R
     return None
 
 
-def _from_starts(polish_at: Callable[[complex], Root], b: Box, starts: Sequence[complex]
-                 ) -> list[Root]:
-    """The distinct converged zeros inside ``b`` that Newton reaches from ``starts``."""
+def zeros_from_starts(fun: ComplexFunction, box: Sequence[float], total: int,
+                      starts: Sequence[complex], **kwargs: float) -> list[Root] | None:
+    """All ``total`` zeros of ``fun`` in ``box`` if Newton reaches them from ``starts``.
+
+    ``total``: the box's count (:func:`count_zeros`). Each start is polished (:func:`polish`,
+    ``kwargs``); the distinct converged zeros inside the box are kept. If there are ``total``
+    of them they are all the box's zeros (sorted as :func:`zeros_in_box` sorts them);
+    otherwise ``None`` (search the box: :func:`zeros_in_box`). Guesses from a neighbouring
+    parameter value spare :func:`zeros_in_box`'s scan lines when they are good.
+    """
+    bx = _box_checked(box)
     found: list[Root] = []
     for z0 in starts:
-        r = polish_at(complex(z0))
-        if r.converged and _inside(r.value, b) and all(
+        r = polish(fun, complex(z0), **kwargs)
+        if r.converged and _inside(r.value, bx) and all(
                 abs(r.value - q.value) > 1e-9 * max(1.0, abs(r.value)) for q in found):
             found.append(r)
-    return found
+    if total == 0 or len(found) != total:
+        return None
+    return sorted(found, key=lambda r: (r.value.real, r.value.imag))
 
 
 def zeros_in_box(
@@ -589,7 +599,6 @@ def zeros_in_box(
     scale: float = 1.0,
     min_size: float = 1e-9,
     total: int | None = None,
-    starts: Sequence[complex] = (),
     **kwargs: float,
 ) -> list[Root]:
     """All zeros of ``fun`` inside ``box``, each polished; the total is checked.
@@ -610,10 +619,6 @@ def zeros_in_box(
         scale: Typical magnitude of ``fun`` (see :func:`polish`).
         min_size: Smallest box edge relative to ``max(|z|, 1)`` before giving up subdividing.
         total: The count of ``box`` if just made with these ``poles``, ``kwargs`` (or None).
-        starts: Guesses of the zeros (e.g. predicted from a neighbouring ``k``): polished
-            first; if they reach ``total`` distinct zeros inside ``box``, those are all of them
-            (the count says so) and nothing is scanned or bisected. Otherwise they are dropped
-            and the box is searched as without them (the same zeros, a few polishes more).
         **kwargs: Passed to :func:`count_zeros`.
 
     Returns:
@@ -659,8 +664,6 @@ def zeros_in_box(
                 return
         raise ContourError(f"could not split box {b} holding {n} zeros consistently")
 
-    if starts and total > 0 and len(guessed := _from_starts(polish_at, bx, starts)) == total:
-        return sorted(guessed, key=lambda r: (r.value.real, r.value.imag))
     solve(bx, total)
     nfound = sum(m for _, m in found)
     if nfound != total:

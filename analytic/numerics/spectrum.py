@@ -470,7 +470,7 @@ def fastest_in_box(p: Params, k: float, box: Box, hint: float | None = None,
     guess brackets the band in two counts instead of about ten; the invariant and so the root
     found are the same whatever the guess (a bad one costs two counts). ``starts`` (guesses of
     the roots, e.g. the last ``k``'s located roots moved to this ``k``): Newton's first starts
-    in the band (:func:`analytic.numerics.roots.zeros_in_box`); when they reach all its roots,
+    in the band (:func:`analytic.numerics.roots.zeros_from_starts`); when they reach all its roots,
     the band is not scanned (the same roots: the band's count decides).
 
     Returns:
@@ -482,7 +482,7 @@ def fastest_in_box(p: Params, k: float, box: Box, hint: float | None = None,
             :func:`on_usable_box`), or no cut of a band is.
     """
     from analytic.numerics.branches import _n_initial, spectrum_function
-    from analytic.numerics.roots import count_zeros
+    from analytic.numerics.roots import count_zeros, zeros_from_starts
 
     fun = spectrum_function(p, float(k))
     n_init = _n_initial(p, box)
@@ -512,7 +512,9 @@ def fastest_in_box(p: Params, k: float, box: Box, hint: float | None = None,
         else:
             raise ContourError(f"no usable cut of the band {band(lo)} at k = {k:g}: {err}")
         lo, n_lo, up = (mid, m, up) if m >= 1 else (lo, n_lo, mid)
-    roots = zeros_in_box(fun, band(lo), n_initial=n_init, total=n_lo, starts=starts)
+    roots = zeros_from_starts(fun, band(lo), n_lo, starts) if starts else None
+    if roots is None:
+        roots = zeros_in_box(fun, band(lo), n_initial=n_init, total=n_lo)
     best = max(roots, key=lambda r: r.value.real)
     return complex(best.value), n, tuple(complex(r.value) for r in roots)
 

@@ -554,8 +554,19 @@ def _scan(fun: ComplexFunction, b: Box, n: int, polish_at: Callable[[complex], R
         big = np.abs(step) > 0.25 * short  # damped: at most a quarter of the short side
         step[big] *= 0.25 * short / np.abs(step[big])
         zz = np.where(np.isfinite(step), zz - step, zz)
+    return _distinct_zeros(polish_at, b, zz[np.array([_inside(z, b) for z in zz], dtype=bool)],
+                           n)
+
+
+def _distinct_zeros(polish_at: Callable[[complex], Root], b: Box, starts: Sequence[complex],
+                    n: int) -> list[Root] | None:
+    """``n`` distinct converged zeros inside ``b`` polished from ``starts`` in turn, or ``None``.
+
+    A start within ``1e-6`` (relative) of a zero already found is skipped; the polishing stops
+    as soon as ``n`` are found.
+    """
     found: list[Root] = []
-    for z0 in zz[np.array([_inside(z, b) for z in zz], dtype=bool)]:
+    for z0 in starts:
         if any(abs(z0 - q.value) <= 1e-6 * max(1.0, abs(z0)) for q in found):
             continue
         r = polish_at(complex(z0))
@@ -571,22 +582,18 @@ def zeros_from_starts(fun: ComplexFunction, box: Sequence[float], total: int,
                       starts: Sequence[complex], **kwargs: float) -> list[Root] | None:
     """All ``total`` zeros of ``fun`` in ``box`` if Newton reaches them from ``starts``.
 
-    ``total``: the box's count (:func:`count_zeros`). Each start is polished (:func:`polish`,
-    ``kwargs``); the distinct converged zeros inside the box are kept. If there are ``total``
-    of them they are all the box's zeros (sorted as :func:`zeros_in_box` sorts them);
-    otherwise ``None`` (search the box: :func:`zeros_in_box`). Guesses from a neighbouring
-    parameter value spare :func:`zeros_in_box`'s scan lines when they are good.
+    ``total``: the box's count (:func:`count_zeros`). The starts are polished in turn
+    (:func:`polish`, ``kwargs``; the rule of :func:`_scan`'s dips, :func:`_distinct_zeros`)
+    until ``total`` distinct converged zeros lie inside the box: then they are all the box's
+    zeros (sorted as :func:`zeros_in_box` sorts them); otherwise ``None`` (search the box:
+    :func:`zeros_in_box`). Guesses from a neighbouring parameter value spare
+    :func:`zeros_in_box`'s scan lines when they are good.
     """
-    bx = _box_checked(box)
-    found: list[Root] = []
-    for z0 in starts:
-        r = polish(fun, complex(z0), **kwargs)
-        if r.converged and _inside(r.value, bx) and all(
-                abs(r.value - q.value) > 1e-9 * max(1.0, abs(r.value)) for q in found):
-            found.append(r)
-    if total == 0 or len(found) != total:
+    if total == 0:
         return None
-    return sorted(found, key=lambda r: (r.value.real, r.value.imag))
+    polish_at = functools.partial(polish, fun, **kwargs)
+    found = _distinct_zeros(polish_at, _box_checked(box), starts, total)
+    return None if found is None else sorted(found, key=lambda r: (r.value.real, r.value.imag))
 
 
 def zeros_in_box(

@@ -344,7 +344,7 @@ def _det_M_points(L: np.ndarray, k: float, p: Params) -> np.ndarray | None:  # n
             if p.bc == "velocity":  # u_x at the top
                 r0 = [dt0, mik * vt1, dt2, mik * vt3]
             else:  # s_xy at the top
-                r0 = [P * es, mi2k * dt1, P * 1.0, mi2k * dt3]
+                r0 = [P * es, mi2k * dt1, P, mi2k * dt3]
             rows = [r0,
                     [i2k * dt0, P * vt1, i2k * dt2, P * vt3],  # s_yy at the top
                     [ik * vb0, db1, ik * vb2, db3],  # u_y at the bottom

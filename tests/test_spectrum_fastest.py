@@ -115,3 +115,79 @@ def test_starts_give_the_same_root_and_spare_the_scan(case, starts, monkeypatch)
         assert not scans  # every root of the band reached from its start
     if starts in ("none", "wrong", "one of two"):
         assert scans or len(band) == 1  # one root: polished from the band's centre first
+
+
+@pytest.mark.parametrize("starts", ["the roots", "moved", "slower only", "wrong"])
+@pytest.mark.parametrize("ik", [0, 2])
+@pytest.mark.parametrize("case", ["velocity", "stress", "two_body"])
+def test_whole_false_gives_the_same_fastest_root(case, ik, starts, count_calls):
+    """fastest_in_box(whole=False): the starts' fastest root proven by one count of a band left
+    of it when that band holds only roots reached, else the search continues in that band; the
+    same root as the whole box's search, a count between 1 and the box's, the root among those
+    located. "the roots": the band's roots (one count, measured: every case); "moved": the
+    roots at a k 2.5 % lower (the stability map's starts); "slower only": every located root
+    but the fastest (the band then holds more than was reached: the bisection goes on);
+    "wrong": starts that converge outside the box or nowhere (the whole box is counted).
+    """
+    kw, ks = CASES[case]
+    p, k = Params(**kw), ks[ik]
+    box = Region(c_max=4.0, re_min=1e-6).box(p, k)
+    ref, n_ref, band = fastest_in_box(p, k, box)
+    assert ref is not None  # every case holds an unstable root
+    moved = fastest_in_box(p, 0.975 * k, Region(c_max=4.0, re_min=1e-6).box(p, 0.975 * k))[2]
+    guess = {"the roots": list(band), "moved": list(moved),
+             "slower only": [w for w in band if w != ref] or [ref - 0.05],
+             "wrong": [-0.5 + 3j, 5.0 - 900j]}[starts]
+    count_calls.clear()
+    z, n, located = fastest_in_box(p, k, box, starts=guess, whole=False)
+    assert abs(z - ref) <= 1e-13 * abs(ref)  # measured 0 .. 2e-16 (one root, two polishes)
+    assert 1 <= n <= n_ref and z in located
+    if starts == "the roots":
+        assert len(count_calls) == 1
+    if starts == "wrong":
+        assert n == n_ref  # no root reached: the whole box counted
+
+
+@pytest.mark.parametrize("case", ["velocity", "stress"])
+def test_whole_false_finds_no_root_where_there_is_none(case):
+    """A box without roots: whole=False with starts outside it still counts the whole box (a
+    zero count is always the box's): root None, count 0."""
+    p, k = Params(**CASES[case][0]), 8.0
+    box = (1.9, 2.0, -50.0, 50.0)  # far right of every root (the fastest is below 0.4 here)
+    z, n, located = fastest_in_box(p, k, box, starts=[0.3 - 20j, 0.2 + 10j], whole=False)
+    assert z is None and n == 0 and located == ()
+
+
+@pytest.mark.parametrize("k0", [1.8, 8.0, 20.0])
+@pytest.mark.parametrize("case", ["velocity", "stress"])
+def test_family_peak_is_the_family_maximum_on_a_fine_grid(case, k0):
+    """family_peak (Brent's bounded search) against the independent way: the same family
+    followed over 801 points of ``[k0 / 1.26, 1.26 k0]`` (the stability map's grid ratio) in
+    steps of at most 0.05. Every peak here is inside the interval. Its value is at least the
+    samples' largest (measured: 5.5e-10 .. 4.9e-7 above it, the peak lies between samples;
+    allowed 1e-13 below it, rounding) and its k within two sample spacings of theirs (measured
+    at most 0.46)."""
+    import numpy as np
+
+    from analytic.numerics.branches import polish_root
+    from analytic.numerics.spectrum import family_peak
+
+    p = Params(**CASES[case][0])
+    z0, _, _ = fastest_in_box(p, k0, Region(c_max=4.0, re_min=1e-6).box(p, k0))
+    lo, hi = k0 / 1.26, 1.26 * k0
+    k, z = family_peak(p, k0, z0, lo, hi)
+    assert lo <= k <= hi
+    assert abs(polish_root(p, k, z).value - z) <= 1e-12 * abs(z)  # a root at k
+    grid = np.linspace(lo, hi, 801)
+    values = np.empty(grid.size)
+    for side in (grid[grid >= k0], grid[grid < k0][::-1]):
+        w, kw = z0, k0
+        for kk in side:
+            n = max(1, int(np.ceil(abs(kk - kw) / 0.05)))
+            for i in range(1, n + 1):
+                w = polish_root(p, kw + (kk - kw) * i / n, w).value
+            kw = kk
+            values[np.searchsorted(grid, kk)] = w.real
+    j = int(np.argmax(values))
+    assert z.real >= values[j] * (1 - 1e-13)
+    assert abs(k - grid[j]) <= 2 * (grid[1] - grid[0])

@@ -150,8 +150,11 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
 
 
 #: What summary.json says about the coverage in k.
-COVERAGE = ("a certified count (argument principle on det_M) of the roots in the region at every "
-            "k H of the geometric grid; the two largest local maxima of the samples refined "
+COVERAGE = ("at every k H of the geometric grid, certified counts (argument principle on det_M) "
+            "proving the fastest root in the region: of a band left of the fastest root "
+            "reached from the previous k's roots when that band holds only roots reached, "
+            "else of the region and bands of it (a zero count, stable, is always the whole "
+            "region's); the two largest local maxima of the samples refined "
             "along their root family; nothing is proven between grid points; proven_k_count: "
             "the grid k at which the tail bound proves that no root beyond the region grows "
             "faster (with c_max auto the region grows until it does, up to the ladder's top)")

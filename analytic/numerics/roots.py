@@ -558,12 +558,12 @@ def _scan(fun: ComplexFunction, b: Box, n: int, polish_at: Callable[[complex], R
                            n)
 
 
-def _distinct_zeros(polish_at: Callable[[complex], Root], b: Box, starts: Sequence[complex],
-                    n: int) -> list[Root] | None:
-    """``n`` distinct converged zeros inside ``b`` polished from ``starts`` in turn, or ``None``.
+def _reached_zeros(polish_at: Callable[[complex], Root], b: Box, starts: Sequence[complex],
+                   n: int | None = None) -> list[Root]:
+    """The distinct converged zeros inside ``b`` polished from ``starts`` in turn.
 
     A start within ``1e-6`` (relative) of a zero already found is skipped; the polishing stops
-    as soon as ``n`` are found.
+    as soon as ``n`` are found (``None``: every start is tried).
     """
     found: list[Root] = []
     for z0 in starts:
@@ -574,8 +574,26 @@ def _distinct_zeros(polish_at: Callable[[complex], Root], b: Box, starts: Sequen
                 abs(r.value - q.value) > 1e-9 * max(1.0, abs(r.value)) for q in found):
             found.append(r)
             if len(found) == n:
-                return found
-    return None
+                break
+    return found
+
+
+def _distinct_zeros(polish_at: Callable[[complex], Root], b: Box, starts: Sequence[complex],
+                    n: int) -> list[Root] | None:
+    """``n`` distinct converged zeros inside ``b`` polished from ``starts``, or ``None``."""
+    found = _reached_zeros(polish_at, b, starts, n)
+    return found if len(found) == n else None
+
+
+def zeros_reached(fun: ComplexFunction, box: Sequence[float], starts: Sequence[complex],
+                  **kwargs: float) -> list[Root]:
+    """The distinct zeros of ``fun`` inside ``box`` that Newton reaches from ``starts``.
+
+    No count: some of the box's zeros, not necessarily all (:func:`zeros_from_starts` when the
+    count is known). Each start is polished (:func:`polish`, ``kwargs``) unless it lies next to
+    a zero already found.
+    """
+    return _reached_zeros(functools.partial(polish, fun, **kwargs), _box_checked(box), starts)
 
 
 def zeros_from_starts(fun: ComplexFunction, box: Sequence[float], total: int,

@@ -24,7 +24,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from analytic.numerics.roots import ContourError
-from analytic.numerics.spectrum import Region, family_peak, fastest_mode, fastest_root
+from analytic.numerics.spectrum import Region, family_peak, fastest_mode
 from analytic.params import Params
 
 #: What ``workflows/envelope.py`` reports about its refinement.
@@ -151,7 +151,8 @@ def refine_envelope(p: Params, region: Region, ks: list[float], zs: list, top: i
         lo, hi = ks[max(j - 1, 0)], ks[min(j + 1, len(ks) - 1)]
         k, z = family_peak(p, ks[j], zs[j], lo, hi)
         try:
-            zf = fastest_root(p, k, region)[0]
+            # the family's peak as hint and start: one band count proves it the fastest
+            zf = fastest_mode(p, k, region, z.real, [z], whole=False).root
         except ContourError:
             zf = None
         fastest = zf is not None and abs(zf - z) <= 1e-8 * abs(z)

@@ -114,7 +114,8 @@ def map_point(p: Params, khs: np.ndarray, region: Region, top: int = 2) -> dict:
         # in the fastest band, instead of a scan when they reach its roots
         starts = [*located, *(complex(w.real, w.imag * k / k_located) for w in located)]
         try:
-            m = fastest_mode(p, k, region, hint, starts)
+            # only the fastest root and whether there is one are used (count > 0)
+            m = fastest_mode(p, k, region, hint, starts, whole=False)
             z, n = m.root, m.count
             proven += bool(m.proven)
             c_used.append(m.c_max)

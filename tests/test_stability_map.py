@@ -205,7 +205,7 @@ def test_committed_maps_close_every_count_and_their_h0_1_row_is_the_fastest_root
 
 @pytest.mark.serial
 def test_committed_41_by_41_velocity_map_and_its_reading():
-    """README, the 41 x 41 velocity map (session 16): every count closed, no point stable, the
+    """README, the 41 x 41 velocity map (session 22's run): every count closed, no point stable, the
     plateau's ``H max Re Lambda`` in 0.166-0.183 for ``H <= 1`` (rounded to 5e-4), the slower
     fastest mode only in the pocket 1.6 <= H <= 6.3, Delta <= -0.45; two points recomputed by
     ``fastest_root`` (adaptive region) at their ``k``: one in the pocket (phase velocity below
@@ -221,6 +221,40 @@ def test_committed_41_by_41_velocity_map_and_its_reading():
     fast = next(r for r in rows if r["ix"] == "40" and r["iy"] == "20")  # Delta = 1, H = 1
     for r in (slow[len(slow) // 2], fast):
         p = Params(Delta=float(r["x"]), H=float(r["y"]))
+        z = complex(float(r["re_lambda"]), float(r["im_lambda"]))
+        zf = fastest_root(p, float(r["k"]), Region(1e-6, 2.0, None))[0]
+        assert abs(zf - z) <= 1e-8 * abs(z)
+    assert float(fast["phase_velocity_over_c_d"]) > 1.0
+
+
+@pytest.mark.serial
+def test_committed_41_by_41_stress_map_against_the_63_point_map_and_fastest_root():
+    """README, the 41 x 41 stress map (session 22, the fastest root proven by band counts from
+    the previous k's roots, ``whole=False``): every count closed, no point stable, ``H max Re
+    Lambda`` in 0.1768-0.1906 for ``H <= 1`` (rounded to 5e-4), the slower fastest mode only at
+    0.85 < H < 4.6, Delta <= 0. Against the committed 63-point stress map (another k grid,
+    ``--nk 16``) at the 27 points the two grids share: never below it (1e-12), and equal to 1e-12
+    at all but one (measured: 26 to 2.3e-15; at Delta = 0.5, H = 10 the finer grid finds a
+    peak at k H = 6.5 that the coarser one missed, 0.017957 against 0.017790). Two points
+    recomputed by ``fastest_root`` (the whole region counted, no starts: the path without
+    band counts) at their ``k``: one slow, one on the plateau, each to 1e-8."""
+    rows = _rows(Path(RESULTS) / "stability_map_stress_41")
+    assert len(rows) == 41 * 41 and all(int(r["failed_counts"]) == 0 for r in rows)
+    assert not any(r["stable_on_grid"] == "True" for r in rows)
+    slow = [r for r in rows if float(r["phase_velocity_over_c_d"]) <= 1.0]
+    assert slow and all(0.85 < float(r["y"]) < 4.6 and float(r["x"]) <= 1e-9 for r in slow)
+    hmax = [float(r["y"]) * float(r["re_lambda"]) for r in rows if float(r["y"]) <= 1.0 + 1e-9]
+    assert 0.1768 - 5e-4 <= min(hmax) and max(hmax) <= 0.1906 + 5e-4
+    coarse = {(round(float(r["x"]), 9), round(float(r["y"]), 9)): float(r["re_lambda"])
+              for r in _rows(Path(RESULTS) / "stability_map_stress")}
+    shared = [(float(r["re_lambda"]), coarse[key]) for r in rows
+              if (key := (round(float(r["x"]), 9), round(float(r["y"]), 9))) in coarse]
+    assert len(shared) == 27
+    assert all(fine >= c * (1 - 1e-12) for fine, c in shared)
+    assert sum(abs(fine - c) <= 1e-12 * c for fine, c in shared) >= 26
+    fast = next(r for r in rows if r["ix"] == "40" and r["iy"] == "20")  # Delta = 1, H = 1
+    for r in (slow[len(slow) // 2], fast):
+        p = Params(bc="stress", Delta=float(r["x"]), H=float(r["y"]))
         z = complex(float(r["re_lambda"]), float(r["im_lambda"]))
         zf = fastest_root(p, float(r["k"]), Region(1e-6, 2.0, None))[0]
         assert abs(zf - z) <= 1e-8 * abs(z)

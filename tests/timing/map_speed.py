@@ -18,17 +18,15 @@ README's 63-point velocity map, ``--x Delta:-1:1:9 --y H:0.1:10:7log --nk 16``).
 
 from __future__ import annotations
 
-import argparse
 import csv
 import os
 import subprocess
 import sys
-import tempfile
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
-from sweep_speed import export, wait_all  # noqa: E402
+from sweep_speed import parser, trees_of, wait_all  # noqa: E402
 
 CASES = {
     "default": [],
@@ -75,16 +73,8 @@ def compare(old: str, new: str) -> tuple[list[str], float, float, int]:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--old", default="main", help="reference commit (default main)")
-    ap.add_argument("--new", default="HEAD", help="commit to time (WORKTREE: this checkout)")
-    ap.add_argument("--case", nargs="*", choices=sorted(CASES), default=["default"])
-    args = ap.parse_args()
-    work = tempfile.mkdtemp(prefix="map_speed_")
-    trees = {"old": export(args.old, os.path.join(work, "old")),
-             "new": export(args.new, os.path.join(work, "new"))}
-    print(f"old = {args.old}, new = {args.new}; one rank each, both at once; CPU s "
-          f"(user + system) per run", flush=True)
+    args = parser(__doc__, list(CASES), ["default"]).parse_args()
+    work, trees = trees_of(args.old, args.new, "map_speed_")
     bad = 0
     for case in args.case:
         outs = {name: os.path.join(work, f"{case}_{name}") for name in trees}

@@ -112,18 +112,30 @@ def compare(old: str, new: str) -> tuple[list[str], float, float, int]:
     return problems, value, estimate, len(rb)
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def parser(doc: str, cases: list[str], default: list[str]) -> argparse.ArgumentParser:
+    """``--old``, ``--new``, ``--case`` (one of ``cases``): the options of both timing scripts."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("--old", default="main", help="reference commit (default main)")
     ap.add_argument("--new", default="HEAD", help="commit to time (WORKTREE: this checkout)")
-    ap.add_argument("--case", nargs="*", choices=sorted(CASES), default=list(CASES))
+    ap.add_argument("--case", nargs="*", choices=sorted(cases), default=default)
+    return ap
+
+
+def trees_of(old: str, new: str, prefix: str) -> tuple[str, dict[str, str]]:
+    """A temporary folder and the two trees exported into it; prints what is compared."""
+    work = tempfile.mkdtemp(prefix=prefix)
+    trees = {"old": export(old, os.path.join(work, "old")),
+             "new": export(new, os.path.join(work, "new"))}
+    print(f"old = {old}, new = {new}; one rank each, both at once; CPU s "
+          f"(user + system) per run", flush=True)
+    return work, trees
+
+
+def main() -> int:
+    ap = parser(__doc__, list(CASES), list(CASES))
     ap.add_argument("--repeat", type=int, default=1, help="runs per case (default 1)")
     args = ap.parse_args()
-    work = tempfile.mkdtemp(prefix="sweep_speed_")
-    trees = {"old": export(args.old, os.path.join(work, "old")),
-             "new": export(args.new, os.path.join(work, "new"))}
-    print(f"old = {args.old}, new = {args.new}; one rank each, both at once; CPU s "
-          f"(user + system) per run", flush=True)
+    work, trees = trees_of(args.old, args.new, "sweep_speed_")
     bad = 0
     for case in args.case:
         for rep in range(args.repeat):

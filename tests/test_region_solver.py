@@ -191,17 +191,23 @@ def test_region_solver_verifies_a_short_count(nev, nearest_only, monkeypatch):
 def test_region_solver_counts_the_cluster_with_the_dip_rule(nev):
     """With the dip rule (the default ``MAX_DIP``) the same solve's first count is already 9:
     it closes at 9 = 9 with the cluster's values."""
+    res = _solve_edge_cluster(nev)
+    assert res["first"] == len(EDGE_CLUSTER) and res["closed"]
+    assert np.allclose(np.sort_complex(res["values"]), np.sort_complex(EDGE_CLUSTER),
+                       rtol=1e-10, atol=0)
+
+
+def _solve_edge_cluster(nev):
+    """:meth:`RegionSolver.solve` on :func:`_edge_cluster_operator`, everything destroyed:
+    the first count, ``closed`` and the values."""
     mats = _edge_cluster_operator()
     solver = RegionSolver(MPI.COMM_SELF, nev=nev)
-    res = None
     try:
         res = solver.solve(mats, EDGE_BOX, (-1.0 + 0j,))
-        assert res.counts[0] == len(EDGE_CLUSTER) and res.closed
-        assert np.allclose(np.sort_complex(res.values), np.sort_complex(EDGE_CLUSTER),
-                           rtol=1e-10, atol=0)
+        out = {"first": res.counts[0], "closed": res.closed, "values": np.array(res.values)}
+        res.destroy()
+        return out
     finally:
-        if res is not None:
-            res.destroy()
         solver.destroy()
         for m in mats:
             m.destroy()

@@ -22,11 +22,10 @@ import csv
 import os
 import subprocess
 import sys
-import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
-from sweep_speed import parser, trees_of, wait_all  # noqa: E402
+from sweep_speed import parser, run_both, trees_of  # noqa: E402
 
 CASES = {
     "default": [],
@@ -78,10 +77,7 @@ def main() -> int:
     bad = 0
     for case in args.case:
         outs = {name: os.path.join(work, f"{case}_{name}") for name in trees}
-        t0 = time.perf_counter()
-        cpu = wait_all({name: start(tree, CASES[case], outs[name])
-                        for name, tree in trees.items()})
-        wall = time.perf_counter() - t0
+        cpu, wall = run_both(trees, start, CASES[case], outs)
         problems, re_diff, k_diff, points = compare(outs["old"], outs["new"])
         bad += bool(problems)
         print(f"{case}: old {cpu['old']:.1f} s, new {cpu['new']:.1f} s, ratio "

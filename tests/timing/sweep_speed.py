@@ -131,6 +131,14 @@ def trees_of(old: str, new: str, prefix: str) -> tuple[str, dict[str, str]]:
     return work, trees
 
 
+def run_both(trees: dict[str, str], starter: object, args: list[str], outs: dict[str, str]
+             ) -> tuple[dict[str, float], float]:
+    """Both trees' ``starter(tree, args, out)`` at once: CPU seconds of each, wall seconds."""
+    t0 = time.perf_counter()
+    cpu = wait_all({name: starter(tree, args, outs[name]) for name, tree in trees.items()})
+    return cpu, time.perf_counter() - t0
+
+
 def main() -> int:
     ap = parser(__doc__, list(CASES), list(CASES))
     ap.add_argument("--repeat", type=int, default=1, help="runs per case (default 1)")
@@ -140,10 +148,7 @@ def main() -> int:
     for case in args.case:
         for rep in range(args.repeat):
             outs = {name: os.path.join(work, f"{case}_{rep}_{name}") for name in trees}
-            t0 = time.perf_counter()
-            procs = {name: start(tree, CASES[case], outs[name]) for name, tree in trees.items()}
-            cpu = wait_all(procs)
-            wall = time.perf_counter() - t0
+            cpu, wall = run_both(trees, start, CASES[case], outs)
             problems, value, estimate, rows = compare(outs["old"], outs["new"])
             bad += bool(problems)
             print(f"{case} run {rep + 1}: old {cpu['old']:.2f} s, new {cpu['new']:.2f} s, "

@@ -460,11 +460,12 @@ START_WIDTH = 0.02
 START_FLOOR = 1e-3
 
 
-def _band_from_starts(p: Params, k: float, box: Box, starts: Sequence[complex]
+def _band_from_starts(p: Params, fun: Callable, box: Box, starts: Sequence[complex]
                       ) -> tuple[complex, float, int, tuple[complex, ...]] | None:
     """The fastest root reached from Newton's ``starts`` and the count of a band left of it.
 
-    The starts are polished (:func:`analytic.numerics.roots.zeros_reached`); with ``z`` the
+    ``fun``: the spectrum function at this ``k`` (:func:`fastest_in_box`'s). The starts are
+    polished (:func:`analytic.numerics.roots.zeros_reached`); with ``z`` the
     fastest root reached, the band ``lo <= Re <= re_max`` of ``box``, ``lo = Re z - START_WIDTH
     max(|Re z|, START_FLOOR)`` (not below the box), is counted. When it holds exactly the
     roots reached in it, those are all its roots and ``z`` is the box's fastest (every root
@@ -474,10 +475,9 @@ def _band_from_starts(p: Params, k: float, box: Box, starts: Sequence[complex]
         ``(z, lo, the band's count, the roots reached in the band)``; ``None``: no root
         reached, or the band's contour unusable.
     """
-    from analytic.numerics.branches import _n_initial, spectrum_function
+    from analytic.numerics.branches import _n_initial
     from analytic.numerics.roots import count_zeros, zeros_reached
 
-    fun = spectrum_function(p, float(k))
     reached = [complex(r.value) for r in zeros_reached(fun, box, starts)]
     if not reached:
         return None
@@ -536,7 +536,7 @@ def fastest_in_box(p: Params, k: float, box: Box, hint: float | None = None,
     def band(a: float) -> Box:
         return (a, box[1], box[2], box[3])
 
-    known = _band_from_starts(p, k, box, starts) if not whole and starts else None
+    known = _band_from_starts(p, fun, box, starts) if not whole and starts else None
     if known is not None and known[2] >= len(known[3]):
         z, lo, n, inside = known
         if n == len(inside):
@@ -684,8 +684,8 @@ def family_peak(p: Params, k0: float, z0: complex, lo: float, hi: float, *,
     family (``k0`` or an earlier evaluation, each itself reached from ``(k0, z0)`` that way;
     the family's growth rate is smooth, unlike the envelope, which jumps between families).
     Starting from the nearest point instead of ``k0`` every time: 1-2 polishes per evaluation
-    once the search narrows. The parabolic steps need about 15 evaluations where the golden
-    section alone took 42 to the same resolution.
+    once the search narrows. Measured on the stress 5 x 5 map: 597 evaluations for 50 peaks
+    (about 12 each) where the golden section alone took 2 100 (42).
 
     Returns:
         ``(k, Lambda)`` at the largest value evaluated.

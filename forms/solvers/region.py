@@ -69,6 +69,16 @@ MAX_DLOG = 2.0
 #: samplings with 2.0). Its cost: the block L = 4's box (0.2, 0.655) x (-0.023, 125.67), no
 #: eigenvalue inside, 1 227 -> 2 135 samples (1.74x; 1 232 with 2.0).
 MAX_DIP = 1.5
+#: An interval is bisected when a neighbour's rate of turn times its length exceeds this
+#: (:func:`winding`): a phase turning fast and evenly (a row of eigenvalues just outside the
+#: edge) is read modulo ``2 pi`` in an interval that turns by nearly ``2 pi``, the same at
+#: every level (session 22: the L = 32 block's left edge near ``Im = 81.45``, two intervals
+#: 8x longer than their neighbours, each turning -5.7 rad, read +0.86 and +0.60). Session 23,
+#: 60 random rows of 20-200 zeros outside an edge per seed (tests/test_region_solver.py):
+#: 30-40 of 60 wrong or unresolved without it, none with ``pi / 2`` (2 of 360 with ``pi``),
+#: with fewer samples (8 900 per count against 14 600: the levels agree sooner); the 600-zero
+#: test's counts 0.2 % more samples.
+MAX_GRADE = math.pi / 2
 
 #: Most verification counts of one :meth:`RegionSolver.solve` (each followed by more tiles
 #: while it finds eigenvalues not yet found).
@@ -176,6 +186,17 @@ def _dips(t: np.ndarray, dl: np.ndarray, perimeter: float, max_dip: float) -> np
     return (left < 0) & (right > 0) & (h * np.maximum(-left, right) > max_dip)
 
 
+def _graded(t: np.ndarray, dph: np.ndarray, perimeter: float, max_grade: float) -> np.ndarray:
+    """Intervals longer than a fast-turning neighbour allows (:data:`MAX_GRADE`).
+
+    ``dph[i]``: the wrapped phase increment over interval ``i`` (cyclic). Flagged: a neighbour's
+    rate of turn ``|dph| / h`` times interval ``i``'s length exceeds ``max_grade``.
+    """
+    h = np.append(t[1:], t[0] + perimeter) - t
+    rate = np.abs(dph) / h
+    return h * np.maximum(np.roll(rate, 1), np.roll(rate, -1)) > max_grade
+
+
 def arc_position(box: Box, z: complex) -> tuple[float, float]:
     """Where ``z`` projects onto the contour: ``(t, distance)``.
 
@@ -195,8 +216,8 @@ def arc_position(box: Box, z: complex) -> tuple[float, float]:
 def winding(logf, box: Box, *, n_initial: int = 64,  # noqa: ANN001
             max_dphase: float = math.pi / 3, max_dlog: float = MAX_DLOG,
             levels: int = 1, max_points: int = 40000,
-            samples: bool = False, max_dip: float | None = None
-            ) -> int | tuple[int, np.ndarray]:
+            samples: bool = False, max_dip: float | None = None,
+            max_grade: float | None = None) -> int | tuple[int, np.ndarray]:
     """Winding number of ``F`` on the counter-clockwise edge of ``box`` from ``log F`` samples.
 
     ``logf(z)`` is vectorised and returns ``log|F| + i arg F`` (any branch). Uniform (in arc
@@ -217,9 +238,11 @@ def winding(logf, box: Box, *, n_initial: int = 64,  # noqa: ANN001
       not a uniform spacing ``~ delta`` over the whole contour (before: the uniform levels
       alone had to agree; the block L = 4 at the table's mesh, box ``(0.2, 0.655) x (-0.023,
       125.67)``, took 8206 samples).
-    - Dips (``max_dip``, default :data:`MAX_DIP`; ``inf``: off): an interval at a steep local
-      minimum of ``log|F|`` is bisected too (:func:`_dips`): zeros nearer the edge than the
-      samples, of which a pair turns the phase by ``2 pi`` unseen by the rules above.
+    - Dips and grading (``max_dip``, ``max_grade``; ``None``: :data:`MAX_DIP`,
+      :data:`MAX_GRADE`; ``inf``: off): an interval at a steep local minimum of ``log|F|``
+      (:func:`_dips`: a pair of zeros nearer the edge than the samples turns the phase by
+      ``2 pi`` unseen) or longer than a fast-turning neighbour allows (:func:`_graded`: a
+      fast even turn read modulo ``2 pi``) is bisected too.
 
     With ``samples``: ``(total, t)``, ``t`` the sorted arc-length parameters of the samples of
     the level returned (:func:`arc_position` places a point on the same scale).
@@ -230,6 +253,7 @@ def winding(logf, box: Box, *, n_initial: int = 64,  # noqa: ANN001
     corners, lengths, cum = _contour(box)
     perimeter = float(cum[-1])
     dip = MAX_DIP if max_dip is None else max_dip
+    grade = MAX_GRADE if max_grade is None else max_grade
 
     def point(t: np.ndarray) -> np.ndarray:
         side = np.clip(np.searchsorted(cum, t, side="right") - 1, 0, 3)
@@ -244,6 +268,8 @@ def winding(logf, box: Box, *, n_initial: int = 64,  # noqa: ANN001
         bad = (np.abs(dph) > max_dphase) | (np.abs(dlt.real) > max_dlog)
         if math.isfinite(dip):
             bad |= _dips(t, dlt.real, perimeter, dip)
+        if math.isfinite(grade):
+            bad |= _graded(t, dph, perimeter, grade)
         return dph, bad
 
     t = np.linspace(0.0, perimeter, 4 * n_initial, endpoint=False)

@@ -130,12 +130,12 @@ def test_a_row_of_zeros_outside_the_edge_is_counted_with_the_grading_rule(seed):
     when a neighbour's rate of turn times its length exceeds it) does not let an interval stay
     long beside a fast-turning neighbour. Measured (session 23) on 60 random rows per seed
     (20-200 zeros ``Re = 0.125 - d``, spacing ``s`` = 1e-3 .. 3e-2, ``d/s`` = 0.1 .. 3, and one
-    zero inside near them), 16 initial samples a side: wrong without the rule 40, 30, 37, 36,
-    38 of 60 (seeds 0, 1, 3, 4, 5; of them 5, 1, 2, 3, 6 not resolved, the rest a wrong
-    count), with ``MAX_GRADE = pi / 2`` none (with ``pi``: 1 each at seeds 1 and 3; a row
-    0.12 s from the edge at seed 1), 8 900 samples per count on average against 14 600 (seed
-    0). Here 12 rows: all right with the rule, at least a quarter wrong (or not resolved)
-    without it."""
+    zero inside near them), 16 initial samples a side: wrong without the rule 40, 30, 37, 37,
+    36, 38 of 60 (seeds 0 .. 5; at seeds 0, 1, 3, 4, 5 of them 5, 1, 2, 3, 6 not resolved,
+    the rest a wrong count), with ``MAX_GRADE = pi / 2`` none (with ``pi``: 1 each at seeds 1
+    and 3; a row 0.12 s from the edge at seed 1), 8 900 samples per count on average against
+    14 600 (seed 0). Here 12 rows: all right with the rule, at least a quarter wrong (or not
+    resolved) without it."""
     rng = np.random.default_rng(seed)
     wrong = 0
     for _ in range(12):

@@ -75,7 +75,8 @@ MAX_DIP = 1.5
 #: every level (session 22: the L = 32 block's left edge near ``Im = 81.45``, two intervals
 #: 8x longer than their neighbours, each turning -5.7 rad, read +0.86 and +0.60). Session 23,
 #: 60 random rows of 20-200 zeros outside an edge per seed (tests/test_region_solver.py):
-#: 30-40 of 60 wrong or unresolved without it, none with ``pi / 2`` (2 of 360 with ``pi``),
+#: 30-40 of 60 wrong or unresolved without it (218 of 360), none with ``pi / 2`` (2 of 360 with
+#: ``pi``),
 #: with fewer samples (8 900 per count against 14 600: the levels agree sooner); the 600-zero
 #: test's counts 0.2 % more samples, the block L = 4's box above 1.1 % (2 135 -> 2 158).
 MAX_GRADE = math.pi / 2

@@ -133,7 +133,7 @@ def test_a_row_of_zeros_outside_the_edge_is_counted_with_the_grading_rule(seed):
     zero inside near them), 16 initial samples a side: wrong without the rule 40, 30, 37, 37,
     36, 38 of 60 (seeds 0 .. 5; at seeds 0, 1, 3, 4, 5 of them 5, 1, 2, 3, 6 not resolved,
     the rest a wrong count), with ``MAX_GRADE = pi / 2`` none (with ``pi``: 1 each at seeds 1
-    and 3; a row 0.12 s from the edge at seed 1), 8 900 samples per count on average against
+    and 3; at seed 1 a row ``d = 0.12 s`` from the edge), 8 900 samples per count on average against
     14 600 (seed 0). Here 12 rows: all right with the rule, at least a quarter wrong (or not
     resolved) without it."""
     rng = np.random.default_rng(seed)
@@ -189,10 +189,9 @@ def _edge_cluster_operator():
 @pytest.mark.parametrize("nev", [3, 4, 12])
 def test_region_solver_verifies_a_short_count(nev, nearest_only, monkeypatch):
     """Without the dip and grading rules (``MAX_DIP = MAX_GRADE = inf``) the first count is
-    7 (above). SLEPc converges
-    all 9 in the first tile here (found 9 >
-    counted 7); with ``nearest_only`` each tile keeps just its ``nev`` pairs nearest the shift,
-    so the tiles stop at 8 (measured, nev = 3, 4). Either way the verification (the count
+    7 (above). SLEPc converges all 9 in the first tile here (found 9 > counted 7); with
+    ``nearest_only`` each tile keeps just its ``nev`` pairs nearest the shift, so the tiles
+    stop at 8 (measured, nev = 3, 4). Either way the verification (the count
     with the found values divided out) says how many are missing, the remaining tiles find
     them, and the result closes at 9; without it (``MAX_RECOUNTS = 0``) it does not close.
     (``nev = 2`` with ``nearest_only``: 8 found, counted 9, not closed: tiles of radius below

@@ -75,10 +75,10 @@ MAX_DIP = 1.5
 #: every level (session 22: the L = 32 block's left edge near ``Im = 81.45``, two intervals
 #: 8x longer than their neighbours, each turning -5.7 rad, read +0.86 and +0.60). Session 23,
 #: 60 random rows of 20-200 zeros outside an edge per seed (tests/test_region_solver.py):
-#: 30-40 of 60 wrong or unresolved without it (218 of 360), none with ``pi / 2`` (2 of 360 with
-#: ``pi``),
-#: with fewer samples (8 900 per count against 14 600: the levels agree sooner); the 600-zero
-#: test's counts 0.2 % more samples, the block L = 4's box above 1.1 % (2 135 -> 2 158).
+#: 30-40 of 60 wrong or unresolved without it (218 of 360), none with ``pi / 2`` (2 of 360
+#: with ``pi``), with fewer samples (8 900 per count against 14 600: the levels agree sooner);
+#: the 600-zero test's counts 0.2 % more samples, the block L = 4's box above 1.1 % (2 135 ->
+#: 2 158).
 MAX_GRADE = math.pi / 2
 
 #: Most verification counts of one :meth:`RegionSolver.solve` (each followed by more tiles
@@ -174,28 +174,43 @@ def _contour(box: Box) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return corners, lengths, np.concatenate([[0.0], np.cumsum(lengths)])
 
 
-def _dips(t: np.ndarray, dl: np.ndarray, perimeter: float, max_dip: float) -> np.ndarray:
+def _dips(h: np.ndarray, dl: np.ndarray, max_dip: float) -> np.ndarray:
     """Intervals at a steep local minimum of ``log|F|`` (:data:`MAX_DIP`).
 
-    ``dl[i]``: the change of ``log|F|`` over interval ``i`` (``t_i .. t_(i+1)``, cyclic). Flagged:
-    ``log|F|`` falls over interval ``i - 1`` and rises over ``i + 1``, and the steeper of the two
-    slopes times interval ``i``'s length exceeds ``max_dip``.
+    ``h[i]``, ``dl[i]``: the length of interval ``i`` (``t_i .. t_(i+1)``, cyclic) and the change
+    of ``log|F|`` over it. Flagged: ``log|F|`` falls over interval ``i - 1`` and rises over
+    ``i + 1``, and the steeper of the two slopes times interval ``i``'s length exceeds
+    ``max_dip``.
     """
-    h = np.append(t[1:], t[0] + perimeter) - t
     slope = dl / h
     left, right = np.roll(slope, 1), np.roll(slope, -1)
     return (left < 0) & (right > 0) & (h * np.maximum(-left, right) > max_dip)
 
 
-def _graded(t: np.ndarray, dph: np.ndarray, perimeter: float, max_grade: float) -> np.ndarray:
+def _graded(h: np.ndarray, dph: np.ndarray, max_grade: float) -> np.ndarray:
     """Intervals longer than a fast-turning neighbour allows (:data:`MAX_GRADE`).
 
-    ``dph[i]``: the wrapped phase increment over interval ``i`` (cyclic). Flagged: a neighbour's
-    rate of turn ``|dph| / h`` times interval ``i``'s length exceeds ``max_grade``.
+    ``h[i]``, ``dph[i]``: the length of interval ``i`` (cyclic) and the wrapped phase increment
+    over it. Flagged: a neighbour's rate of turn ``|dph| / h`` times interval ``i``'s length
+    exceeds ``max_grade``.
     """
-    h = np.append(t[1:], t[0] + perimeter) - t
     rate = np.abs(dph) / h
     return h * np.maximum(np.roll(rate, 1), np.roll(rate, -1)) > max_grade
+
+
+def _dips_and_grading(t: np.ndarray, perimeter: float, dl: np.ndarray, dph: np.ndarray,
+                      max_dip: float, max_grade: float) -> np.ndarray:
+    """The intervals :func:`_dips` or :func:`_graded` flags (a rule is off at ``inf``).
+
+    The intervals' lengths are computed once for both rules.
+    """
+    h = np.append(t[1:], t[0] + perimeter) - t
+    out = np.zeros(t.size, dtype=bool)
+    if math.isfinite(max_dip):
+        out |= _dips(h, dl, max_dip)
+    if math.isfinite(max_grade):
+        out |= _graded(h, dph, max_grade)
+    return out
 
 
 def arc_position(box: Box, z: complex) -> tuple[float, float]:
@@ -267,11 +282,7 @@ def winding(logf, box: Box, *, n_initial: int = 64,  # noqa: ANN001
         dlt = np.append(f[1:], f[:1]) - f
         dph = _wrap(dlt.imag)
         bad = (np.abs(dph) > max_dphase) | (np.abs(dlt.real) > max_dlog)
-        if math.isfinite(dip):
-            bad |= _dips(t, dlt.real, perimeter, dip)
-        if math.isfinite(grade):
-            bad |= _graded(t, dph, perimeter, grade)
-        return dph, bad
+        return dph, bad | _dips_and_grading(t, perimeter, dlt.real, dph, dip, grade)
 
     t = np.linspace(0.0, perimeter, 4 * n_initial, endpoint=False)
     f = np.asarray(logf(point(t)), dtype=complex)

@@ -177,3 +177,41 @@ def test_the_cells_rule_of_each_degree_meets_rtol_on_the_hardest_root(degree):
     # P5 67: 6.5e-10, 33: 4.3e-7; P6 44: 4.0e-10, 22: 1.2e-6 (20 eigenvalues each)
     assert worst[cells] <= rtol, worst
     assert worst[cells // 2] > rtol, worst
+
+
+def test_largest_region_holds_every_box_used():
+    """The sweep's family plan region holds the box of every k: a taller box at small k
+    (hundreds of c_d) raises omega0, not c_max (at the sweep's largest k that c_max would
+    make a region many times too tall); without one it is the largest rung, as before."""
+    p, region = Params(bc="stress"), Region(c_max=None)
+    k, c = [0.05, 0.1, 3.0, 6.0], [600.0, 120.0, 12.0, 16.0]
+    big = sweep.largest_region(p, region, k, c)
+    assert big.c_max == 16.0 and big.omega_0(p) > region.omega_0(p)
+    for x, cc in zip(k, c, strict=True):
+        assert big.im_max(p, x) >= region.fixed(cc).im_max(p, x) * (1.0 - 1e-12)
+    assert big.im_max(p, 0.05) == pytest.approx(region.fixed(600.0).im_max(p, 0.05), rel=1e-12)
+    assert sweep.largest_region(p, region, k[2:], c[2:]) == region.fixed(16.0)
+    assert sweep.largest_region(p, region.fixed(4.0), k, c) == region.fixed(4.0)
+
+
+@pytest.mark.parametrize("nproc", [1, 2])
+def test_fe_climbs_beyond_the_ladder_without_analytic(tmp_path, nproc):
+    """Stress top, k = 0.05, 0.1: the top rung (32 c_d) does not prove the fastest mode; the FE
+    climbs to a taller box (taller_rungs) with analytic unavailable and proves it, with the
+    bounds, counts and values of the exact referee's default run."""
+    ref_out, out = str(tmp_path / "ref"), str(tmp_path / "fe")
+    ref = _scene(["--k", "0.05,0.1", "--bc", "stress"], ref_out)
+    assert ref.returncode == 0, ref.stderr[-2000:]
+    got = _scene(["--k", "0.05,0.1", "--bc", "stress", "--check-exact", "no"], out, nproc,
+                 NO_EXACT_REGION)
+    assert got.returncode == 0, got.stderr[-2000:]
+    (ra, sa), (rb, sb) = _read(ref_out), _read(out)
+    assert sa["region"]["exact_disagrees_at_k"] == []
+    assert [d["c_max"] for d in sb["per_k"]] == [d["c_max"] for d in sa["per_k"]]
+    assert min(d["c_max"] for d in sb["per_k"]) > C_LADDER[-1]  # beyond the ladder
+    assert [d["n_fe"] for d in sb["per_k"]] == [d["n_exact"] for d in sa["per_k"]]
+    assert all(d["fastest_proven"] for d in sa["per_k"] + sb["per_k"])
+    for k in {r["k"] for r in ra}:
+        va = _values([r for r in ra if r["k"] == k])
+        vb = _values([r for r in rb if r["k"] == k])
+        assert max(abs(va - vb) / abs(va)) < SAME_VALUE_RTOL

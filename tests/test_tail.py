@@ -11,7 +11,15 @@ import numpy as np
 import pytest
 
 from analytic.numerics.roots import zeros_in_box
-from analytic.numerics.spectrum import C_LADDER, Region, fastest_mode, fastest_root, provable_region
+from analytic.numerics.spectrum import (
+    C_LADDER,
+    Region,
+    exact_roots,
+    fastest_mode,
+    fastest_root,
+    provable_region,
+    taller_rungs,
+)
 from analytic.params import Params
 from analytic.physics.tail import tail_bound, velocity_scale, why_no_tail_bound
 
@@ -476,3 +484,52 @@ def test_a_tall_box_is_counted_with_enough_samples():
     assert m.c_max == 12.0 and m.proven and m.tail_bound < m.root.real
     z4 = fastest_root(p, k, Region(-0.01, 2.0, 4.0))[0]
     assert abs(m.root - z4) < 1e-12 * abs(z4)  # both Newton-polished: measured 0
+
+
+@pytest.mark.parametrize("k", [0.05, 0.1])
+def test_a_taller_box_proves_where_the_top_rung_does_not(k):
+    """Stress top, defaults, the default sweep's first k: the tail bound at the top rung (32 c_d)
+    is above the fastest root (these k were not proven before session 24); the first box of
+    taller_rungs whose bound is below proves it. Checked independently: one count and search
+    of the whole taller box (exact_roots) finds as many roots and the same fastest one, and the
+    roots computed beyond its height are below its tail bound."""
+    p, region = Params(bc="stress"), Region(-0.01, 2.0, None)
+    m = fastest_mode(p, k, region)
+    assert not tail_bound(p, k, region.fixed(C_LADDER[-1]).im_max(p, k)) < m.root.real
+    tall = taller_rungs(p, k, region)
+    assert m.c_max in tall and m.proven and m.tail_bound < m.root.real
+    for c in tall[:tall.index(m.c_max)]:  # no shorter box would prove it
+        assert not tail_bound(p, k, region.fixed(c).im_max(p, k)) < m.root.real
+    roots, _ = exact_roots(p, k, region.fixed(m.c_max).box(p, k))
+    assert len(roots) == m.count
+    # both Newton-polished roots of det_M: the same to rounding (measured 0 .. 4e-16)
+    assert max(r.value.real for r in roots) == pytest.approx(m.root.real, rel=1e-12)
+    w = region.fixed(m.c_max).im_max(p, k)
+    z = _band_roots(p, k, w, 3.0 * w)
+    assert len(z) > 0 and np.all(z.real < m.tail_bound)
+
+
+@pytest.mark.parametrize("between", [0, 1, 2, None])
+def test_taller_boxes_are_solved_only_where_their_bound_proves(between):
+    """Beyond the top rung, the first taller box whose bound is below the fastest value is the
+    only one solved (it holds the top rung's box, so it proves); with a fastest value below every
+    taller box's bound none is solved and the top rung is returned, not proven."""
+    p, k, region = Params(bc="stress"), 0.05, Region(c_max=None)
+    tall = taller_rungs(p, k, region)
+    tb = [tail_bound(p, k, region.fixed(c).im_max(p, k)) for c in (C_LADDER[-1], *tall)]
+    assert all(a > b for a, b in zip(tb[:-1], tb[1:], strict=True))  # taller, smaller bounds
+    fast = 0.5 * (tb[between + 1] + tb[between + 2]) if between is not None else 0.5 * tb[-1]
+    calls = []
+
+    def inside(c):
+        calls.append(c)
+        return fast
+
+    c, b = provable_region(p, k, region, inside)
+    if between is None:
+        assert (c, calls) == (C_LADDER[-1], [C_LADDER[0], C_LADDER[-1]]) and not b < fast
+    else:
+        assert c == tall[between + 1] and b < fast
+        assert calls == [C_LADDER[0], C_LADDER[-1], tall[between + 1]]
+    # a fixed region is never grown
+    assert provable_region(p, k, Region(c_max=32.0), inside)[0] == 32.0

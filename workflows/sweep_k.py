@@ -190,7 +190,7 @@ def write_outputs(out: str, params: Params, region: Region, k: np.ndarray,
                                      meta["check_exact"], layered)
     if plot:
         plot_dispersion(os.path.join(out, "dispersion.png"), params,
-                        sweep.largest_region(region, c_max_at_k), results, fams,
+                        sweep.largest_region(params, region, k, c_max_at_k), results, fams,
                         summary["most_unstable"], meta["parameters"])
     return summary
 

@@ -49,6 +49,14 @@ SEED_KH = 0.02
 
 #: Phase-velocity bounds tried by the adaptive region, in units of the largest ``c_d``.
 C_LADDER = (4.0, 6.0, 8.0, 12.0, 16.0, 24.0, 32.0)
+#: Box heights tried beyond the top rung of :data:`C_LADDER` when it does not prove, as
+#: multiples of the top rung's height ``W`` at ``k``; each is solved only where its tail bound
+#: is below the fastest value found (:func:`provable_region`). At small ``k`` the height is
+#: mostly ``omega0``, so a box twice as tall is a phase velocity of hundreds of ``c_d``.
+#: Measured (stress top, 5 x 5 map ``Delta`` -1 .. 1, ``H`` 0.1 .. 10, 24 ``kH``, session 23):
+#: 42 of the 600 ``k`` with a root were not proven at 32 ``c_d``, all at small ``kH``; every one
+#: is proven by a box at most 2.0x as tall (quantiles 1.02, 1.08, 1.29, 1.59, 1.98, 2.0).
+TALLER = (1.25, 1.5, 2.0, 3.0, 4.0)
 
 
 @dataclass(frozen=True)
@@ -128,8 +136,29 @@ class Region:
                            "velocity_scale + omega0 (phase velocities up to c_max times the "
                            "largest c_d of the stack, velocity_scale; c_max = auto: chosen per k "
                            f"from {list(C_LADDER)} until the tail bound, "
-                           "analytic.physics.tail, is below the fastest root inside)")
+                           "analytic.physics.tail, is below the fastest root inside; beyond "
+                           f"the top rung boxes {list(TALLER)} times as tall, each only where "
+                           "its tail bound is below the fastest root found)")
         return d
+
+
+def _ceil2(x: float) -> float:
+    """``x`` rounded up to two significant digits (readable bounds: 140 rather than 134.77)."""
+    e = 10.0 ** (math.floor(math.log10(x)) - 1)
+    return math.ceil(x / e - 1e-9) * e
+
+
+def taller_rungs(p: Params, k: float, region: Region) -> tuple[float, ...]:
+    """The phase-velocity bounds of the boxes :data:`TALLER` times as tall as the top rung's.
+
+    At ``k`` the top rung's height is ``W = C_LADDER[-1] k v + omega0`` (``v`` the velocity
+    scale); the box ``f W`` tall has ``c = C_LADDER[-1] + (f - 1) W / (k v)``, rounded up to
+    two significant digits (a box at least ``f W`` tall).
+    """
+    top = C_LADDER[-1]
+    w = region.fixed(top).im_max(p, k)
+    per_c = float(k) * velocity_scale(p)
+    return tuple(_ceil2(top + (f - 1.0) * w / per_c) for f in TALLER)
 
 
 def provable_region(p: Params, k: float, region: Region,
@@ -142,16 +171,21 @@ def provable_region(p: Params, k: float, region: Region,
     no root there), found by any method (exact roots, FE eigenvalues); the rung is accepted when
     :func:`analytic.physics.tail.tail_bound` at ``W = region.fixed(c).im_max(p, k)`` is below it
     (below ``re_min`` when there is no root). Rungs whose tail bound is not below the current
-    fastest value are skipped without calling ``fastest_inside``.
+    fastest value are skipped without calling ``fastest_inside``. When the top rung does not
+    prove, the boxes of :func:`taller_rungs` are tried in turn, each solved only where its
+    tail bound is below the fastest value found (so the first one solved proves; a taller box
+    whose bound is not below is never solved).
 
     Returns:
         ``(c_max_used, tail_bound)``. The fastest mode is proven to be inside
         ``region.fixed(c_max_used)`` iff ``tail_bound`` is not ``None`` and below the fastest
         root's ``Re`` there (:func:`proven`). ``tail_bound`` is ``None`` when no bound is
         derived for ``p`` (then ``c_max_used`` is the first rung); at the top rung the tail
-        bound may still be too large (not proven). A rung whose ``fastest_inside`` raises
+        bound may still be too large (not proven: even the tallest box's bound is not below
+        the fastest value). A rung whose ``fastest_inside`` raises
         :class:`ContourError` is passed over for the next one (the error is raised only at
-        the top rung or for a fixed region). Where the bound is known to be loose
+        the top rung or for a fixed region; a taller box's is passed over). Where the bound is
+        known to be loose
         (:func:`analytic.physics.tail.loose_tail_bound`: ``alpha_pc > 0``) the climb stops
         at the current rung, not proven, instead of solving a top rung whose bound is not
         below the fastest value found so far (``sweep_k.py --alpha-pc 1``: 22 s without a
@@ -172,8 +206,10 @@ def provable_region(p: Params, k: float, region: Region,
             continue
         target = re if re is not None else region.re_min
         tb = tail_bound(p, k, region.fixed(c).im_max(p, k))
-        if tb is None or tb < target or i == len(ladder) - 1:
+        if tb is None or tb < target:
             return c, tb
+        if i == len(ladder) - 1:
+            return _taller(p, k, region, fastest_inside, c, tb, target)
         # skip the rungs whose bound is not below the fastest value found so far
         i += 1
         while (i < len(ladder) - 1
@@ -182,6 +218,28 @@ def provable_region(p: Params, k: float, region: Region,
         if loose_tail_bound(p) and not tail_bound(p, k, region.fixed(ladder[i]).im_max(p, k)
                                                   ) < target:
             return c, tb  # a loose bound: the top rung would be solved for nothing (not proven)
+
+
+def _taller(p: Params, k: float, region: Region, fastest_inside: Callable[[float], float | None],
+            c: float, tb: float, target: float) -> tuple[float, float]:
+    """:func:`provable_region` beyond the top rung ``c`` (bound ``tb`` not below ``target``).
+
+    The first box of :func:`taller_rungs` whose tail bound is below ``target`` is solved: its
+    fastest value is at least ``target`` (it holds the top rung's box), so it proves. A fixed
+    region is not grown.
+    """
+    if region.c_max is not None:
+        return c, tb
+    for cf in taller_rungs(p, k, region):
+        tbf = tail_bound(p, k, region.fixed(cf).im_max(p, k))
+        if not tbf < target:
+            continue
+        try:
+            fastest_inside(cf)
+        except ContourError:
+            continue  # a root on its contour: the next taller box
+        return cf, tbf
+    return c, tb
 
 
 def proven(tail: float | None, fastest: float | None, region: Region) -> bool:
@@ -648,9 +706,10 @@ def fastest_mode(p: Params, k: float, region: Region, hint: float | None = None,
             # the accepted rung's contour is unusable (a root on it): the next rung holds the
             # same proof (a smaller tail bound), searched in its new bands and counted with
             # its edges elsewhere
-            if region.c_max is not None or c == C_LADDER[-1]:
+            above = [r for r in C_LADDER + taller_rungs(p, k, region) if r > c]
+            if region.c_max is not None or not above:
                 raise
-            c = C_LADDER[C_LADDER.index(c) + 1]
+            c = above[0]
             inside(c)
             tail = tail_bound(p, k, region.fixed(c).im_max(p, k))
     z = state["z"]

@@ -6,7 +6,7 @@ docs/design.md section 8. The steps of a sweep, each a call of the scene:
    which ``k`` are still to compute, so that a resumed sweep continues where it stopped;
 1b. :func:`region_at_k` (adaptive region, ``c_max = None``): at each ``k`` the phase-velocity
    bound that provably holds the fastest mode (:func:`analytic.numerics.spectrum.fastest_mode`,
-   exact roots); the largest of them (:func:`largest_region`) sets the family plan and the mesh;
+   exact roots); the region holding all of them (:func:`largest_region`) sets the family plan;
 2. :func:`family_plan` and :func:`follow_families` (only when the exact roots are checked,
    ``--check-exact yes``): every root family that can reach the region is followed in ``k`` by
    exact continuation; the families are shared over the ranks and gathered on all of them;
@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -233,7 +233,7 @@ def regions_at_k(params: Params, region: Region, k: np.ndarray, exact: bool,
     """
     got = mapper([1.0] * len(k), lambda i: region_at_k(params, region, float(k[i]), exact))
     c_at_k = [float(got[i]) for i in range(len(k))]
-    return c_at_k, largest_region(region, c_at_k)
+    return c_at_k, largest_region(params, region, k, c_at_k)
 
 
 def follow_all(comm: object, params: Params, region: Region, k: np.ndarray,
@@ -347,7 +347,10 @@ def sweep_meta(params: Params, k_spec: str, k: np.ndarray, merged: int, rungs: R
         resumed: The run continued an earlier one.
         computed: ``k`` values computed in this run.
     """
-    meta = run_meta(params, k_spec, k, merged, rungs.discretisation(max(used)), share,
+    # the largest ladder rung's mesh at k_max (a taller box beyond the ladder, at small k, has a
+    # mesh planned for its small k: rung_table lists the meshes of every rung used)
+    meta = run_meta(params, k_spec, k, merged,
+                    rungs.discretisation(largest_rung(used)), share,
                     rungs.rtol, solver, check_exact, {"ranks": len(per_rank),
                                                       "per_rank": per_rank},
                     resumed, computed)
@@ -355,9 +358,30 @@ def sweep_meta(params: Params, k_spec: str, k: np.ndarray, merged: int, rungs: R
     return meta
 
 
-def largest_region(region: Region, c_max_at_k: Sequence[float]) -> Region:
-    """The region with the largest bound used at any ``k``: the family plan and the mesh."""
-    return region.fixed(max(c_max_at_k)) if region.c_max is None else region
+def largest_rung(c_max_at_k: Sequence[float]) -> float:
+    """The largest bound of :data:`analytic.numerics.spectrum.C_LADDER` used.
+
+    Taller boxes are left out (the first rung when every ``k`` used one).
+    """
+    return max((c for c in c_max_at_k if c <= C_LADDER[-1]), default=C_LADDER[0])
+
+
+def largest_region(params: Params, region: Region, k: Sequence[float],
+                   c_max_at_k: Sequence[float]) -> Region:
+    """The smallest region of the sweep's form that holds the box used at every ``k``.
+
+    The family plan and the plot use it. Its bound is the largest ladder rung used
+    (:data:`analytic.numerics.spectrum.C_LADDER`); a taller box beyond the ladder's top
+    (:func:`analytic.numerics.spectrum.taller_rungs`, small ``k``) raises its ``omega0``
+    instead: its ``c_max`` (e.g. 190 ``c_d`` at ``kH = 0.05``) at the sweep's largest ``k`` would
+    be a region many times too tall to plan families in.
+    """
+    if region.c_max is not None:
+        return region
+    big = region.fixed(largest_rung(c_max_at_k))
+    lift = max(region.fixed(c).im_max(params, float(x)) - big.im_max(params, float(x))
+               for c, x in zip(c_max_at_k, k, strict=True))
+    return big if lift <= 0.0 else replace(big, omega0=big.omega_0(params) + lift)
 
 
 def family_plan(comm: object, params: Params, region: Region, k_max: float

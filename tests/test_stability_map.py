@@ -13,7 +13,7 @@ from _workflows import run_workflow
 from analytic import Params, roots_in_box
 from analytic.numerics.branches import spectrum_function
 from analytic.numerics.roots import count_zeros
-from analytic.numerics.spectrum import Region, fastest_root
+from analytic.numerics.spectrum import C_LADDER, Region, exact_roots, fastest_mode, fastest_root
 from analytic.physics.tail import tail_bound
 from analytic.studies.stability_map import closed_form_delta, kh_grid, map_point, parse_axis
 
@@ -194,6 +194,8 @@ def test_committed_maps_close_every_count_and_their_h0_1_row_is_the_fastest_root
     same root)."""
     rows = _rows(Path(RESULTS) / f"stability_map_{top}")
     assert len(rows) == 63 and all(int(r["failed_counts"]) == 0 for r in rows)
+    # session 24: every grid k with a root proven (boxes beyond the ladder's top where needed)
+    assert all(r["proven_k_count"] == r["unstable_k_count"] for r in rows)
     hmax = [float(r["y"]) * float(r["re_lambda"]) for r in rows if float(r["y"]) <= 1.0 + 1e-9]
     assert lo - 5e-4 <= min(hmax) and max(hmax) <= hi + 5e-4
     r = next(r for r in rows if r["ix"] == "0" and r["iy"] == "0")  # Delta = -1, H = 0.1
@@ -212,6 +214,7 @@ def test_committed_41_by_41_velocity_map_and_its_reading():
     c_d), one on the plateau (above it), each to 1e-8 (both polish the same root)."""
     rows = _rows(Path(RESULTS) / "stability_map_velocity_41")
     assert len(rows) == 41 * 41 and all(int(r["failed_counts"]) == 0 for r in rows)
+    assert all(r["proven_k_count"] == r["unstable_k_count"] for r in rows)  # session 24
     assert not any(r["stable_on_grid"] == "True" for r in rows)
     slow = [r for r in rows if float(r["phase_velocity_over_c_d"]) <= 1.0]
     assert slow and all(1.5 < float(r["y"]) < 6.4 and float(r["x"]) <= -0.45 + 1e-9
@@ -240,6 +243,8 @@ def test_committed_41_by_41_stress_map_against_the_63_point_map_and_fastest_root
     band counts) at their ``k``: one slow, one on the plateau, each to 1e-8."""
     rows = _rows(Path(RESULTS) / "stability_map_stress_41")
     assert len(rows) == 41 * 41 and all(int(r["failed_counts"]) == 0 for r in rows)
+    # session 24: every grid k with a root proven (38 557 of 40 344 before the taller boxes)
+    assert all(r["proven_k_count"] == r["unstable_k_count"] for r in rows)
     assert not any(r["stable_on_grid"] == "True" for r in rows)
     slow = [r for r in rows if float(r["phase_velocity_over_c_d"]) <= 1.0]
     assert slow and all(0.85 < float(r["y"]) < 4.6 and float(r["x"]) <= 1e-9 for r in slow)
@@ -259,3 +264,25 @@ def test_committed_41_by_41_stress_map_against_the_63_point_map_and_fastest_root
         zf = fastest_root(p, float(r["k"]), Region(1e-6, 2.0, None))[0]
         assert abs(zf - z) <= 1e-8 * abs(z)
     assert float(fast["phase_velocity_over_c_d"]) > 1.0
+
+
+def test_committed_stress_map_point_beyond_the_ladder_is_proven_by_the_whole_box():
+    """The committed 63-point stress map's point with the tallest box (c_max_largest beyond the
+    ladder's top, 32 c_d: an H = 0.1 point): at the grid k where the adaptive region goes
+    beyond the ladder, one count and search of the whole box (exact_roots, not the map's band
+    counts) holds a root whose Re is above the tail bound at the box's edge, and the bound at
+    the ladder's top is not (the taller box was needed)."""
+    rows = _rows(Path(RESULTS) / "stability_map_stress")
+    r = max(rows, key=lambda r: float(r["c_max_largest"]))
+    assert float(r["c_max_largest"]) > C_LADDER[-1]
+    p = Params(bc="stress", Delta=float(r["x"]), H=float(r["y"]))
+    region = Region(1e-6, 2.0, None)
+    tall = [k for kh in kh_grid(0.05, 10.0, 16) for k in [float(kh) / p.H]
+            if fastest_mode(p, k, region).c_max > C_LADDER[-1]]
+    assert tall
+    k = tall[0]
+    c = fastest_mode(p, k, region).c_max
+    roots, _ = exact_roots(p, k, region.fixed(c).box(p, k))
+    fastest = max(z.value.real for z in roots)
+    assert tail_bound(p, k, region.fixed(c).im_max(p, k)) < fastest
+    assert not tail_bound(p, k, region.fixed(C_LADDER[-1]).im_max(p, k)) < fastest

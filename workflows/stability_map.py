@@ -157,7 +157,8 @@ COVERAGE = ("at every k H of the geometric grid, certified counts (argument prin
             "region's); the two largest local maxima of the samples refined "
             "along their root family; nothing is proven between grid points; proven_k_count: "
             "the grid k at which the tail bound proves that no root beyond the region grows "
-            "faster (with c_max auto the region grows until it does, up to the ladder's top)")
+            "faster (with c_max auto the region grows until it does: the ladder to 32 c_d, then "
+            "boxes up to 4x as tall, each solved only where its tail bound proves)")
 
 
 def plot(path: str, rows: list[dict], x: tuple, y: tuple, base: object, meta: dict) -> None:

@@ -289,3 +289,24 @@ def test_plateau_dependence_panels():
     assert apc[0.0] == pytest.approx(z.real * p.H, rel=1e-12) and abs(apc[1.0]) <= 1e-4 * apc[0]
     fg = [(v, w) for v, w in dep["f_gamma"] if v >= 0.3]
     assert all(b[1] > a[1] for a, b in zip(fg, fg[1:], strict=False))
+
+
+@pytest.mark.parametrize("top", ["stress", "velocity"])
+def test_committed_envelopes_are_proven_at_every_sample(top):
+    """README (session 24): the committed envelopes (workflows/results/envelope_*) say the
+    fastest mode is proven at every sample; recomputed independently at the smallest k (where
+    the stress top's box goes beyond the ladder's top, 32 c_d): fastest_mode proves it and gives
+    the same Re Lambda (both Newton-polished roots of det_M: measured equal to 1e-15)."""
+    import os
+    folder = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+                          "workflows", "results", f"envelope_{top}")
+    with open(os.path.join(folder, "envelope.csv")) as fh:
+        rows = list(csv.DictReader(fh))
+    s = json.loads(open(os.path.join(folder, "summary.json")).read())
+    assert [r["fastest_proven"] for r in rows] == ["1"] * len(rows)
+    assert s["fastest_proven"]["proven_k"] == s["fastest_proven"]["k_with_root"] == len(rows)
+    r = min(rows, key=lambda r: float(r["k"]))
+    m = fastest_mode(Params(bc=top), float(r["k"]), Region(c_max=None))
+    assert m.proven and m.root.real == pytest.approx(float(r["re_lambda_max"]), rel=1e-10)
+    if top == "stress":
+        assert m.c_max > 32.0  # beyond the ladder's top

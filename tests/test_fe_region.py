@@ -215,3 +215,24 @@ def test_fe_climbs_beyond_the_ladder_without_analytic(tmp_path, nproc):
         va = _values([r for r in ra if r["k"] == k])
         vb = _values([r for r in rb if r["k"] == k])
         assert max(abs(va - vb) / abs(va)) < SAME_VALUE_RTOL
+
+
+def test_committed_stress_sweep_is_proven_at_every_k_with_the_exact_ladder():
+    """README (session 24): the committed default stress sweep (workflows/results/sweep_k_stress)
+    proves the fastest mode at all 120 k, 1 817 eigenvalues, with boxes beyond the ladder's top
+    at its three smallest k; the exact roots' ladder (fastest_mode), recomputed here, chooses
+    the same bound there and finds as many roots in each box as the FE rows."""
+    folder = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+                          "workflows", "results", "sweep_k_stress")
+    with open(os.path.join(folder, "summary.json")) as fh:
+        s = json.load(fh)
+    per_k = s["per_k"]
+    assert len(per_k) == 120 and all(d["fastest_proven"] and d["closed"] for d in per_k)
+    assert s["certificate"]["rows"] == sum(d["n_fe"] for d in per_k) == 1817
+    tall = [d for d in per_k if d["c_max"] > C_LADDER[-1]]
+    assert [d["k"] for d in tall] == [d["k"] for d in per_k[:3]]
+    from analytic.numerics.spectrum import fastest_mode
+    p = Params(bc="stress")
+    for d in tall:
+        m = fastest_mode(p, d["k"], Region(c_max=None))
+        assert m.proven and m.c_max == d["c_max"] and m.count == d["n_fe"]

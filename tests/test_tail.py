@@ -486,7 +486,7 @@ def test_a_tall_box_is_counted_with_enough_samples():
     assert abs(m.root - z4) < 1e-12 * abs(z4)  # both Newton-polished: measured 0
 
 
-@pytest.mark.parametrize("k", [0.05, 0.1])
+@pytest.mark.parametrize("k", [0.05, 0.1, 0.15])
 def test_a_taller_box_proves_where_the_top_rung_does_not(k):
     """Stress top, defaults, the default sweep's first k: the tail bound at the top rung (32 c_d)
     is above the fastest root (these k were not proven before session 24); the first box of

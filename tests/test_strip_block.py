@@ -792,7 +792,7 @@ def test_committed_velocity_L32_tall_box_closes_with_the_low_box_set():
 #: (session 23), re-run in session 24 with both (the same commands): README "re-counted".
 RECOUNTED = ["velocity_complete_fine_L16", "velocity_complete_L32", "stress_complete",
              "velocity_complete_fine", "stress_complete_fine", "velocity_complete_L16",
-             "stress_complete_wide"]
+             "stress_complete_wide", "stress_complete_L16"]
 
 
 @pytest.mark.serial

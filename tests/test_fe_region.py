@@ -201,6 +201,11 @@ def test_largest_region_holds_every_box_used():
     assert big.im_max(p, 0.05) == pytest.approx(region.fixed(600.0).im_max(p, 0.05), rel=1e-12)
     assert sweep.largest_region(p, region, k[2:], c[2:]) == region.fixed(16.0)
     assert sweep.largest_region(p, region.fixed(4.0), k, c) == region.fixed(4.0)
+    # the mesh summary.json describes: the largest ladder rung, or a fixed bound above the
+    # ladder's top as it is (a fixed --c-max 40 was described by the 4 c_d mesh, 7 cells
+    # against 21, before this was mended)
+    assert sweep.largest_rung(c) == 16.0 and sweep.largest_rung([40.0, 40.0]) == 40.0
+    assert sweep.largest_rung([600.0, 120.0]) == 600.0
 
 
 @pytest.mark.serial  # pure numpy

@@ -208,8 +208,9 @@ def provable_region(p: Params, k: float, region: Region,
         tb = tail_bound(p, k, region.fixed(c).im_max(p, k))
         if tb is None or tb < target:
             return c, tb
-        if i == len(ladder) - 1:
-            return _taller(p, k, region, fastest_inside, c, tb, target)
+        if i == len(ladder) - 1:  # the top; a fixed region is never grown
+            return (c, tb) if region.c_max is not None else _taller(p, k, region,
+                                                                    fastest_inside, c, tb, target)
         # skip the rungs whose bound is not below the fastest value found so far
         i += 1
         while (i < len(ladder) - 1
@@ -225,11 +226,8 @@ def _taller(p: Params, k: float, region: Region, fastest_inside: Callable[[float
     """:func:`provable_region` beyond the top rung ``c`` (bound ``tb`` not below ``target``).
 
     The first box of :func:`taller_rungs` whose tail bound is below ``target`` is solved: its
-    fastest value is at least ``target`` (it holds the top rung's box), so it proves. A fixed
-    region is not grown.
+    fastest value is at least ``target`` (it holds the top rung's box), so it proves.
     """
-    if region.c_max is not None:
-        return c, tb
     for cf in taller_rungs(p, k, region):
         tbf = tail_bound(p, k, region.fixed(cf).im_max(p, k))
         if not tbf < target:
@@ -706,8 +704,10 @@ def fastest_mode(p: Params, k: float, region: Region, hint: float | None = None,
             # the accepted rung's contour is unusable (a root on it): the next rung holds the
             # same proof (a smaller tail bound), searched in its new bands and counted with
             # its edges elsewhere
+            if region.c_max is not None:
+                raise
             above = [r for r in C_LADDER + taller_rungs(p, k, region) if r > c]
-            if region.c_max is not None or not above:
+            if not above:
                 raise
             c = above[0]
             inside(c)

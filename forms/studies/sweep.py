@@ -359,11 +359,12 @@ def sweep_meta(params: Params, k_spec: str, k: np.ndarray, merged: int, rungs: R
 
 
 def largest_rung(c_max_at_k: Sequence[float]) -> float:
-    """The largest bound of :data:`analytic.numerics.spectrum.C_LADDER` used.
+    """The largest bound used, leaving out taller boxes when a ladder rung was used too.
 
-    Taller boxes are left out (the first rung when every ``k`` used one).
+    The ladder is :data:`analytic.numerics.spectrum.C_LADDER`. When every bound is above its
+    top (taller boxes at small ``k`` only, or a fixed ``--c-max`` above 32): the largest.
     """
-    return max((c for c in c_max_at_k if c <= C_LADDER[-1]), default=C_LADDER[0])
+    return max((c for c in c_max_at_k if c <= C_LADDER[-1]), default=max(c_max_at_k))
 
 
 def largest_region(params: Params, region: Region, k: Sequence[float],

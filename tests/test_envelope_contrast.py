@@ -3,6 +3,7 @@ checked against the exact roots they are built on; direct tests of analytic.stud
 
 import csv
 import json
+import os
 
 import numpy as np
 import pytest
@@ -297,12 +298,12 @@ def test_committed_envelopes_are_proven_at_every_sample(top):
     fastest mode is proven at every sample; recomputed independently at the smallest k (where
     the stress top's box goes beyond the ladder's top, 32 c_d): fastest_mode proves it and gives
     the same Re Lambda (both Newton-polished roots of det_M: measured equal to 1e-15)."""
-    import os
     folder = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
                           "workflows", "results", f"envelope_{top}")
     with open(os.path.join(folder, "envelope.csv")) as fh:
         rows = list(csv.DictReader(fh))
-    s = json.loads(open(os.path.join(folder, "summary.json")).read())
+    with open(os.path.join(folder, "summary.json")) as fh:
+        s = json.load(fh)
     assert [r["fastest_proven"] for r in rows] == ["1"] * len(rows)
     assert s["fastest_proven"]["proven_k"] == s["fastest_proven"]["k_with_root"] == len(rows)
     r = min(rows, key=lambda r: float(r["k"]))

@@ -803,8 +803,8 @@ def test_older_block_certificates_recounted_with_todays_rules(folder):
     and counted, and the same eigenvalues to the CSVs' 12 digits (measured: 0 .. 1.8e-13
     relative): no eigenvalue the older count rules could have hidden from both the count and
     the tiles."""
-    old_rows, old = _results(os.path.join(REGULARISED, folder))
-    new_rows, new = _results(os.path.join(REGULARISED, "recount_session24", folder))
+    _, old = _results(os.path.join(REGULARISED, folder))
+    _, new = _results(os.path.join(REGULARISED, "recount_session24", folder))
     assert new["command"].split("--out")[0].split("finite_block.py")[1] == \
         old["command"].split("--out")[0].split("finite_block.py")[1].replace(" --resume", "")
     for length, cert in old["certificates"].items():

@@ -789,22 +789,24 @@ def test_committed_velocity_L32_tall_box_closes_with_the_low_box_set():
 
 
 #: Complete block searches committed before the count's dip rule (session 22) and grading rule
-#: (session 23), re-run in session 24 with both (the same commands): README "re-counted".
-RECOUNTED = ["velocity_complete_fine_L16", "velocity_complete_L32", "stress_complete",
-             "velocity_complete_fine", "stress_complete_fine", "velocity_complete_L16",
-             "stress_complete_wide", "stress_complete_L16"]
+#: (session 23), re-run with both (the same commands) in session 24 and 25: README "re-counted".
+RECOUNTED = [("recount_session24", f) for f in [
+    "velocity_complete_fine_L16", "velocity_complete_L32", "stress_complete",
+    "velocity_complete_fine", "stress_complete_fine", "velocity_complete_L16",
+    "stress_complete_wide", "stress_complete_L16"]] + [
+    ("recount_session25", "velocity_complete_L64")]
 
 
 @pytest.mark.serial
-@pytest.mark.parametrize("folder", RECOUNTED)
-def test_older_block_certificates_recounted_with_todays_rules(folder):
-    """Each re-run (workflows/results/finite_block_regularised/recount_session24/<folder>, the
+@pytest.mark.parametrize(("session", "folder"), RECOUNTED)
+def test_older_block_certificates_recounted_with_todays_rules(session, folder):
+    """Each re-run (workflows/results/finite_block_regularised/<session>/<folder>, the
     original's command with the count's dip and grading rules) closes with the original's found
     and counted, and the same eigenvalues to the CSVs' 12 digits (measured: 0 .. 1.8e-13
     relative): no eigenvalue the older count rules could have hidden from both the count and
     the tiles."""
     _, old = _results(os.path.join(REGULARISED, folder))
-    _, new = _results(os.path.join(REGULARISED, "recount_session24", folder))
+    _, new = _results(os.path.join(REGULARISED, session, folder))
     assert new["command"].split("--out")[0].split("finite_block.py")[1] == \
         old["command"].split("--out")[0].split("finite_block.py")[1].replace(" --resume", "")
     for length, cert in old["certificates"].items():

@@ -112,3 +112,51 @@ def test_det_m_special_points_take_the_array_path(special: str) -> None:
         small = finite_h.det_M(np.array([z, 0.5 + 2j]), k, p)
         big = finite_h.det_M(np.array([z, 0.5 + 2j] + [0.1 + 1j] * 20), k, p)[:2]
     np.testing.assert_array_equal(small[:1], big[:1])
+
+
+def det4_loop(m: list[list[complex]]) -> complex:
+    """``finite_h._det4`` as it was before session 25: the loop over columns."""
+    m = [list(r) for r in m]
+    d: complex = 1.0
+    for j in range(3):
+        piv, best = j, abs(m[j][j].real) + abs(m[j][j].imag)
+        for i in range(j + 1, 4):
+            v = abs(m[i][j].real) + abs(m[i][j].imag)
+            if v > best:
+                piv, best = i, v
+        if piv != j:
+            m[j], m[piv] = m[piv], m[j]
+            d = -d
+        rj = m[j]
+        a = rj[j]
+        if a == 0:
+            return 0j
+        d *= a
+        for i in range(j + 1, 4):
+            ri = m[i]
+            f = ri[j] / a
+            for c in range(j + 1, 4):
+                ri[c] -= f * rj[c]
+    return d * m[3][3]
+
+
+@pytest.mark.parametrize("kind", ["random", "tiny row", "equal pivots", "singular", "waves"])
+def test_det4_written_out_equals_the_loop_bit_for_bit(kind: str) -> None:
+    """The written-out ``_det4`` takes the loop's pivots and operations: the same bits."""
+    rng = np.random.default_rng(7)
+    for _ in range(2000):
+        a = rng.normal(size=(4, 4)) + 1j * rng.normal(size=(4, 4))
+        if kind == "tiny row":
+            a[rng.integers(4)] *= 1e-9
+        elif kind == "equal pivots":  # ties in |Re| + |Im|: the first row wins in both
+            a[:, rng.integers(3)] = rng.choice([1.0, -1.0, 1j, -1j], size=4)
+        elif kind == "singular":  # a zero pivot on the way
+            a[:, 0] = 0.0
+        elif kind == "waves":
+            z = complex(rng.normal() * 0.5, rng.normal() * 30)
+            k = float(rng.uniform(0.05, 50))
+            ks, kd = wavenumbers(z, k, 0.5)
+            a = finite_h._waves_matrix(np.asarray(z), k, ks, kd, Params(bc="stress"))
+        rows = a.tolist()
+        new, old = finite_h._det4(rows), det4_loop(rows)
+        assert (new.real, new.imag) == (old.real, old.imag) or (new == old == 0)

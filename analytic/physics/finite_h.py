@@ -277,32 +277,77 @@ SMALL_CALL = 8
 
 
 def _det4(m: list[list[complex]]) -> complex:
-    """Determinant of a 4 x 4 matrix (rows as lists, overwritten) by LU with partial pivoting.
+    """Determinant of a 4 x 4 matrix (rows as lists) by LU with partial pivoting.
 
     The pivot is the entry of largest ``|Re| + |Im|`` (LAPACK's ``izamax``, which
-    ``numpy.linalg.det`` uses).
+    ``numpy.linalg.det`` uses; the first such row on a tie). Written out column by column: the
+    operations, their order and the row swaps of the loop over columns it replaced (kept as
+    the reference in tests/test_det_m_fast.py, equal bit for bit), without its loops and
+    indexing, which were most of its cost (session 25: 10.4 -> 4.4 us a call; one call per
+    point of every Newton step of ``analytic``).
     """
+    r0, r1, r2, r3 = m
     d: complex = 1.0
-    for j in range(3):
-        piv, best = j, abs(m[j][j].real) + abs(m[j][j].imag)
-        for i in range(j + 1, 4):
-            v = abs(m[i][j].real) + abs(m[i][j].imag)
-            if v > best:
-                piv, best = i, v
-        if piv != j:
-            m[j], m[piv] = m[piv], m[j]
-            d = -d
-        rj = m[j]
-        a = rj[j]
-        if a == 0:
-            return 0j
-        d *= a
-        for i in range(j + 1, 4):
-            ri = m[i]
-            f = ri[j] / a
-            for c in range(j + 1, 4):
-                ri[c] -= f * rj[c]
-    return d * m[3][3]
+    # column 0: pivot, then the 3 x 3 Schur complement x1, x2, x3
+    z = r0[0]
+    best, piv = abs(z.real) + abs(z.imag), 0
+    z = r1[0]
+    if (v := abs(z.real) + abs(z.imag)) > best:
+        best, piv = v, 1
+    z = r2[0]
+    if (v := abs(z.real) + abs(z.imag)) > best:
+        best, piv = v, 2
+    z = r3[0]
+    if abs(z.real) + abs(z.imag) > best:
+        piv = 3
+    if piv == 1:
+        r0, r1, d = r1, r0, -d
+    elif piv == 2:
+        r0, r2, d = r2, r0, -d
+    elif piv == 3:
+        r0, r3, d = r3, r0, -d
+    a = r0[0]
+    if a == 0:
+        return 0j
+    d *= a
+    a1, a2, a3 = r0[1], r0[2], r0[3]
+    f = r1[0] / a
+    x1 = (r1[1] - f * a1, r1[2] - f * a2, r1[3] - f * a3)
+    f = r2[0] / a
+    x2 = (r2[1] - f * a1, r2[2] - f * a2, r2[3] - f * a3)
+    f = r3[0] / a
+    x3 = (r3[1] - f * a1, r3[2] - f * a2, r3[3] - f * a3)
+    # column 1: pivot among x1, x2, x3, then the 2 x 2 complement y2, y3
+    z = x1[0]
+    best, piv = abs(z.real) + abs(z.imag), 1
+    z = x2[0]
+    if (v := abs(z.real) + abs(z.imag)) > best:
+        best, piv = v, 2
+    z = x3[0]
+    if abs(z.real) + abs(z.imag) > best:
+        piv = 3
+    if piv == 2:
+        x1, x2, d = x2, x1, -d
+    elif piv == 3:
+        x1, x3, d = x3, x1, -d
+    a = x1[0]
+    if a == 0:
+        return 0j
+    d *= a
+    a2, a3 = x1[1], x1[2]
+    f = x2[0] / a
+    y2 = (x2[1] - f * a2, x2[2] - f * a3)
+    f = x3[0] / a
+    y3 = (x3[1] - f * a2, x3[2] - f * a3)
+    # column 2
+    z, w = y2[0], y3[0]
+    if abs(w.real) + abs(w.imag) > abs(z.real) + abs(z.imag):
+        y2, y3, d = y3, y2, -d
+    a = y2[0]
+    if a == 0:
+        return 0j
+    d *= a
+    return d * (y3[1] - y3[0] / a * y2[1])
 
 
 def _det_M_points(L: np.ndarray, k: float, p: Params) -> np.ndarray | None:  # noqa: N803
@@ -317,50 +362,57 @@ def _det_M_points(L: np.ndarray, k: float, p: Params) -> np.ndarray | None:  # n
     law = FrictionLaw.from_params(p)
     out: list[complex] = []
     ik, mik, i2k, mi2k = 1j * k, -1j * k, 2j * k, -2j * k
+    kk, kk2, near, inv_h = k * k, 2.0 * k * k, NEAR_ORIGIN * k, 1.0 / H
+    # the law's parameters and the top's row, once per call (not per point)
+    cancels, velocity = law.cancels, p.bc == "velocity"
+    apc, fr, gam, dlt, ald = law.alpha_pc, law.f, law.gamma, law.Delta, law.alpha_ld
     try:
         for z in L.ravel().tolist():
             aL = abs(z)
-            if not aL >= NEAR_ORIGIN * k or not math.isfinite(aL):
+            if not aL >= near or not math.isfinite(aL):
                 return None
             L2 = z * z  # noqa: N806
-            ks, kd = cmath.sqrt(L2 + k * k), cmath.sqrt(b2 * L2 + k * k)
+            ks, kd = cmath.sqrt(L2 + kk), cmath.sqrt(b2 * L2 + kk)
             aks, akd = abs(ks), abs(kd)
             tiny = 1e-12 * (aL + k)
             if aks < tiny or akd < tiny:
                 return None
             es, ed = cmath.exp(-H * ks), cmath.exp(-H * kd)
-            P = L2 + 2.0 * k * k  # noqa: N806
+            P = L2 + kk2  # noqa: N806
             # the columns psi, phi, psi, phi: potentials at the top (v, d) and the bottom
             vt1, vt3 = 1j * ed, 1j
             dt0, dt1, dt2, dt3 = -ks * es, -1j * kd * ed, ks, 1j * kd
             vb0, vb1, vb2, vb3 = 1.0, 1j, es, 1j * ed
             db0, db1, db2, db3 = -dt2, -dt3, -dt0, -dt1
-            if law.cancels:
-                a, bf, c = 1.0 + law.alpha_pc * z, law.f, -z / law.gamma
+            if cancels:
+                a, bf, c = 1.0 + apc * z, fr, -z / gam
             else:
-                a = (1.0 + law.alpha_pc * z) * (z + 1.0)
-                bf = law.f * (z + 1.0) - law.alpha_ld * z
-                c = -z * (z + law.Delta) / law.gamma
-            if p.bc == "velocity":  # u_x at the top
-                r0 = [dt0, mik * vt1, dt2, mik * vt3]
+                a = (1.0 + apc * z) * (z + 1.0)
+                bf = fr * (z + 1.0) - ald * z
+                c = -z * (z + dlt) / gam
+            if velocity:  # u_x at the top
+                r0 = (dt0, mik * vt1, dt2, mik * vt3)
             else:  # s_xy at the top
-                r0 = [P * es, mi2k * dt1, P, mi2k * dt3]
-            rows = [r0,
-                    [i2k * dt0, P * vt1, i2k * dt2, P * vt3],  # s_yy at the top
-                    [ik * vb0, db1, ik * vb2, db3],  # u_y at the bottom
-                    [a * (P * vb0) + bf * (i2k * db0) + c * db0,  # friction at the bottom
+                r0 = (P * es, mi2k * dt1, P, mi2k * dt3)
+            rows = (r0,
+                    (i2k * dt0, P * vt1, i2k * dt2, P * vt3),  # s_yy at the top
+                    (ik * vb0, db1, ik * vb2, db3),  # u_y at the bottom
+                    (a * (P * vb0) + bf * (i2k * db0) + c * db0,  # friction at the bottom
                      a * (mi2k * db1) + bf * (P * vb1) + c * (mik * vb1),
                      a * (P * vb2) + bf * (i2k * db2) + c * db2,
-                     a * (mi2k * db3) + bf * (P * vb3) + c * (mik * vb3)]]
+                     a * (mi2k * db3) + bf * (P * vb3) + c * (mik * vb3)))
+            # the row norms as the array path computes them: sqrt of the sum of Re^2 + Im^2
             norm = 1.0
-            for r in rows:
-                norm *= math.sqrt(abs(r[0]) ** 2 + abs(r[1]) ** 2 + abs(r[2]) ** 2
-                                  + abs(r[3]) ** 2)
+            for r0_, r1_, r2_, r3_ in rows:
+                norm *= math.sqrt(r0_.real * r0_.real + r0_.imag * r0_.imag
+                                  + r1_.real * r1_.real + r1_.imag * r1_.imag
+                                  + r2_.real * r2_.real + r2_.imag * r2_.imag
+                                  + r3_.real * r3_.real + r3_.imag * r3_.imag)
             u = aL / z
             phase = cmath.exp(1j * H * (ks.imag + kd.imag)) * (aks / ks) * (akd / kd) \
                 * (u * u) * (u * u)
             hs, hd = H * aks, H * akd
-            w = aL / (aL + k + 1.0 / H)
+            w = aL / (aL + k + inv_h)
             weight = (hs / (1.0 + hs)) * (hd / (1.0 + hd)) * (w * w) * (w * w)
             out.append(_det4(rows) / norm * phase / weight)
     except (OverflowError, ZeroDivisionError, ValueError):

@@ -148,6 +148,37 @@ def test_whole_false_gives_the_same_fastest_root(case, ik, starts, count_calls):
         assert n == n_ref  # no root reached: the whole box counted
 
 
+#: Stability-map steps (stress top, ``Delta = -1``; the previous k's fastest band moved to this
+#: k as the map moves it) whose starts reach a slower root only: the band left of it holds the
+#: faster one too (session 25's profile of the stress 5 x 5 map: 132 of 625 bands so).
+SECOND_CHANCE_CASES = {
+    "chain, H = 1": (1.0, 3.979, [0.15 - 17.025j, 0.15 - 21.436j]),
+    "chain, H = 0.1": (0.1, 39.79, [1.467 - 170.418j, 1.467 - 214.566j]),
+    "lowest resonance": (0.316, 0.5003, [0.17 + 0.414j, 0.17 + 0.522j]),
+    "mirror": (0.1, 2.508, [0.454 - 33.203j, 0.454 - 41.804j]),
+}
+
+
+@pytest.mark.parametrize("case", list(SECOND_CHANCE_CASES))
+def test_second_chance_reaches_the_faster_root_without_a_search(case, monkeypatch, count_calls):
+    """When the band holds more roots than the starts reached, Newton from the reached roots'
+    mirrors and neighbouring thickness resonances (``_second_chance``) reaches them all: the
+    same fastest root as the whole box's search, proven by the band's one count, and the band
+    not searched (no ``zeros_in_box``; before session 25 each such band was scanned and
+    bisected, 60 ms on average)."""
+    H, k, starts = SECOND_CHANCE_CASES[case]
+    p = Params(bc="stress", Delta=-1.0, H=H)
+    box = Region(c_max=spectrum.C_LADDER[0], re_min=1e-6).box(p, k)
+    ref, n_ref, _ = fastest_in_box(p, k, box)
+    searched = []
+    monkeypatch.setattr(spectrum, "zeros_in_box",
+                        lambda *a, **kw: searched.append(1) or zeros_in_box(*a, **kw))
+    count_calls.clear()
+    z, n, located = fastest_in_box(p, k, box, starts=starts, whole=False)
+    assert abs(z - ref) <= 1e-13 * abs(ref)  # measured 0 .. 2e-16 (one root, two polishes)
+    assert not searched and len(count_calls) == 1 and 2 <= n == len(located) <= n_ref
+
+
 @pytest.mark.parametrize("case", ["velocity", "stress"])
 def test_whole_false_finds_no_root_where_there_is_none(case):
     """A box without roots: whole=False with starts outside it still counts the whole box (a

@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 
+from analytic.numerics import roots
 from analytic.numerics.roots import ContourError, count_zeros, polish, winding_number, zeros_in_box
 from analytic.numerics.spectrum import Region
 from analytic.params import Params
@@ -201,3 +202,43 @@ def test_a_tall_band_is_scanned_not_bisected(scan, monkeypatch, count_calls):
     got = np.array(sorted((r.value for r in found), key=lambda z: z.imag))
     np.testing.assert_allclose(got, sorted(BAND_INSIDE, key=lambda z: z.imag), atol=1e-13)
     assert len(count_calls) == 1 if scan else len(count_calls) > 10
+
+
+def perimeter_masked(box: tuple[float, float, float, float], t: np.ndarray) -> np.ndarray:
+    """``roots._perimeter_point`` as it was before session 25: one masked assignment a side."""
+    a, b, c, d = box
+    side = np.minimum(np.floor(t).astype(int), 3)
+    s = t - side
+    z = np.empty(t.shape, dtype=complex)
+    m = side == 0
+    z[m] = a + s[m] * (b - a) + 1j * c
+    m = side == 1
+    z[m] = b + 1j * (c + s[m] * (d - c))
+    m = side == 2
+    z[m] = b - s[m] * (b - a) + 1j * d
+    m = side == 3
+    z[m] = a + 1j * (d - s[m] * (d - c))
+    return z
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_perimeter_points_and_phase_increments_as_before(seed):
+    """The contour's points (corner + s edge) equal the masked construction bit for bit, the
+    corners and ``t = 4`` included; the wrapped phase increments (a remainder) equal
+    ``angle(exp(i x))`` to rounding (measured at most 1.2e-15; 4e-15 allowed) and lie in
+    ``[-pi, pi)``."""
+    rng = np.random.default_rng(seed)
+    for _ in range(100):
+        a, c = rng.normal(size=2) * 10
+        box = (a, a + rng.uniform(1e-3, 5), c, c + rng.uniform(1e-3, 500))
+        t = np.concatenate([rng.uniform(0, 4, 300), [0.0, 1.0, 2.0, 3.0, 4.0]])
+        new, old = roots._perimeter_point(box, t), perimeter_masked(box, t)
+        assert np.array_equal(new.view(float), old.view(float))
+    f = np.exp(1j * rng.uniform(-np.pi, np.pi, 2000)) * rng.uniform(0.1, 2, 2000)
+    t = np.sort(rng.uniform(0, 4, 2000))
+    dph, _ = roots._increments(f, (0.0, 1.0, 0.0, 1.0), t, np.pi / 3, 0.8, 1e-12)
+    ph = np.angle(f)
+    ref = np.angle(np.exp(1j * (np.roll(ph, -1) - ph)))
+    off = np.abs(dph - ref)
+    off = np.minimum(off, 2 * np.pi - off)  # +-pi are the same increment
+    assert np.all(off <= 4e-15) and np.all((dph >= -np.pi) & (dph < np.pi))

@@ -222,16 +222,12 @@ def _perimeter_point(box: Box, t: np.ndarray) -> np.ndarray:
     t = np.asarray(t, dtype=float)
     side = np.minimum(np.floor(t).astype(int), 3)
     s = t - side
-    z = np.empty(t.shape, dtype=complex)
-    m = side == 0
-    z[m] = a + s[m] * (b - a) + 1j * c
-    m = side == 1
-    z[m] = b + 1j * (c + s[m] * (d - c))
-    m = side == 2
-    z[m] = b - s[m] * (b - a) + 1j * d
-    m = side == 3
-    z[m] = a + 1j * (d - s[m] * (d - c))
-    return z
+    # corner + s * edge, side by side: the same operations on each part as the four masked
+    # assignments this replaced (tests/test_analytic_roots.py), without their masks
+    corner = np.array([complex(a, c), complex(b, c), complex(b, d), complex(a, d)])
+    edge = np.array([complex(b - a, 0.0), complex(0.0, d - c), complex(-(b - a), 0.0),
+                     complex(0.0, -(d - c))])
+    return corner[side] + s * edge[side]
 
 
 def winding_number(
@@ -420,7 +416,9 @@ def _increments(f: np.ndarray, bx: Box, t: np.ndarray, max_dphase: float, max_re
             f"function vanishes on the contour near z = {zbad:.6g}: move the box edge"
         )
     ph = np.angle(f)
-    dph = np.angle(np.exp(1j * (_next(ph) - ph)))  # wrapped increments t_i -> t_{i+1}
+    # wrapped increments t_i -> t_{i+1}, in [-pi, pi) (angle(exp(i x)) before session 25: the
+    # same to rounding, at twice the cost)
+    dph = np.remainder(_next(ph) - ph + math.pi, 2.0 * math.pi) - math.pi
     df = np.abs(_next(f) - f)
     bad = (np.abs(dph) > max_dphase) | (df > max_rel * np.minimum(absf, _next(absf)))
     return dph, bad

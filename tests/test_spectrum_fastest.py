@@ -179,6 +179,36 @@ def test_second_chance_reaches_the_faster_root_without_a_search(case, monkeypatc
     assert not searched and len(count_calls) == 1 and 2 <= n == len(located) <= n_ref
 
 
+#: Map steps (stress top, ``Delta = -1``) where the guesses reach a faster root but not every
+#: root of the band: the band moved up to the fastest root reached closes.
+NARROWER_CASES = {
+    "H = 1": (1.0, 10.0, [0.176 - 55.693j, 0.176 - 70.120j]),
+    "H = 3.16": (3.1623, 3.1623, [0.056 - 17.609j, 0.056 - 22.171j]),
+    "H = 0.316": (0.31623, 31.623, [0.557 - 176.123j, 0.557 - 221.749j]),
+}
+
+
+@pytest.mark.parametrize("case", list(NARROWER_CASES))
+def test_narrower_band_closes_where_the_guesses_leave_roots(case, monkeypatch, count_calls):
+    """The band left of the fastest root the guesses reached (``_narrower_band``) holds only
+    roots reached: the same fastest root as the whole box's search, two counts (the first
+    band's and this one's), no band searched (session 25: 27 of the 60 bands the guesses left
+    open in the stress 5 x 5 map close so)."""
+    H, k, starts = NARROWER_CASES[case]
+    p = Params(bc="stress", Delta=-1.0, H=H)
+    box = Region(c_max=spectrum.C_LADDER[0], re_min=1e-6).box(p, k)
+    ref, _, _ = fastest_in_box(p, k, box)
+    searched, narrowed = [], []
+    monkeypatch.setattr(spectrum, "zeros_in_box",
+                        lambda *a, **kw: searched.append(1) or zeros_in_box(*a, **kw))
+    real = spectrum._narrower_band
+    monkeypatch.setattr(spectrum, "_narrower_band", lambda *a: narrowed.append(1) or real(*a))
+    count_calls.clear()
+    z, n, located = fastest_in_box(p, k, box, starts=starts, whole=False)
+    assert abs(z - ref) <= 1e-13 * abs(ref)  # measured 0 .. 2e-16
+    assert narrowed and not searched and len(count_calls) == 2 and n == len(located) >= 1
+
+
 @pytest.mark.parametrize("case", ["velocity", "stress"])
 def test_whole_false_finds_no_root_where_there_is_none(case):
     """A box without roots: whole=False with starts outside it still counts the whole box (a

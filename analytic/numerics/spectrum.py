@@ -610,6 +610,34 @@ def _second_chance(p: Params, fun: Callable, box: Box,
     return best, lo, m, tuple(found)
 
 
+def _narrower_band(p: Params, fun: Callable, box: Box,
+                   known: tuple[complex, float, int, tuple[complex, ...]]
+                   ) -> tuple[complex, float, int, tuple[complex, ...]]:
+    """:func:`_band_from_starts`'s band moved up to the fastest root reached so far.
+
+    After :func:`_second_chance` the fastest root reached may lie well right of the band's left
+    edge, and the roots still unreached may all be slower than it: the band ``lo' <= Re <=
+    re_max`` left of it (the rule of :func:`_band_from_starts`) is counted, one count; it holds
+    every root faster than ``lo'``, so when the roots reached in it number its count the
+    fastest of them is the box's fastest, and otherwise the band's search is made in this
+    narrower band (fewer roots to locate). Unchanged when ``lo'`` is not right of the band's
+    edge or its contour is not usable.
+    """
+    from analytic.numerics.branches import _n_initial
+    from analytic.numerics.roots import count_zeros
+
+    z, lo, _, found = known
+    lo2 = max(box[0], z.real - START_WIDTH * max(abs(z.real), START_FLOOR))
+    if not lo2 > lo:
+        return known
+    band = (lo2, box[1], box[2], box[3])
+    try:
+        m = count_zeros(fun, band, n_initial=_n_initial(p, band))
+    except ContourError:
+        return known
+    return z, lo2, m, tuple(w for w in found if w.real >= lo2)
+
+
 def fastest_in_box(p: Params, k: float, box: Box, hint: float | None = None,
                    starts: Sequence[complex] = (), *, whole: bool = True
                    ) -> tuple[complex | None, int, tuple[complex, ...]]:
@@ -658,6 +686,8 @@ def fastest_in_box(p: Params, k: float, box: Box, hint: float | None = None,
     known = _band_from_starts(p, fun, box, starts) if not whole and starts else None
     if known is not None and known[2] > len(known[3]):
         known = _second_chance(p, fun, box, known)
+        if known[2] > len(known[3]):
+            known = _narrower_band(p, fun, box, known)
     if known is not None and known[2] >= len(known[3]):
         z, lo, n, inside = known
         if n == len(inside):

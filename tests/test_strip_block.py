@@ -794,7 +794,7 @@ RECOUNTED = [("recount_session24", f) for f in [
     "velocity_complete_fine_L16", "velocity_complete_L32", "stress_complete",
     "velocity_complete_fine", "stress_complete_fine", "velocity_complete_L16",
     "stress_complete_wide", "stress_complete_L16"]] + [
-    ("recount_session25", "velocity_complete_L64")]
+    ("recount_session25", f) for f in ["velocity_complete_L64", "stress_complete_L64"]]
 
 
 @pytest.mark.serial

@@ -531,20 +531,34 @@ def _band_from_starts(p: Params, fun: Callable, box: Box, starts: Sequence[compl
         ``(z, lo, the band's count, the roots reached in the band)``; ``None``: no root
         reached, or the band's contour unusable.
     """
-    from analytic.numerics.branches import _n_initial
-    from analytic.numerics.roots import count_zeros, zeros_reached
+    from analytic.numerics.roots import zeros_reached
 
     reached = [complex(r.value) for r in zeros_reached(fun, box, starts)]
     if not reached:
         return None
     z = max(reached, key=lambda w: w.real)
+    counted = _count_left_of(p, fun, box, z)
+    if counted is None:
+        return None
+    lo, m = counted
+    return z, lo, m, tuple(w for w in reached if w.real >= lo)
+
+
+def _count_left_of(p: Params, fun: Callable, box: Box, z: complex) -> tuple[float, int] | None:
+    """``(lo, count)`` of the band ``lo <= Re <= re_max`` of ``box`` left of the root ``z``.
+
+    ``lo = Re z - START_WIDTH max(|Re z|, START_FLOOR)``, not below the box; ``None`` when the
+    band's contour is not usable.
+    """
+    from analytic.numerics.branches import _n_initial
+    from analytic.numerics.roots import count_zeros
+
     lo = max(box[0], z.real - START_WIDTH * max(abs(z.real), START_FLOOR))
     band = (lo, box[1], box[2], box[3])
     try:
-        m = count_zeros(fun, band, n_initial=_n_initial(p, band))
+        return lo, count_zeros(fun, band, n_initial=_n_initial(p, band))
     except ContourError:
         return None
-    return z, lo, m, tuple(w for w in reached if w.real >= lo)
 
 
 #: Newton starts :func:`_second_chance` tries at most (each about 0.5 ms; the band's search it
@@ -623,18 +637,13 @@ def _narrower_band(p: Params, fun: Callable, box: Box,
     narrower band (fewer roots to locate). Unchanged when ``lo'`` is not right of the band's
     edge or its contour is not usable.
     """
-    from analytic.numerics.branches import _n_initial
-    from analytic.numerics.roots import count_zeros
-
     z, lo, _, found = known
-    lo2 = max(box[0], z.real - START_WIDTH * max(abs(z.real), START_FLOOR))
-    if not lo2 > lo:
+    if not max(box[0], z.real - START_WIDTH * max(abs(z.real), START_FLOOR)) > lo:
         return known
-    band = (lo2, box[1], box[2], box[3])
-    try:
-        m = count_zeros(fun, band, n_initial=_n_initial(p, band))
-    except ContourError:
+    counted = _count_left_of(p, fun, box, z)
+    if counted is None:
         return known
+    lo2, m = counted
     return z, lo2, m, tuple(w for w in found if w.real >= lo2)
 
 

@@ -647,6 +647,21 @@ def _narrower_band(p: Params, fun: Callable, box: Box,
     return z, lo2, m, tuple(w for w in found if w.real >= lo2)
 
 
+def _band_known(p: Params, fun: Callable, box: Box, starts: Sequence[complex]
+                ) -> tuple[complex, float, int, tuple[complex, ...]] | None:
+    """The band of the starts (:func:`_band_from_starts`), completed where it can be.
+
+    While the band holds more roots than were reached: :func:`_second_chance`, then
+    :func:`_narrower_band`.
+    """
+    known = _band_from_starts(p, fun, box, starts)
+    if known is not None and known[2] > len(known[3]):
+        known = _second_chance(p, fun, box, known)
+        if known[2] > len(known[3]):
+            known = _narrower_band(p, fun, box, known)
+    return known
+
+
 def fastest_in_box(p: Params, k: float, box: Box, hint: float | None = None,
                    starts: Sequence[complex] = (), *, whole: bool = True
                    ) -> tuple[complex | None, int, tuple[complex, ...]]:
@@ -692,11 +707,7 @@ def fastest_in_box(p: Params, k: float, box: Box, hint: float | None = None,
     def band(a: float) -> Box:
         return (a, box[1], box[2], box[3])
 
-    known = _band_from_starts(p, fun, box, starts) if not whole and starts else None
-    if known is not None and known[2] > len(known[3]):
-        known = _second_chance(p, fun, box, known)
-        if known[2] > len(known[3]):
-            known = _narrower_band(p, fun, box, known)
+    known = _band_known(p, fun, box, starts) if not whole and starts else None
     if known is not None and known[2] >= len(known[3]):
         z, lo, n, inside = known
         if n == len(inside):

@@ -537,26 +537,26 @@ def _band_from_starts(p: Params, fun: Callable, box: Box, starts: Sequence[compl
     if not reached:
         return None
     z = max(reached, key=lambda w: w.real)
-    counted = _count_left_of(p, fun, box, z)
-    if counted is None:
+    lo = _left_edge(box, z)
+    m = _count_band(p, fun, box, lo)
+    if m is None:
         return None
-    lo, m = counted
     return z, lo, m, tuple(w for w in reached if w.real >= lo)
 
 
-def _count_left_of(p: Params, fun: Callable, box: Box, z: complex) -> tuple[float, int] | None:
-    """``(lo, count)`` of the band ``lo <= Re <= re_max`` of ``box`` left of the root ``z``.
+def _left_edge(box: Box, z: complex) -> float:
+    """``Re z - START_WIDTH max(|Re z|, START_FLOOR)``, not below ``box``: the band's left edge."""
+    return max(box[0], z.real - START_WIDTH * max(abs(z.real), START_FLOOR))
 
-    ``lo = Re z - START_WIDTH max(|Re z|, START_FLOOR)``, not below the box; ``None`` when the
-    band's contour is not usable.
-    """
+
+def _count_band(p: Params, fun: Callable, box: Box, lo: float) -> int | None:
+    """The count of the band ``lo <= Re <= re_max`` of ``box``; ``None``: contour unusable."""
     from analytic.numerics.branches import _n_initial
     from analytic.numerics.roots import count_zeros
 
-    lo = max(box[0], z.real - START_WIDTH * max(abs(z.real), START_FLOOR))
     band = (lo, box[1], box[2], box[3])
     try:
-        return lo, count_zeros(fun, band, n_initial=_n_initial(p, band))
+        return count_zeros(fun, band, n_initial=_n_initial(p, band))
     except ContourError:
         return None
 
@@ -638,12 +638,10 @@ def _narrower_band(p: Params, fun: Callable, box: Box,
     edge or its contour is not usable.
     """
     z, lo, _, found = known
-    if not max(box[0], z.real - START_WIDTH * max(abs(z.real), START_FLOOR)) > lo:
+    lo2 = _left_edge(box, z)
+    m = _count_band(p, fun, box, lo2) if lo2 > lo else None
+    if m is None:
         return known
-    counted = _count_left_of(p, fun, box, z)
-    if counted is None:
-        return known
-    lo2, m = counted
     return z, lo2, m, tuple(w for w in found if w.real >= lo2)
 
 

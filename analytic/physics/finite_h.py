@@ -277,7 +277,7 @@ SMALL_CALL = 8
 
 
 def _det4(m: list[list[complex]]) -> complex:
-    """Determinant of a 4 x 4 matrix (rows as lists) by LU with partial pivoting.
+    """Determinant of a 4 x 4 matrix (four rows of four) by LU with partial pivoting.
 
     The pivot is the entry of largest ``|Re| + |Im|`` (LAPACK's ``izamax``, which
     ``numpy.linalg.det`` uses; the first such row on a tie). Written out column by column: the

@@ -242,3 +242,40 @@ def test_perimeter_points_and_phase_increments_as_before(seed):
     off = np.abs(dph - ref)
     off = np.minimum(off, 2 * np.pi - off)  # +-pi are the same increment
     assert np.all(off <= 4e-15) and np.all((dph >= -np.pi) & (dph < np.pi))
+
+
+
+def _outside_by(w: complex, box: tuple) -> float:
+    """Distance from ``w`` to the closed box (0 inside)."""
+    return float(np.hypot(max(box[0] - w.real, 0.0, w.real - box[1]),
+                          max(box[2] - w.imag, 0.0, w.imag - box[3])))
+
+
+@pytest.mark.parametrize("start", [1.45 + 1.4j, -0.65 + 0.15j, 0.2 - 0.5j])
+@pytest.mark.parametrize("box", [(0.0, 0.5, -0.1, 0.5), (0.0, 1.0, 0.0, 1.0)])
+def test_newton_to_a_root_outside_the_box_is_abandoned_early(start, box):
+    # session 26: Newton from starts ran to the end for roots outside the box (56 % of the
+    # stress map's iterations from starts); roots.polish's `unwanted` stops it once the steps
+    # contract and the iterate is farther outside than ABANDON_RADIUS steps
+    full = polish(poly, start)
+    assert full.converged and not roots._inside(full.value, box)
+    cut = polish(poly, start, unwanted=lambda w, r: _outside_by(w, box) > r)
+    assert not cut.converged and cut.reason == roots.ABANDONED
+    assert cut.iterations < full.iterations
+    # what zeros_reached keeps is what full Newton from each start reaches inside the box
+    starts = [start, 0.29 + 0.19j, 0.32 + 0.22j, 0.3 + 0.2j, 2.0 + 2.0j]
+    kept = sorted((complex(r.value) for r in roots.zeros_reached(poly, box, starts)),
+                  key=lambda z: (z.real, z.imag))
+    want = sorted({complex(r) for s0 in starts for r in ROOTS
+                   if roots._inside(r, box) and abs(polish(poly, s0).value - r) < 1e-9},
+                  key=lambda z: (z.real, z.imag))
+    assert len(kept) == len(want) >= 2
+    assert np.allclose(kept, want, rtol=0, atol=1e-12)
+
+
+def test_newton_to_a_root_already_found_is_abandoned_early():
+    # a second start converging to the root a first one reached: abandoned within 1e-6 of it
+    a = polish(poly, 0.28 + 0.18j)
+    assert a.converged and abs(a.value - ROOTS[0]) < 1e-12
+    b = polish(poly, 0.27 + 0.17j, unwanted=lambda w, r: abs(w - a.value) <= 1e-6)
+    assert b.reason == roots.ABANDONED and b.iterations < polish(poly, 0.27 + 0.17j).iterations

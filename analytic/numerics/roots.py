@@ -118,6 +118,7 @@ def polish(
     tol: float = 1e-14,
     maxiter: int = 60,
     scale: float = 1.0,
+    unwanted: Callable[[complex, float], bool] | None = None,
 ) -> Root:
     """Polish a root of ``fun`` starting from ``z0`` (Newton, damped, secant fall-back).
 
@@ -128,6 +129,11 @@ def polish(
         tol: Relative step tolerance: converged when ``|dz| <= tol * max(|z|, 1)``.
         maxiter: Maximum number of Newton iterations.
         scale: Typical magnitude of ``fun`` (defines :attr:`Root.residual` and :attr:`Root.cond`).
+        unwanted: ``unwanted(w, r)``: no root within ``r`` of ``w`` is wanted (e.g. ``w`` is
+            farther than ``r`` from a box, or next to a root already found). Asked once the
+            steps contract (a step at most half the one before): with ``dz`` the step from
+            ``z``, ``w = z + dz`` and ``r = ABANDON_RADIUS |dz|``; ``True`` stops the iteration,
+            not converged (:data:`ABANDONED`).
 
     Returns:
         A :class:`Root`; check :attr:`Root.converged` and :attr:`Root.reason`.
@@ -154,11 +160,15 @@ def polish(
         else:
             dfz = _derivative(fun, z, dfun)
         dz = _direction(z, fz, dfz, prev)
-        step = abs(dz)
+        last, step = step, abs(dz)
         if step <= tol * max(abs(z), 1.0):
             z += dz
             fz, dfz = _value_and_derivative(fun, z, dfun)  # dfz: for cond, at the final z
             converged, reason = True, "Newton step below tolerance"
+            break
+        if (unwanted is not None and step <= 0.5 * last < math.inf
+                and unwanted(z + dz, ABANDON_RADIUS * step)):
+            reason = ABANDONED
             break
         zn, fn, pending = _damped_step(fun, z, fz, dz, dfun)
         if zn is None:
@@ -176,6 +186,14 @@ def polish(
     cond = scale / (absd * max(abs(z), 1e-300)) if absd > 0 else math.inf
     residual = abs(fz) / scale if np.isfinite(fz) else math.inf
     return Root(z, residual, cond, it, converged, reason, step)
+
+
+#: :func:`polish`'s ``unwanted`` radius in units of the step. Once Newton's steps contract
+#: (each at most half the one before) the root lies within about one step of ``z + dz`` (the
+#: steps that follow add up to at most ``|dz|`` for a ratio of 1/2); four steps leave a margin.
+ABANDON_RADIUS = 4.0
+#: :attr:`Root.reason` of a polish stopped by ``unwanted``.
+ABANDONED = "abandoned: converging to a root not wanted (outside the box or already found)"
 
 
 def _direction(z: complex, fz: complex, dfz: complex, prev: tuple[complex, complex] | None
@@ -561,13 +579,26 @@ def _reached_zeros(polish_at: Callable[[complex], Root], b: Box, starts: Sequenc
     """The distinct converged zeros inside ``b`` polished from ``starts`` in turn.
 
     A start within ``1e-6`` (relative) of a zero already found is skipped; the polishing stops
-    as soon as ``n`` are found (``None``: every start is tried).
+    as soon as ``n`` are found (``None``: every start is tried). A Newton iteration converging
+    to a zero farther than its radius outside ``b``, or to one within ``1e-6`` of a zero found
+    (the start's rule), is abandoned there (:func:`polish`'s ``unwanted``): its end would be
+    dropped anyway. Session 26's count in the stress 5 x 5 map: of 22 453 iterations from
+    starts, 12 546 went to zeros outside the band and 2 595 to zeros already found. An
+    iteration wrongly abandoned leaves a zero unreached: the caller's count then exceeds the
+    zeros reached and the box is searched (the count decides, never this rule).
     """
     found: list[Root] = []
+
+    def unwanted(w: complex, r: float) -> bool:
+        dx = max(b[0] - w.real, 0.0, w.real - b[1])
+        dy = max(b[2] - w.imag, 0.0, w.imag - b[3])
+        return math.hypot(dx, dy) > r or any(
+            abs(w - q.value) <= 1e-6 * max(1.0, abs(w)) for q in found)
+
     for z0 in starts:
         if any(abs(z0 - q.value) <= 1e-6 * max(1.0, abs(z0)) for q in found):
             continue
-        r = polish_at(complex(z0))
+        r = polish_at(complex(z0), unwanted=unwanted)
         if r.converged and _inside(r.value, b) and all(
                 abs(r.value - q.value) > 1e-9 * max(1.0, abs(r.value)) for q in found):
             found.append(r)

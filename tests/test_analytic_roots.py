@@ -279,3 +279,31 @@ def test_newton_to_a_root_already_found_is_abandoned_early():
     assert a.converged and abs(a.value - ROOTS[0]) < 1e-12
     b = polish(poly, 0.27 + 0.17j, unwanted=lambda w, r: abs(w - a.value) <= 1e-6)
     assert b.reason == roots.ABANDONED and b.iterations < polish(poly, 0.27 + 0.17j).iterations
+
+
+@pytest.mark.parametrize("bc", ["stress", "velocity"])
+@pytest.mark.parametrize("H,k", [(10.0, 1.0), (3.16, 1.0)])
+def test_parts_of_a_bisected_band_take_samples_for_their_own_size(bc, H, k, monkeypatch):
+    # session 26: a tall band's parts were counted with the band's n_initial (stress, H = 10,
+    # k = 1: 226 715 det_M points for 4 roots); roots._for_part scales it to the part's side
+    p = Params(bc=bc, H=H, Delta=-1.0)
+    box = (0.015, 2.0, -9.26, 9.26)
+    n_init = 8 + int(np.ceil(2 * H * 1.5 * (box[3] - box[2])))
+    points = []
+
+    def fun(z):
+        points[-1] += np.size(z)
+        return det_M(z, k, p)
+
+    found = []
+    for scaled in (False, True):
+        if not scaled:
+            monkeypatch.setattr(roots, "_for_part", lambda kw, outer, part: kw)
+        else:
+            monkeypatch.undo()
+        points.append(0)
+        found.append(sorted((complex(r.value) for r in zeros_in_box(fun, box, n_initial=n_init)),
+                            key=lambda z: (z.real, z.imag)))
+    assert len(found[0]) == len(found[1]) >= 1
+    assert np.allclose(found[0], found[1], rtol=1e-12, atol=0)
+    assert points[1] < points[0]

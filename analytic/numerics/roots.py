@@ -643,6 +643,21 @@ def zeros_from_starts(fun: ComplexFunction, box: Sequence[float], total: int,
     return None if found is None else sorted(found, key=lambda r: (r.value.real, r.value.imag))
 
 
+def _for_part(kwargs: dict, outer: Box, part: Box) -> dict:
+    """:func:`count_zeros`' keywords for a part of ``outer``: ``n_initial`` scaled to its side.
+
+    ``n_initial`` is sized for the longest side of the box it was given for (samples per unit
+    length: :func:`samples_for_turn`); a part gets the same density on its own longest side
+    (at least 16), not the whole box's samples again. Session 26: every part of a tall band's
+    bisection took 3 600-4 200 samples, the band's own number, down to parts 1/60 its height.
+    """
+    if "n_initial" not in kwargs:
+        return kwargs
+    side = max(outer[1] - outer[0], outer[3] - outer[2])
+    frac = max(part[1] - part[0], part[3] - part[2]) / side
+    return {**kwargs, "n_initial": max(16, int(math.ceil(kwargs["n_initial"] * frac)))}
+
+
 def zeros_in_box(
     fun: ComplexFunction,
     box: Sequence[float],
@@ -709,7 +724,8 @@ def zeros_in_box(
         for frac in (0.5, 0.4617, 0.5383, 0.4209, 0.5791):
             halves = _split(b, frac)
             try:
-                counts = [count_zeros(fun, h, poles=poles, **kwargs) for h in halves]
+                counts = [count_zeros(fun, h, poles=poles, **_for_part(kwargs, bx, h))
+                          for h in halves]
             except ContourError:
                 continue
             if sum(counts) == n:

@@ -789,24 +789,26 @@ def test_committed_velocity_L32_tall_box_closes_with_the_low_box_set():
 
 
 #: Complete block searches committed before the count's dip rule (session 22) and grading rule
-#: (session 23), re-run with both (the same commands) in session 24 and 25: README "re-counted".
-RECOUNTED = [("recount_session24", f) for f in [
+#: (session 23), re-run with both (the same commands) in sessions 24-26: README "re-counted".
+#: (original, re-run), folders under workflows/results.
+RECOUNTED = [(f"{REGULARISED}/{f}", f"{REGULARISED}/recount_session24/{f}") for f in [
     "velocity_complete_fine_L16", "velocity_complete_L32", "stress_complete",
     "velocity_complete_fine", "stress_complete_fine", "velocity_complete_L16",
     "stress_complete_wide", "stress_complete_L16"]] + [
-    ("recount_session25", f) for f in ["velocity_complete_L64", "stress_complete_L64"]]
+    (f"{REGULARISED}/{f}", f"{REGULARISED}/recount_session25/{f}")
+    for f in ["velocity_complete_L64", "stress_complete_L64"]] + [
+    ("finite_block_complete", "finite_block_complete/recount_session26")]
 
 
 @pytest.mark.serial
-@pytest.mark.parametrize(("session", "folder"), RECOUNTED)
-def test_older_block_certificates_recounted_with_todays_rules(session, folder):
-    """Each re-run (workflows/results/finite_block_regularised/<session>/<folder>, the
-    original's command with the count's dip and grading rules) closes with the original's found
-    and counted, and the same eigenvalues to the CSVs' 12 digits (measured: 0 .. 1.8e-13
-    relative): no eigenvalue the older count rules could have hidden from both the count and
-    the tiles."""
-    _, old = _results(os.path.join(REGULARISED, folder))
-    _, new = _results(os.path.join(REGULARISED, session, folder))
+@pytest.mark.parametrize(("original", "rerun"), RECOUNTED)
+def test_older_block_certificates_recounted_with_todays_rules(original, rerun):
+    """Each re-run (the original's command with the count's dip and grading rules) closes with
+    the original's found and counted, and the same eigenvalues to the CSVs' 12 digits
+    (measured: 0 .. 1.8e-13 relative): no eigenvalue the older count rules could have hidden
+    from both the count and the tiles."""
+    _, old = _results(original)
+    _, new = _results(rerun)
     assert new["command"].split("--out")[0].split("finite_block.py")[1] == \
         old["command"].split("--out")[0].split("finite_block.py")[1].replace(" --resume", "")
     for length, cert in old["certificates"].items():

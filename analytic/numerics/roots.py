@@ -700,7 +700,6 @@ def zeros_in_box(
     if total is None:
         total = count_zeros(fun, bx, poles=poles, **kwargs)
     found: list[tuple[Root, int]] = []
-
     polish_at = functools.partial(polish, fun, dfun=dfun, tol=tol, scale=scale)
 
     def solve(b: Box, n: int, scan: bool = True) -> None:

@@ -244,7 +244,6 @@ def test_perimeter_points_and_phase_increments_as_before(seed):
     assert np.all(off <= 4e-15) and np.all((dph >= -np.pi) & (dph < np.pi))
 
 
-
 def _outside_by(w: complex, box: tuple) -> float:
     """Distance from ``w`` to the closed box (0 inside)."""
     return float(np.hypot(max(box[0] - w.real, 0.0, w.real - box[1]),

@@ -589,14 +589,16 @@ def _reached_zeros(polish_at: Callable[[complex], Root], b: Box, starts: Sequenc
     """
     found: list[Root] = []
 
+    def near_found(w: complex) -> bool:  # the one rule for starts and for iterates
+        return any(abs(w - q.value) <= 1e-6 * max(1.0, abs(w)) for q in found)
+
     def unwanted(w: complex, r: float) -> bool:
         dx = max(b[0] - w.real, 0.0, w.real - b[1])
         dy = max(b[2] - w.imag, 0.0, w.imag - b[3])
-        return math.hypot(dx, dy) > r or any(
-            abs(w - q.value) <= 1e-6 * max(1.0, abs(w)) for q in found)
+        return math.hypot(dx, dy) > r or near_found(w)
 
     for z0 in starts:
-        if any(abs(z0 - q.value) <= 1e-6 * max(1.0, abs(z0)) for q in found):
+        if near_found(complex(z0)):
             continue
         r = polish_at(complex(z0), unwanted=unwanted)
         if r.converged and _inside(r.value, b) and all(

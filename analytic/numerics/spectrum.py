@@ -877,8 +877,9 @@ def family_peak(p: Params, k0: float, z0: complex, lo: float, hi: float, *,
         h = (k - ks) / n
         # the nearest other point within dk of ks gives the family's slope: the first start is
         # on its secant, each later one on the secant of the last two steps
-        q = min((q for q in reached if q != ks), key=lambda q: abs(q - ks), default=None)
-        slope = (z - reached[q]) / (ks - q) if q is not None and abs(q - ks) <= dk else 0.0
+        near = min((q for q in reached if q != ks), key=lambda q: abs(q - ks), default=None)
+        slope = (z - reached[near]) / (ks - near) \
+            if near is not None and abs(near - ks) <= dk else 0.0
         for i in range(1, n + 1):
             w = polish_root(p, ks + h * i, z + slope * h).value
             slope, z = (w - z) / h, w

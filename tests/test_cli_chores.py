@@ -420,6 +420,51 @@ def test_claim_shared_gives_each_index_once_and_the_free_rank_takes_more(n, slow
         assert len(every[slow_rank]) <= 2 < len(every[1 - slow_rank])
 
 
+@pytest.mark.parametrize("slow_rank", [0, 1])
+@pytest.mark.parametrize("n", [0, 1, 2, 9])
+def test_end_claims_give_each_index_once_in_runs_and_the_free_rank_takes_more(n, slow_rank):
+    """Under mpirun -n 2 rank 0 takes a run upwards from 0, rank 1 a run downwards from n - 1,
+    and the slower rank per index takes fewer."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    claims = _cli.EndClaims(comm, n)
+    mine = []
+    for i in claims:
+        mine.append(i)
+        assert 0 < claims.claimed <= n
+        time.sleep(0.2 if comm.rank == slow_rank else 0.01)
+    every = comm.allgather(mine)
+    assert sorted(i for part in every for i in part) == list(range(n))
+    if comm.size == 1:
+        assert mine == list(range(n))
+    else:
+        assert every[0] == list(range(len(every[0])))  # from the low end, upwards
+        assert every[1] == list(range(n - 1, n - 1 - len(every[1]), -1))  # from the high end
+    if comm.size == 2 and n == 9:  # 0.2 s against 0.01 s per index: the slow rank takes 1 or 2
+        assert len(every[slow_rank]) <= 2 < len(every[1 - slow_rank])
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("size", [1, 2, 3, 4, 5])
+@pytest.mark.parametrize("n", [0, 1, 7, 40])
+def test_end_claims_blocks_cover_every_index_once_by_cost(size, n):
+    """One block per pair of ranks (a lone last rank of an odd size gets half a pair's cost):
+    consecutive, covering ``0 .. n-1``; each block's cost within one index's cost of its share."""
+    from _sharing import _blocks
+
+    costs = [1.0 + (i % 3) for i in range(n)]
+    blocks = _blocks(costs, size)
+    assert len(blocks) == (size + 1) // 2
+    assert blocks[0][0] == 0 and blocks[-1][1] == n
+    assert all(a[1] == b[0] for a, b in zip(blocks[:-1], blocks[1:], strict=True))
+    weights = [2.0] * (size // 2) + [1.0] * (size % 2)
+    for (lo, hi), w in zip(blocks, weights, strict=True):
+        share = sum(costs) * w / sum(weights)
+        if len(blocks) > 1 and n >= 7:
+            assert abs(sum(costs[lo:hi]) - share) <= 2 * max(costs)
+
+
 @pytest.mark.serial
 def test_split_keeps_values_with_their_options():
     p = _cli.make_parser("x", ("strip_",))

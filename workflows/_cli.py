@@ -32,7 +32,8 @@ one job each (docs/workflows.md):
 - :mod:`_provenance`: :func:`command`, :func:`versions`, :func:`png_metadata`, strict JSON
   (:func:`dumps`: NaN -> null, inf -> "inf");
 - :mod:`_sharing`: :func:`rank`, :func:`say`, :func:`say_plan`, :func:`share_by_cost`,
-  :func:`map_shared`, :func:`claim_shared` (work taken by whichever rank is free);
+  :func:`map_shared`, :func:`claim_shared` (work taken by whichever rank is free),
+  :class:`EndClaims` (runs of consecutive indices, taken from both ends);
 - :mod:`_writing`: whole-or-nothing output files (:func:`atomic_open`, :func:`write_json`,
   :func:`save_figure`, :func:`atomic_files`);
 - :mod:`_runfolder`: :class:`RunFolder` (checks, lock, record, ``--resume``);
@@ -92,6 +93,7 @@ from _provenance import (
 )
 from _runfolder import LOCK, LOCK_GRACE, RECORD, RunFolder
 from _sharing import (
+    EndClaims,
     claim_shared,
     map_shared,
     my_share,

@@ -14,8 +14,8 @@ from typing import Any
 
 from analytic.cli import rank, world_size
 
-__all__ = ["claim_shared", "map_shared", "my_share", "plan_line", "quiet_jit", "rank", "say",
-           "say_plan", "share_by_cost", "world_size"]
+__all__ = ["EndClaims", "claim_shared", "map_shared", "my_share", "plan_line", "quiet_jit",
+           "rank", "say", "say_plan", "share_by_cost", "world_size"]
 
 
 def say(*parts: object, err: bool = False) -> None:
@@ -109,3 +109,107 @@ def claim_shared(comm: Any, n: int) -> Iterator[int]:
             break
         yield int(got[0])
     win.Free()  # collective: every rank ends here once the counter passed n
+
+
+def _blocks(costs: Sequence[float], size: int) -> list[tuple[int, int]]:
+    """``[lo, hi)`` of consecutive indices per pair of ranks (:class:`EndClaims`), by cost.
+
+    ``ceil(size / 2)`` blocks; a block shared by two ranks gets twice the cost of the last
+    block of an odd ``size`` (one rank). Cut where the running sum of ``costs`` first reaches
+    each block's share of the total (every rank computes the same cuts).
+    """
+    n, pairs = len(costs), (size + 1) // 2
+    weights = [2.0] * (size // 2) + [1.0] * (size % 2)
+    total = float(sum(costs)) or 1.0
+    cuts, run, target, b = [0], 0.0, 0.0, 0
+    for i, c in enumerate(costs):
+        if b < pairs - 1 and run >= target + total * weights[b] / sum(weights):
+            target += total * weights[b] / sum(weights)
+            cuts.append(i)
+            b += 1
+        run += float(c)
+    cuts += [n] * (pairs + 1 - len(cuts))
+    return list(zip(cuts[:-1], cuts[1:], strict=True))
+
+
+class EndClaims:
+    """The indices ``0 .. n-1`` in runs of consecutive indices, taken from both ends by free ranks.
+
+    The indices are cut into ``ceil(size / 2)`` blocks of consecutive indices (:func:`_blocks`,
+    by ``costs``); ranks ``2 b`` and ``2 b + 1`` share block ``b``: the first walks it upwards
+    from its low end, the second downwards from its high end, each taking its next index when
+    it is free from the block's counter on rank 0 (``MPI_Fetch_and_op``, passive target, as
+    :func:`claim_shared`), until they meet. So each index is taken once, the work balances
+    itself like :func:`claim_shared` (no cost estimate needed inside a block), and each rank's
+    indices are consecutive: for a sweep in ``k``, each rank's solvers see neighbouring ``k``
+    (continuation) and only the meshes of its part of the ``k`` range (round robin had every
+    rank build every mesh). Iterate once, on every rank (collective: the window is freed at the
+    end). One rank: ``range(n)``.
+
+    Args:
+        comm: The communicator.
+        n: Number of indices.
+        costs: Estimated cost per index (the blocks' cut; default: equal).
+        bar: Rank 0 shows a progress bar of its block's indices taken, with this description
+            and unit, e.g. ``"k values"`` (``None``: none).
+
+    Attributes:
+        block: ``(lo, hi)`` of this rank's block.
+        claimed: Indices of the block taken so far by its ranks (as of this rank's last claim).
+    """
+
+    def __init__(self, comm: Any, n: int, costs: Sequence[float] | None = None,
+                 bar: str | None = None) -> None:
+        self.comm, self.n, self.desc = comm, n, bar
+        blocks = _blocks(list(costs) if costs is not None else [1.0] * n, comm.size)
+        self.block = blocks[comm.rank // 2] if comm.size > 1 else (0, n)
+        self.pairs = len(blocks)
+        self.claimed = 0
+
+    def __iter__(self) -> Iterator[int]:
+        lo, hi = self.block
+        bar = None
+        if self.desc is not None and self.comm.rank == 0 and hi > lo:
+            from tqdm import tqdm
+
+            ranks = f" (ranks 0-1 of {self.comm.size})" if self.comm.size > 2 else ""
+            bar = tqdm(total=hi - lo, desc=self.desc + ranks, unit=f" {self.desc}",
+                       file=sys.stderr)
+        for i in self._taken(lo, hi):
+            if bar is not None:
+                bar.update(self.claimed - bar.n)
+            yield i
+        if bar is not None:
+            bar.update(bar.total - bar.n)
+            bar.close()
+
+    def _taken(self, lo: int, hi: int) -> Iterator[int]:
+        """The indices this rank takes (see the class docstring); ``claimed`` kept up."""
+        if self.comm.size == 1:
+            for i in range(lo, hi):
+                self.claimed = i - lo + 1
+                yield i
+            return
+        import numpy as np
+
+        from mpi4py import MPI
+
+        comm, b, down = self.comm, self.comm.rank // 2, self.comm.rank % 2 == 1
+        win = MPI.Win.Allocate(8 * self.pairs if comm.rank == 0 else 0, 8, comm=comm)
+        if comm.rank == 0:
+            np.frombuffer(win.tomemory(), dtype=np.int64)[:] = 0
+        comm.Barrier()  # the counters are 0 before anyone reads them
+        one, got, own = np.ones(1, dtype=np.int64), np.zeros(1, dtype=np.int64), 0
+        while True:
+            win.Lock(0, MPI.LOCK_SHARED)
+            win.Fetch_and_op(one, got, 0, b, MPI.SUM)
+            win.Unlock(0)
+            if got[0] >= hi - lo:
+                self.claimed = hi - lo
+                break
+            self.claimed = int(got[0]) + 1
+            # the block's ranks have taken got + 1 <= hi - lo indices in all, so this rank's
+            # own run never reaches the other's
+            yield hi - 1 - own if down else lo + own
+            own += 1
+        win.Free()  # collective: every rank ends here once its block's counter passed the end

@@ -27,7 +27,8 @@ than the fastest root in R; summary.json states the bound and the tail bound at 
 
 ``status = ok`` means: count closed, estimate (and, when checked, label and error) within
 ``--rtol``; the column ``certificate`` says what a row carries (``fe``, ``exact``).
-The families are shared over the ranks, then the k values (balanced by cost); every finished k
+The families are shared over the ranks, then the k values (each rank a run of neighbouring k,
+taken from both ends of the range as the ranks get free: _sharing.EndClaims); every finished k
 is written at once to ``DIR/raw/k#####.json`` (``--resume`` continues); rank 0 writes
 ``spectrum.csv``, ``summary.json`` (``most_unstable`` with its certificate) and
 ``dispersion.png`` (exact lines, FE points, the envelope ``max Re Lambda(k)``).
@@ -233,17 +234,14 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                     unit=" families", file=sys.stderr)
             fams = sweep.follow_all(comm, params, plan.big, k, fam_share)
         t_fam = time.perf_counter() - t_fam
-        mine = [todo[j] for j in _cli.my_share(comm, sweep.k_costs(params, plan.big, k, todo))]
-        bar = tqdm(total=len(mine), desc=f"k values (rank 0 of {comm.size})", unit=" k values",
-                   file=sys.stderr) if comm.rank == 0 and not args.quiet and mine else None
+        # runs of neighbouring k per rank, from both ends of a block as each rank gets free
+        mine = (todo[j] for j in _cli.EndClaims(comm, len(todo), sweep.k_costs(
+            params, plan.big, k, todo), bar=None if args.quiet else "k values"))
         rungs = sweep.RungSolvers(params, region, float(k[-1]), args.rtol,
                                   (args.degree, args.cells, 1.0), args.material,
                                   check_exact=check, solver=args.solver)
         share = sweep.solve_k_values(params, region, rungs, k, mine, fams, parts.save,
-                                     bar.update if bar is not None else None,
-                                     plan.given)
-        if bar is not None:
-            bar.close()
+                                     None, plan.given)
         share_end = time.time()  # epoch s, one host's clock (mpi.per_rank): serial tail below
         # rank 0 imports the picture's matplotlib while the other ranks finish their shares
         t_pre = preload() if comm.rank == 0 and not args.no_plot else 0.0

@@ -585,7 +585,7 @@ def climb(params: Params, region: Region, k: float, fams: list[BranchResult],
 
 
 def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.ndarray,
-                   mine: Sequence[int], fams: list[BranchResult],
+                   mine: Iterable[int], fams: list[BranchResult],
                    save: Callable[[int, dict], object],
                    progress: Callable[[], object] | None = None,
                    c_max_at_k: Sequence[float] | None = None) -> ShareRun:
@@ -600,7 +600,9 @@ def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.nda
         region: The sweep's region ``R`` (adaptive: ``c_max = None``).
         rungs: The solvers per bound.
         k: Every requested wavenumber, sorted.
-        mine: Indices into ``k`` to solve here.
+        mine: Indices into ``k`` to solve here, in the order they are solved (e.g. taken as
+            the rank gets free: ``workflows/_sharing.EndClaims``, a run of neighbouring ``k``
+            up or down).
         fams: The followed families (:func:`follow_families`; unused without the exact check).
         save: Called with ``(i, result dict)`` after every finished ``k``.
         progress: Called after every finished ``k`` (e.g. a progress bar's update).
@@ -614,9 +616,10 @@ def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.nda
     """
     t0 = time.perf_counter()
     track = rungs.material is not None and not rungs.check_exact
-    start = None
+    start, done = None, 0
     try:
-        for i in sorted(mine):  # in k: each climb starts at the previous k's rung
+        for i in mine:  # each climb starts at the rung of the k solved before it
+            done += 1
             if c_max_at_k is not None:
                 c = c_max_at_k[i]
                 res = rungs(c, float(k[i])).solve(float(k[i]), fams, region.fixed(c),
@@ -633,7 +636,7 @@ def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.nda
         cells2 = max((cs.cells2 for cs in rungs.solvers.values()), default=0)
     finally:
         rungs.destroy()
-    return ShareRun(time.perf_counter() - t0, len(mine), max(sizes.values(), default=0), cells2,
+    return ShareRun(time.perf_counter() - t0, done, max(sizes.values(), default=0), cells2,
                     sizes, {c: m for c, (m, _) in rungs.largest.items()})
 
 

@@ -57,6 +57,24 @@ def test_band_stores_equal_the_sparse_sum(solver: CertifiedSolver, k: float) -> 
         assert np.allclose(fast.norms, plain.norms, rtol=1e-14, atol=0)
 
 
+@pytest.mark.parametrize("seed", [0, 1])
+def test_powers_and_derivatives_equal_numpys_bit_for_bit(solver: CertifiedSolver, seed: int
+                                                         ) -> None:
+    """``_phi_and_derivative`` in Python complex arithmetic: the bits of the vectorised form
+    ``z ** j``, ``where(j > 0, j z ** max(j - 1, 0), 0)`` it replaced, on random points of the
+    sweep's scale (``|Re| <= 3``, ``|Im| <= 2000``) and at small ``|z|``."""
+    op = solver.banded[1].operator(2.5)
+    j = op.power
+    assert op.polynomial and set(j.tolist()) >= {0, 1, 2, 3}
+    rng = np.random.default_rng(seed)
+    zs = np.concatenate([3 * rng.standard_normal(2000) + 2000j * rng.uniform(-1, 1, 2000),
+                         1e-3 * (rng.standard_normal(500) + 1j * rng.standard_normal(500))])
+    for z in zs:
+        value, derivative = op._phi_and_derivative(complex(z))
+        assert np.array_equal(value, z ** j)
+        assert np.array_equal(derivative, np.where(j > 0, j * z ** np.maximum(j - 1, 0), 0))
+
+
 def test_newton_stops_at_the_value_of_a_full_run(solver: CertifiedSolver) -> None:
     k = 3.0
     op, fine = (b.operator(k) for b in solver.banded)

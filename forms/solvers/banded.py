@@ -124,6 +124,7 @@ class BandedOperator:
         self.power = np.array([fn.power_index if fn.power_index is not None else -1
                                for fn in self.functions])
         self.polynomial = bool(np.all(self.power >= 0))
+        self._powers = [int(q) for q in self.power]
         self.factorizations = 0  #: banded LU factorisations so far (cost measure)
 
     @classmethod
@@ -158,8 +159,12 @@ class BandedOperator:
     def _phi_and_derivative(self, z: complex) -> tuple[np.ndarray, np.ndarray]:
         """``phi_i(z)`` and ``phi_i'(z)`` of every scalar function."""
         if self.polynomial:
-            j = self.power
-            return z ** j, np.where(j > 0, j * z ** np.maximum(j - 1, 0), 0)
+            # Python's complex powers: the same bits as numpy's ``z ** power`` and
+            # ``power * z ** (power - 1)`` (tests/test_banded.py), a fifth of the time (the
+            # vectorised form cost 33 us a call for 4-5 powers, twice per Newton step)
+            z = complex(z)
+            return (np.array([z ** q for q in self._powers]),
+                    np.array([q * z ** (q - 1) if q > 0 else 0j for q in self._powers]))
         pairs = [fn.value_and_derivative(z) for fn in self.functions]
         return np.array([a for a, _ in pairs], complex), np.array([b for _, b in pairs], complex)
 

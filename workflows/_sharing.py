@@ -142,9 +142,10 @@ class EndClaims:
     :func:`claim_shared`), until they meet. So each index is taken once, the work balances
     itself like :func:`claim_shared` (no cost estimate needed inside a block), and each rank's
     indices are consecutive: for a sweep in ``k``, each rank's solvers see neighbouring ``k``
-    (continuation) and only the meshes of its part of the ``k`` range (round robin had every
-    rank build every mesh). Iterate once, on every rank (collective: the window is freed at the
-    end). One rank: ``range(n)``.
+    (continuation) and only the meshes of its part of the ``k`` range (:func:`share_by_cost` on
+    the estimate dealt neighbouring ``k`` to alternate ranks, and every rank built every mesh).
+    Iterate once, on every rank (collective: the window is freed at the end). One rank:
+    ``range(n)``.
 
     Args:
         comm: The communicator.

@@ -17,8 +17,11 @@ from forms.solvers.certified import (
 def preload() -> float:
     """Import matplotlib (Agg) now; returns the seconds it took (about 0.5 s here).
 
-    The sweep's rank 0 calls it when its own share is done, while the other ranks finish theirs,
-    so the picture's import is not part of the serial tail everyone waits on.
+    The sweep's rank 0 calls it before it takes its first ``k`` (the ranks take their ``k``
+    whenever free, ``_cli.EndClaims``: meanwhile the others take more), so the picture's import
+    is not part of the serial tail everyone waits on. (Before session 27 rank 0 called it after
+    its own share, while the others finished theirs; with the ranks finishing together that
+    overlap was gone.)
     """
     t0 = time.perf_counter()
     import matplotlib

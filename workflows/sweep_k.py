@@ -234,6 +234,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                     unit=" families", file=sys.stderr)
             fams = sweep.follow_all(comm, params, plan.big, k, fam_share)
         t_fam = time.perf_counter() - t_fam
+        # rank 0 imports the picture's matplotlib first: meanwhile the other ranks take more k
+        t_pre = preload() if comm.rank == 0 and not args.no_plot else 0.0
         # runs of neighbouring k per rank, from both ends of a block as each rank gets free
         mine = (todo[j] for j in _cli.EndClaims(comm, len(todo), sweep.k_costs(
             params, plan.big, k, todo), bar=None if args.quiet else "k values"))
@@ -243,8 +245,6 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         share = sweep.solve_k_values(params, region, rungs, k, mine, fams, parts.save,
                                      None, plan.given)
         share_end = time.time()  # epoch s, one host's clock (mpi.per_rank): serial tail below
-        # rank 0 imports the picture's matplotlib while the other ranks finish their shares
-        t_pre = preload() if comm.rank == 0 and not args.no_plot else 0.0
         times = comm.gather({"rank": comm.rank, "families_s": t_fam, "solve_s": share.seconds,
                              "k_values": share.k_values, "unknowns": share.rungs,
                              "cells": share.rung_cells, "share_end": share_end})

@@ -797,8 +797,9 @@ RECOUNTED = [(f"{REGULARISED}/{f}", f"{REGULARISED}/recount_session24/{f}") for 
     "stress_complete_wide", "stress_complete_L16"]] + [
     (f"{REGULARISED}/{f}", f"{REGULARISED}/recount_session25/{f}")
     for f in ["velocity_complete_L64", "stress_complete_L64"]] + [
-    ("finite_block_complete", "finite_block_complete/recount_session26"),
-    (f"{REGULARISED}/stress_complete_L32", f"{REGULARISED}/recount_session27/stress_complete_L32")]
+    ("finite_block_complete", "finite_block_complete/recount_session26")] + [
+    (f"{REGULARISED}/{f}", f"{REGULARISED}/recount_session27/{f}")
+    for f in ["stress_complete_L32", "velocity_complete_fine_L32"]]
 
 
 @pytest.mark.serial

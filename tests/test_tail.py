@@ -82,6 +82,20 @@ def test_tail_bound_decreases_and_is_none_where_not_derived():
     assert tail_bound(q, 5.0, 500.0) > tail_bound(Params(), 5.0, 500.0) > 0
 
 
+def test_zero_alpha_bound_does_not_hold_with_prakash_clifton_on_a_stress_top():
+    """Why :func:`tail_bound` has no bound for ``alpha_pc > 0`` on the stress top: the
+    ``alpha_pc = 0`` bound does not carry over. With ``alpha_pc > 0`` the shear thickness modes
+    become nearly undamped at high frequency; with incommensurate phase rates (``beta =
+    1/sqrt(5)``) one of them meets a dilatational resonance near ``|Im| = 1131`` (``k = 2``,
+    ``alpha_pc = 0.02``), the pair hybridises, and it grows faster than the zero-``alpha``
+    bound beyond ``W = 1125`` (measured 0.018422 against 0.015426, ratio 1.19, session 27)."""
+    p = Params(bc="stress", beta=1.0 / math.sqrt(5.0), alpha_pc=0.02)
+    assert tail_bound(p, 2.0, 1125.0) is None and why_no_tail_bound(p)
+    roots, _ = exact_roots(p, 2.0, (-0.01, 1.0, 1125.0, 1140.0))
+    fastest = max(r.value.real for r in roots)
+    assert fastest > 1.1 * tail_bound(p.replace(alpha_pc=0.0), 2.0, 1125.0)
+
+
 #: Prakash-Clifton cases (velocity top): the bound's looseness grows with alpha_pc.
 PC_CASES = {
     "alpha_pc=0.01": (Params(alpha_pc=0.01), (2.0, 5.0)),

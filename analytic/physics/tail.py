@@ -48,7 +48,9 @@ to 0, which the resonances' own phases seldom do: the bound is loose by up to 1e
 
 Not derived (:func:`tail_bound` returns ``None``): ``alpha_pc > 0`` on the stress top (the
 denominator ``-alpha_pc omega s + a/gamma + i s`` vanishes to ``O(1/omega)`` where ``s ~
-a/(gamma alpha_pc omega)``, and there the first-order shift does not decay with ``omega``),
+a/(gamma alpha_pc omega)``, and there the first-order shift does not decay with ``omega``:
+a nearly undamped shear thickness mode meets a dilatational resonance and the pair hybridises;
+the ``alpha_pc = 0`` bound does not hold there, tests/test_tail.py),
 ``alpha_pc |Delta - 1| >= 1`` on the velocity top, and ``alpha_pc > 0`` with two bodies.
 
 A deformable substrate (finite ``mu2``): the resonances are those of the stack's dilatational

@@ -799,7 +799,7 @@ RECOUNTED = [(f"{REGULARISED}/{f}", f"{REGULARISED}/recount_session24/{f}") for 
     for f in ["velocity_complete_L64", "stress_complete_L64"]] + [
     ("finite_block_complete", "finite_block_complete/recount_session26")] + [
     (f"{REGULARISED}/{f}", f"{REGULARISED}/recount_session27/{f}")
-    for f in ["stress_complete_L32", "velocity_complete_fine_L32"]]
+    for f in ["stress_complete_L32", "velocity_complete_fine_L32", "velocity_complete"]]
 
 
 @pytest.mark.serial

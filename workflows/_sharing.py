@@ -92,23 +92,34 @@ def claim_shared(comm: Any, n: int) -> Iterator[int]:
     if comm.size == 1:
         yield from range(n)
         return
+    yield from _draws(comm, 1, 0, n)
+
+
+def _draws(comm: Any, slots: int, slot: int, n: int) -> Iterator[int]:
+    """This rank's draws ``0 <= t < n`` from counter ``slot`` of ``slots`` counters on rank 0.
+
+    Each draw reads and increments the counter atomically (``MPI_Fetch_and_op`` on a window,
+    passive target: rank 0 need not take part), so the ranks drawing from one counter get
+    distinct values. Collective: every rank of ``comm`` creates the window and iterates to the
+    end, where it is freed.
+    """
     import numpy as np
 
     from mpi4py import MPI
 
-    win = MPI.Win.Allocate(8 if comm.rank == 0 else 0, 8, comm=comm)
+    win = MPI.Win.Allocate(8 * slots if comm.rank == 0 else 0, 8, comm=comm)
     if comm.rank == 0:
-        np.frombuffer(win.tomemory(), dtype=np.int64)[0] = 0
-    comm.Barrier()  # the counter is 0 before anyone reads it
+        np.frombuffer(win.tomemory(), dtype=np.int64)[:] = 0
+    comm.Barrier()  # the counters are 0 before anyone reads them
     one, got = np.ones(1, dtype=np.int64), np.zeros(1, dtype=np.int64)
     while True:
         win.Lock(0, MPI.LOCK_SHARED)
-        win.Fetch_and_op(one, got, 0, 0, MPI.SUM)
+        win.Fetch_and_op(one, got, 0, slot, MPI.SUM)
         win.Unlock(0)
         if got[0] >= n:
             break
         yield int(got[0])
-    win.Free()  # collective: every rank ends here once the counter passed n
+    win.Free()  # collective: every rank ends here once its counter passed n
 
 
 def _blocks(costs: Sequence[float], size: int) -> list[tuple[int, int]]:
@@ -121,10 +132,11 @@ def _blocks(costs: Sequence[float], size: int) -> list[tuple[int, int]]:
     n, pairs = len(costs), (size + 1) // 2
     weights = [2.0] * (size // 2) + [1.0] * (size % 2)
     total = float(sum(costs)) or 1.0
+    shares = [total * w / sum(weights) for w in weights]
     cuts, run, target, b = [0], 0.0, 0.0, 0
     for i, c in enumerate(costs):
-        if b < pairs - 1 and run >= target + total * weights[b] / sum(weights):
-            target += total * weights[b] / sum(weights)
+        if b < pairs - 1 and run >= target + shares[b]:
+            target += shares[b]
             cuts.append(i)
             b += 1
         run += float(c)
@@ -161,7 +173,7 @@ class EndClaims:
 
     def __init__(self, comm: Any, n: int, costs: Sequence[float] | None = None,
                  bar: str | None = None) -> None:
-        self.comm, self.n, self.desc = comm, n, bar
+        self.comm, self.desc = comm, bar
         blocks = _blocks(list(costs) if costs is not None else [1.0] * n, comm.size)
         self.block = blocks[comm.rank // 2] if comm.size > 1 else (0, n)
         self.pairs = len(blocks)
@@ -191,26 +203,10 @@ class EndClaims:
                 self.claimed = i - lo + 1
                 yield i
             return
-        import numpy as np
-
-        from mpi4py import MPI
-
-        comm, b, down = self.comm, self.comm.rank // 2, self.comm.rank % 2 == 1
-        win = MPI.Win.Allocate(8 * self.pairs if comm.rank == 0 else 0, 8, comm=comm)
-        if comm.rank == 0:
-            np.frombuffer(win.tomemory(), dtype=np.int64)[:] = 0
-        comm.Barrier()  # the counters are 0 before anyone reads them
-        one, got, own = np.ones(1, dtype=np.int64), np.zeros(1, dtype=np.int64), 0
-        while True:
-            win.Lock(0, MPI.LOCK_SHARED)
-            win.Fetch_and_op(one, got, 0, b, MPI.SUM)
-            win.Unlock(0)
-            if got[0] >= hi - lo:
-                self.claimed = hi - lo
-                break
-            self.claimed = int(got[0]) + 1
+        down = self.comm.rank % 2 == 1
+        for own, got in enumerate(_draws(self.comm, self.pairs, self.comm.rank // 2, hi - lo)):
+            self.claimed = got + 1
             # the block's ranks have taken got + 1 <= hi - lo indices in all, so this rank's
             # own run never reaches the other's
             yield hi - 1 - own if down else lo + own
-            own += 1
-        win.Free()  # collective: every rank ends here once its block's counter passed the end
+        self.claimed = hi - lo

@@ -111,9 +111,10 @@ def build_parser() -> argparse.ArgumentParser:
                    "layers (--layers and/or profiles) or strip (2D Bloch cell, below)")
     m.add_argument("--layers", default=None, metavar="FILE",
                    help="CSV y_top,mu,rho,beta, one layer per row from y = 0 up (--model layers)")
-    for name in ("mu", "rho", "beta"):
+    for name, example in (("mu", "1 - 0.6*exp(-y/0.05)"), ("rho", "1 - 0.2*exp(-y/0.05)"),
+                          ("beta", "0.5 + 0.1*exp(-y/0.05)")):
         m.add_argument(f"--{name}-profile", default=None, metavar="EXPR",
-                       help=f"{name}(y) as an expression of y, e.g. '1 - 0.6*exp(-y/0.05)' "
+                       help=f"{name}(y) as an expression of y, e.g. '{example}' "
                        "(--model layers)")
     _sweep_strip.add_arguments(ap)
     ap.add_argument("--out", default=os.path.join("out", "sweep_k"), help="output directory")
@@ -139,6 +140,8 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
     args.material = slider_material(args.model, args.layers, args.mu_profile, args.rho_profile,
                                     args.beta_profile)
     params = _cli.params_from_args(args)
+    if args.material is not None:
+        args.material.check(params.H)  # the profiles' ranges, before any folder or work
     one = homogeneous_params(params, args.material) if args.material is not None else None
     layered = args.material is not None and one is None
     params = one or (sweep.layered_params(params, args.material, args.check_exact, args.solver)

@@ -107,12 +107,15 @@ class Profile:
 
     def check(self, bottom: float, top: float, low: float, high: float = math.inf) -> None:
         """Raise unless ``low < value < high`` on ``[bottom, top]`` (checked at 2001 points)."""
-        v = self(np.linspace(bottom, top, 2001))
-        if not np.all(np.isfinite(v) & (v > low) & (v < high)):
-            bound = (f"{low} < {self.name} < {high:.4g}" if math.isfinite(high)
-                     else f"{self.name} > {low}")
-            raise ParameterError(f"{self.name} = {self.text!r} leaves {bound} somewhere on "
-                                 f"{bottom} <= y <= {top}")
+        y = np.linspace(bottom, top, 2001)
+        v = self(y)
+        bad = ~(np.isfinite(v) & (v > low) & (v < high))
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            bound = (f"{low:g} < {self.name} < {high:.4g}" if math.isfinite(high)
+                     else f"{self.name} > {low:g}")
+            raise ParameterError(f"{self.name} = {self.text!r} leaves {bound} on {bottom:g} "
+                                 f"<= y <= {top:g} (it is {v[i]:.4g} at y = {y[i]:.4g})")
 
 
 @dataclass(frozen=True)
@@ -191,6 +194,20 @@ class SliderMaterial:
     def layer_rows(self, H: float, beta: float) -> list[LayerRow]:  # noqa: N803
         """The rows, or the homogeneous slider of height ``H``."""
         return list(self.rows) or [LayerRow(H, 1.0, 1.0, beta)]
+
+    def check(self, H: float) -> None:  # noqa: N803
+        """Raise unless every profile stays in its range on the slider, ``0 <= y <= top``.
+
+        ``top`` is the last layer's ``y_top``, or ``H`` without a layers file; the ranges are
+        those of :class:`forms.models.section.Layer` (``mu, rho > 0``, ``0 < beta <
+        1/sqrt(2)``), checked here so that a scene refuses a bad profile before any work.
+
+        Raises:
+            ParameterError: One line naming the option, its range and where it leaves it.
+        """
+        top = self.rows[-1].y_top if self.rows else H
+        for name, prof in self.profiles:
+            prof.check(0.0, top, 0.0, 1 / math.sqrt(2) if name == "beta" else math.inf)
 
     def as_dict(self) -> dict[str, object]:
         """JSON-friendly description (for a run's record)."""

@@ -261,10 +261,14 @@ def report(summary: dict, out: str) -> int:
     top = "none" if best is None else (
         f"{best['label']} ({'certified' if best['certified'] else 'NOT certified'}) at k = "
         f"{best['k']:g}: Lambda = {best['re_lambda']:.6g} {best['im_lambda']:+.6g}i")
+    def short(v: float | None) -> str:
+        return "none" if v is None else f"{v:.3g}"
+
     print(f"strip: {cert['rows']} eigenvalues over {len(summary['per_k'])} k value(s), "
-          f"{cert['rows_ok']} ok (largest estimate {summary['accuracy']['max_error_estimate']}"
-          f", rtol {summary['accuracy']['rtol']:g}); harmonic 1: {one['strip']} (1D: "
-          f"{one['section']}), max relative distance {one['max_rel_distance']}; most unstable "
+          f"{cert['rows_ok']} ok (largest estimate "
+          f"{short(summary['accuracy']['max_error_estimate'])}, rtol "
+          f"{summary['accuracy']['rtol']:g}); harmonic 1: {one['strip']} (1D: {one['section']}),"
+          f" max relative distance {short(one['max_rel_distance'])}; most unstable "
           f"in R (no tail bound for the 2D cell: R not proven to hold the fastest mode) {top}"
           f" -> {out}", flush=True)
     return code

@@ -231,6 +231,24 @@ def test_sweep_bad_slider_one_line_exit_2(tmp_path, bad, word, nproc):
     assert not out.exists()
 
 
+@pytest.mark.serial
+def test_sweep_resume_with_another_profile_names_the_profile(tmp_path):
+    """--resume of a run with another profile is refused, naming the profile (not the region
+    it changes, as before session 28); the same profile resumes."""
+    out = tmp_path / "run"
+    common = ["--k", "2", "--model", "layers", "--quiet", "--no-plot", "--out", str(out)]
+    first = run_workflow("sweep_k.py", [*common, "--mu-profile", "1 - 0.5*exp(-y/0.05)"])
+    assert first.returncode == 0, first.stderr[-2000:]
+    other = run_workflow("sweep_k.py", [*common, "--mu-profile", "1 - 0.4*exp(-y/0.05)",
+                                        "--resume"])
+    lines = [ln for ln in other.stderr.splitlines() if ln.strip()]
+    assert other.returncode == 2 and len(lines) == 1, other.stderr
+    assert "material.profiles.mu = " in lines[0] and "1 - 0.4*exp(-y/0.05)" in lines[0]
+    same = run_workflow("sweep_k.py", [*common, "--mu-profile", "1 - 0.5*exp(-y/0.05)",
+                                       "--resume"])
+    assert same.returncode == 0, same.stderr[-2000:]
+
+
 # README "Layered and graded sliders": branch 0- of the paper defaults (velocity top), peak of
 # Re Lambda over k, homogeneous and with a damage zone (mu = 0.6 for y < 0.1 H).
 DAMAGE_ZONE = {

@@ -206,11 +206,12 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         return _sweep_strip.run(comm, args, OUTPUTS)
     params, k, merged, region = validate(args)  # every rank, before any collective or file
     check = args.check_exact == "yes"
-    config = {"params": params.as_dict(), "k": [float(v) for v in k],
+    # the slider's material first: a changed profile is named, not the region it changes
+    config = {**({"material": args.material.as_dict()} if args.material is not None else {}),
+              "params": params.as_dict(), "k": [float(v) for v in k],
               "region": region.as_dict(params), "rtol": args.rtol,
               "degree": args.degree, "cells": args.cells,
-              "solver": args.solver, "check_exact": check,
-              **({"material": args.material.as_dict()} if args.material is not None else {})}
+              "solver": args.solver, "check_exact": check}
     with _cli.RunFolder(comm, args.out, "sweep_k", config, resume=args.resume, resumable=True,
                         outputs=OUTPUTS) as run:
         out, t_start = run.path, time.perf_counter()

@@ -641,6 +641,19 @@ def _spectrum_rows(folder: str, length: float) -> np.ndarray:
     return np.array([complex(float(r["re_lambda"]), float(r["im_lambda"])) for r in rows])
 
 
+def _spectrum_estimates(folder: str, length: float) -> list[tuple[complex, float]]:
+    """``(eigenvalue, P3 estimate)`` of every row of ``folder``'s spectrum at ``length``."""
+    path = os.path.join(ROOT, "workflows", "results", folder, "finite_block_spectrum.csv")
+    with open(path) as f:
+        return [(complex(float(r["re_lambda"]), float(r["im_lambda"])), float(r["estimate"]))
+                for r in csv.DictReader(f) if float(r["L"]) == length]
+
+
+def _moved_by_estimate(fine: np.ndarray, coarse: list[tuple[complex, float]]) -> list[float]:
+    """How far each coarse eigenvalue moved to its nearest ``fine`` one, over its estimate."""
+    return [np.min(np.abs(fine - c)) / abs(c) / est for c, est in coarse]
+
+
 @pytest.mark.serial
 @pytest.mark.parametrize("top", ["velocity", "stress"])
 def test_committed_regularised_block_search(top):
@@ -755,20 +768,15 @@ def test_committed_stress_complete_search_at_l16_on_a_finer_mesh():
     best = z[int(np.argmax(z.real))]
     assert abs(best - (target if best.imag * target.imag > 0 else target.conjugate())) \
         < 1e-10 * abs(best)
-    path = os.path.join(ROOT, "workflows", "results", REGULARISED, "stress_complete_L16",
-                        "finite_block_spectrum.csv")
-    with open(path) as f:
-        table = [(complex(float(r["re_lambda"]), float(r["im_lambda"])), float(r["estimate"]))
-                 for r in csv.DictReader(f) if float(r["L"]) == 16.0]
+    table = _spectrum_estimates(os.path.join(REGULARISED, "stress_complete_L16"), 16.0)
     low = [(c, est) for c, est in table if abs(c.imag) < 10.0]
     assert len(low) == int(np.sum(np.abs(z.imag) < 10.0)) == 12
-    for c, est in low:
-        moved = np.min(np.abs(z - c)) / abs(c)
-        assert 0.75 < moved / est < 0.85  # measured 0.793-0.802: 1 - (2/3)^4
-    one_plus = z[np.abs(z.imag) > 10.0].real
+    # measured 0.793-0.802: 1 - (2/3)^4
+    assert all(0.75 < r < 0.85 for r in _moved_by_estimate(z, low))
+    one_plus = z[np.abs(z.imag) > 10.0]
     table_one_plus = np.array([c.real for c, _ in table if abs(c.imag) > 10.0])
-    assert np.all(np.abs(np.abs(z[np.abs(z.imag) > 10.0].imag) - 19.25) < 0.2)  # the 1+ mode
-    assert one_plus.max() < best.real and one_plus.max() < table_one_plus.max()
+    assert np.all(np.abs(np.abs(one_plus.imag) - 19.25) < 0.2)  # the 1+ mode
+    assert one_plus.real.max() < best.real and one_plus.real.max() < table_one_plus.max()
 
 
 #: Velocity top, complete searches on the finer mesh (12 cells per unit, ny = 12) and the table
@@ -799,17 +807,11 @@ def test_committed_velocity_complete_search_on_a_finer_mesh(fine, length, table,
             meta["degree"], meta["search"]) == ("velocity", 0.1, 12, 12, 2, "complete")
     assert cert["closed"] and cert["found"] == cert["counted"] == len(z) == 2 * pairs
     assert cert["max_estimate"] < 1e-4
-    path = os.path.join(ROOT, "workflows", "results", REGULARISED, table,
-                        "finite_block_spectrum.csv")
-    with open(path) as f:
-        coarse = [(complex(float(r["re_lambda"]), float(r["im_lambda"])), float(r["estimate"]))
-                  for r in csv.DictReader(f) if float(r["L"]) == length
-                  and float(r["re_lambda"]) > cert["box"][0]
-                  and abs(float(r["im_lambda"])) <= cert["box"][3]]
+    coarse = [(c, est) for c, est in _spectrum_estimates(os.path.join(REGULARISED, table), length)
+              if c.real > cert["box"][0] and abs(c.imag) <= cert["box"][3]]
     assert len(coarse) == len(z)  # the same modes above the floor on both meshes
-    for c, est in coarse:
-        moved = np.min(np.abs(z - c)) / abs(c)
-        assert 0.75 < moved / est < 0.85  # measured 0.80 at every pair: 1 - (2/3)^4
+    # measured 0.80 at every pair: 1 - (2/3)^4
+    assert all(0.75 < r < 0.85 for r in _moved_by_estimate(z, coarse))
 
 
 @pytest.mark.serial

@@ -137,11 +137,9 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
     # the slider of --model: one homogeneous layer (mu = rho = 1, no profile) is today's slider
     # (H, beta of its row; exact roots checked); several layers or profiles have no exact roots
     # (FE only: sweep.layered_params; --check-exact auto is then no)
-    args.material = slider_material(args.model, args.layers, args.mu_profile, args.rho_profile,
-                                    args.beta_profile)
     params = _cli.params_from_args(args)
-    if args.material is not None:
-        args.material.check(params.H)  # the profiles' ranges, before any folder or work
+    args.material = slider_material(args.model, args.layers, args.mu_profile, args.rho_profile,
+                                    args.beta_profile, H=params.H)
     one = homogeneous_params(params, args.material) if args.material is not None else None
     layered = args.material is not None and one is None
     params = one or (sweep.layered_params(params, args.material, args.check_exact, args.solver)

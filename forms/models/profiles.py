@@ -43,6 +43,9 @@ _NODES = (ast.Expression, ast.BinOp, ast.UnaryOp, ast.Call, ast.Name, ast.Load, 
           ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow, ast.USub, ast.UAdd)
 #: Columns of a layers file.
 LAYER_COLUMNS = ("y_top", "mu", "rho", "beta")
+#: Each material coefficient lies in ``0 < value < MATERIAL_HIGH[name]`` (a layers file's row,
+#: a profile on the slider, :class:`forms.models.section.Layer`).
+MATERIAL_HIGH = {"mu": math.inf, "rho": math.inf, "beta": 1 / math.sqrt(2)}
 
 
 def _check_tree(tree: ast.AST, name: str, text: str) -> None:
@@ -152,7 +155,7 @@ def parse_layers(rows: list[dict[str, str]], source: str = "layers") -> list[Lay
         if not (math.isfinite(r.y_top) and r.y_top > below):
             raise ParameterError(f"{source} row {i}: y_top = {r.y_top} must be finite and "
                                  f"> {below} (increasing from the interface)")
-        if not (r.mu > 0 and r.rho > 0 and 0 < r.beta < 1 / math.sqrt(2)):
+        if not all(0 < getattr(r, name) < high for name, high in MATERIAL_HIGH.items()):
             raise ParameterError(f"{source} row {i}: mu > 0, rho > 0 and 0 < beta < 0.7071 "
                                  f"needed (mu={r.mu}, rho={r.rho}, beta={r.beta})")
         out.append(r)
@@ -207,7 +210,7 @@ class SliderMaterial:
         """
         top = self.rows[-1].y_top if self.rows else H
         for name, prof in self.profiles:
-            prof.check(0.0, top, 0.0, 1 / math.sqrt(2) if name == "beta" else math.inf)
+            prof.check(0.0, top, 0.0, MATERIAL_HIGH[name])
 
     def as_dict(self) -> dict[str, object]:
         """JSON-friendly description (for a run's record)."""
@@ -216,8 +219,12 @@ class SliderMaterial:
 
 
 def slider_material(model: str, layers: str | None = None, mu: str | None = None,
-                    rho: str | None = None, beta: str | None = None) -> SliderMaterial | None:
+                    rho: str | None = None, beta: str | None = None, *,
+                    H: float) -> SliderMaterial | None:  # noqa: N803
     """The slider of the options ``--model``, ``--layers FILE``, ``--mu/rho/beta-profile EXPR``.
+
+    ``H`` is the slider's height without a layers file (``--H``): the profiles are checked
+    on the slider (:meth:`SliderMaterial.check`).
 
     Returns:
         ``None`` for ``model = "section"`` (the homogeneous slider of the params), else the
@@ -225,7 +232,8 @@ def slider_material(model: str, layers: str | None = None, mu: str | None = None
 
     Raises:
         ParameterError: An unknown model, layer options without ``--model layers``,
-            ``--model layers`` without any, or a bad file or expression (one line).
+            ``--model layers`` without any, or a bad file or expression, or a profile out of
+            its range on the slider (one line).
     """
     exprs = {"mu": mu, "rho": rho, "beta": beta}
     given = [f"--{n}-profile" for n, v in exprs.items() if v is not None]
@@ -242,7 +250,9 @@ def slider_material(model: str, layers: str | None = None, mu: str | None = None
     rows = tuple(read_layers(layers)) if layers is not None else ()
     profiles = tuple((n, Profile(v, f"--{n}-profile")) for n, v in exprs.items()
                      if v is not None)
-    return SliderMaterial(rows, profiles)
+    material = SliderMaterial(rows, profiles)
+    material.check(H)
+    return material
 
 
 def homogeneous_params(params: Params, material: SliderMaterial) -> Params | None:

@@ -66,7 +66,7 @@ from forms.friction import (
     friction_operator,
 )
 from forms.models.periodic import reduce_matrix
-from forms.models.profiles import LayerRow, Profile, SliderMaterial
+from forms.models.profiles import MATERIAL_HIGH, LayerRow, Profile, SliderMaterial
 from meshes.interval import default_cells, grading_ratio, interval_vertices
 from meshes.layered import interval_from_pieces
 
@@ -101,12 +101,11 @@ class Layer:
         if v.ndim != 1 or len(v) < 2 or not np.all(np.diff(v) > 0):
             raise ValueError("Layer.vertices must be strictly increasing, length >= 2")
         object.__setattr__(self, "vertices", v)
-        high = {"mu": math.inf, "rho": math.inf, "beta": 1 / math.sqrt(2)}
         for name in MATERIALS:
             value = getattr(self, name)
             if isinstance(value, Profile):
-                value.check(self.bottom, self.top, 0.0, high[name])
-            elif not 0 < value < high[name]:
+                value.check(self.bottom, self.top, 0.0, MATERIAL_HIGH[name])
+            elif not 0 < value < MATERIAL_HIGH[name]:
                 raise ValueError(f"bad layer material mu={self.mu}, rho={self.rho}, "
                                  f"beta={self.beta}")
         if complex(self.stretch) == 0:

@@ -50,10 +50,11 @@ def test_envelope_is_the_fastest_exact_root(tmp_path, nproc):
 
 
 def test_envelope_says_in_r_only_where_no_tail_bound_exists(tmp_path):
-    """Stress top with alpha_pc > 0: no tail bound is derived (analytic.physics.tail), so the
-    global maximum is the largest in R only, and the printed line and summary.json say so."""
+    """alpha_pc |Delta - 1| >= 1 (velocity top): no tail bound is derived
+    (analytic.physics.tail), so the global maximum is the largest in R only, and the printed
+    line and summary.json say so."""
     out = tmp_path / "env"
-    proc = run_workflow("envelope.py", ["--bc", "stress", "--alpha-pc", "0.1", "--k", "1,3",
+    proc = run_workflow("envelope.py", ["--alpha-pc", "0.6", "--Delta", "-1", "--k", "1,3",
                                         "--refine-rounds", "0", "--out", str(out)])
     assert proc.returncode == 0, proc.stderr[-2000:]
     s = json.loads((out / "summary.json").read_text())

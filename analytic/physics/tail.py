@@ -46,12 +46,22 @@ to 0, which the resonances' own phases seldom do: the bound is loose by up to 1e
 ``alpha_pc = 1`` (tests/test_tail.py), and proves the fastest mode only for small ``alpha_pc``
 (about ``<= 0.1`` at the defaults).
 
-Not derived (:func:`tail_bound` returns ``None``): ``alpha_pc > 0`` on the stress top (the
-denominator ``-alpha_pc omega s + a/gamma + i s`` vanishes to ``O(1/omega)`` where ``s ~
-a/(gamma alpha_pc omega)``, and there the first-order shift does not decay with ``omega``:
-a nearly undamped shear thickness mode meets a dilatational resonance and the pair hybridises;
-the ``alpha_pc = 0`` bound does not hold there, tests/test_tail.py),
-``alpha_pc |Delta - 1| >= 1`` on the velocity top, and ``alpha_pc > 0`` with two bodies.
+Prakash-Clifton, stress top (:func:`pc_stress_bound`, session 29). The first-order shift's
+denominator ``D = (1 + i alpha omega) i s + (1 + e) a/gamma`` vanishes to ``O(1/omega)`` where
+``s ~ a/(gamma alpha_pc omega)``: the shear thickness modes are nearly undamped at high frequency
+(their ``Re`` is ``-1/(gamma alpha_pc^2 omega^2 H)``), and where one meets a dilatational
+resonance the first-order shift does not decay with ``omega`` and the pair hybridises (the
+``alpha_pc = 0`` bound does not hold there, tests/test_tail.py). Multiplying the shift out,
+``cosh(beta H L) D(L) = k i f_eff sd (2 beta sd - sh)/(beta L)`` holds both roots of the pair;
+with ``|cosh/sinh(beta H L)| >= tanh(beta H rho)`` at any rod phase and the shear phase free,
+a root ``rho + i omega`` needs ``tanh(beta H rho) |D| <= k |f_eff| (2 beta cosh(beta H rho) +
+|sh|)/(beta omega)``, and the largest such ``rho`` is the bound: ``O(k)`` away from a
+coincidence, ``O(sqrt(k f_eff/(alpha_pc beta))/(H omega))`` at one (the pair splits by the
+square root of the coupling, ``Re omega`` stays bounded). Asymptotic, made safe by
+measurement as the others (tests/test_tail.py).
+
+Not derived (:func:`tail_bound` returns ``None``): ``alpha_pc |Delta - 1| >= 1`` on the
+velocity top, and ``alpha_pc > 0`` with two bodies.
 
 A deformable substrate (finite ``mu2``): the resonances are those of the stack's dilatational
 rod; :mod:`analytic.physics.tail_stack` derives the first-order shift there and bounds it over
@@ -97,11 +107,10 @@ def velocity_scale(p: Params) -> float:
 
 def why_no_tail_bound(p: Params) -> str:
     """Why :func:`tail_bound` has no bound for ``p`` ("" if it has one)."""
-    if p.alpha_pc > 0 and (p.two_body or p.bc == "stress"):
-        return (f"no tail bound derived for alpha_pc > 0 with "
-                f"{'two bodies' if p.two_body else 'a stress top'}: the region is not proven "
-                "to hold the fastest mode")
-    if p.alpha_pc * abs(p.Delta - 1.0) >= 1.0:
+    if p.alpha_pc > 0 and p.two_body:
+        return ("no tail bound derived for alpha_pc > 0 with two bodies: the region is not "
+                "proven to hold the fastest mode")
+    if p.alpha_pc * abs(p.Delta - 1.0) >= 1.0 and p.bc == "velocity":
         return ("no tail bound derived for alpha_pc |Delta - 1| >= 1: the region is not "
                 "proven to hold the fastest mode")
     if p.two_body and not (math.isfinite(p.H) and math.isfinite(p.H2)):
@@ -118,12 +127,13 @@ def why_no_tail_bound(p: Params) -> str:
 
 
 def loose_tail_bound(p: Params) -> bool:
-    """The bound exists but is far above the roots it bounds: ``alpha_pc > 0`` (velocity top).
+    """The bound exists but is far above the roots it bounds: ``alpha_pc > 0`` (either top).
 
     Measured (tests/test_tail.py): the fastest root beyond ``W`` reaches 1e-4 .. 0.7 of the
-    bound, against 0.11 .. 0.84 for ``alpha_pc = 0``. The adaptive region does not climb to
-    its top rung for such a bound unless the top rung's bound is below the fastest value
-    already found (:func:`analytic.numerics.spectrum.provable_region`).
+    bound (velocity top), 1e-3 .. 0.8 (stress top), against 0.11 .. 0.84 for ``alpha_pc = 0``.
+    The adaptive region does not climb to its top rung for such a bound unless the top rung's
+    bound is below the fastest value already found
+    (:func:`analytic.numerics.spectrum.provable_region`).
     """
     return p.alpha_pc > 0 and not why_no_tail_bound(p)
 
@@ -178,6 +188,111 @@ def _prakash_clifton_factor(alpha: float, d: float, W: float) -> float:
                          lam / (alpha * ((1.0 - lam) * W - d))], axis=0).min())
 
 
+#: Phase grid (``H omega`` on ``[0, pi)``) of the Prakash-Clifton stress bound, refined twice
+#: around each minimum (:func:`_pc_min_ratio`).
+_PC_THETA = np.linspace(0.0, math.pi, 256, endpoint=False)
+_PC_COS, _PC_SIN = np.cos(_PC_THETA), np.sin(_PC_THETA)
+
+#: Frequencies, in units of ``W``, at which :func:`pc_stress_bound` takes its supremum over
+#: ``omega >= W`` (``rho*(omega) omega`` stays within about 20 % of a constant beyond ``W``,
+#: measured: so past ``10 W`` the bound is below its value at ``10 W``).
+PC_OMEGA = (1.0, 1.1, 1.25, 1.5, 2.0, 3.0, 5.0, 10.0)
+
+#: Growth rates scanned (geometric, ratio 2, 1e-7 .. 13) before the bisection of
+#: :func:`pc_stress_bound` (the set of ``rho`` that pass is an interval from 0: checked against a
+#: scan with ratio 1.02, tests/test_tail.py).
+_PC_RHO = 1e-7 * 2.0 ** np.arange(28)
+
+
+def _pc_ratio(c: tuple[float, ...], rho: np.ndarray, om: np.ndarray, cos: np.ndarray,
+              sin: np.ndarray) -> np.ndarray:
+    """``tanh(beta H rho) |D| / RHS`` of :func:`pc_stress_bound` (broadcast over the arrays).
+
+    ``c = (H, beta, alpha_pc, gamma, Delta, K)``; ``rho``, ``om`` the growth rate and frequency
+    of ``L = rho + i omega``; ``cos``, ``sin`` of the shear phase ``theta`` (``H omega`` taken
+    as free).
+    """
+    H, beta, alpha, gamma, delta, K = c
+    x = H * rho
+    shx, chx = np.sinh(x), np.cosh(x)
+    sh = shx * cos + 1j * chx * sin  # sinh(x + i theta)
+    ch = chx * cos + 1j * shx * sin  # cosh(x + i theta)
+    L = rho + 1j * om
+    D = (1.0 + alpha * L) * sh + (L + delta) / (gamma * (L + 1.0)) * ch
+    lhs = np.tanh(beta * H * rho) * np.abs(D)
+    return lhs * (beta * om) / (K * (2.0 * beta * np.cosh(beta * H * rho) + np.abs(sh)))
+
+
+def _pc_min_ratio(c: tuple[float, ...], rho: np.ndarray, om: np.ndarray) -> np.ndarray:
+    """Minimum of :func:`_pc_ratio` over the phase, for each pair ``(rho[i], om[i])``.
+
+    The grid's minimum is refined twice on finer grids around it (the dip of ``|D|`` is as
+    narrow as ``H rho`` where the shear mode is nearly undamped).
+    """
+    rho, om = rho[:, None], om[:, None]
+    r = _pc_ratio(c, rho, om, _PC_COS, _PC_SIN)
+    best = r.min(axis=1)
+    t0 = _PC_THETA[np.argmin(r, axis=1)][:, None]
+    for half in (2.0 * math.pi / _PC_THETA.size, 0.1 * math.pi / _PC_THETA.size):
+        th = t0 + np.linspace(-half, half, 41)[None, :]
+        r = _pc_ratio(c, rho, om, np.cos(th), np.sin(th))
+        best = np.minimum(best, r.min(axis=1))
+        t0 = np.take_along_axis(th, np.argmin(r, axis=1)[:, None], 1)
+    return best
+
+
+@functools.lru_cache(maxsize=4096)
+def _pc_stress_bound(H: float, beta: float, alpha: float, gamma: float, delta: float, f: float,
+                     alpha_ld: float, k: float, W: float) -> float:
+    """:func:`pc_stress_bound` of the parameters it depends on, remembered."""
+    K = k * (abs(f - alpha_ld) + alpha_ld / W) * (1.0 + k / W)
+    c = (H, beta, alpha, gamma, delta, K)
+    om = W * np.asarray(PC_OMEGA)
+    rho_g, om_g = np.meshgrid(_PC_RHO, om)
+    holds = (_pc_min_ratio(c, rho_g.ravel(), om_g.ravel()) <= 1.0).reshape(rho_g.shape)
+    if holds[:, -1].any():
+        return math.inf
+    last = np.array([np.nonzero(h)[0][-1] if h.any() else -1 for h in holds])
+    lo = np.where(last >= 0, _PC_RHO[np.maximum(last, 0)], 0.0)
+    hi = _PC_RHO[last + 1]
+    for _ in range(14):  # hi / lo from 2 to 2^(1/16384)
+        mid = np.where(lo > 0, np.sqrt(lo * hi), 0.5 * hi)
+        ok = _pc_min_ratio(c, mid, om) <= 1.0
+        lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
+    return float(hi.max())
+
+
+def pc_stress_bound(p: Params, k: float, W: float) -> float:
+    """Bound on ``Re Lambda`` beyond ``|Im| = W``: stress top, ``alpha_pc > 0``, rigid substrate.
+
+    The hybridised pair (module docstring; docs/design.md 8.1): near a dilatational resonance
+    the roots solve, to first order in ``k/omega``,
+    ``cosh(beta H L) D(L) = k i f_eff sd (2 beta sd - sh)/(beta L)`` with the shear factor
+    ``D = (1 + alpha_pc L) sh + (F_0/L) ch`` (the first-order shift ``c`` of the module
+    docstring multiplied out, so that a zero of ``D`` near the resonance, a nearly undamped
+    shear mode, is a second root of the pair, not a pole). A root at ``L = rho + i omega``,
+    ``rho > 0``, needs ``tanh(beta H rho) |D| <= k |f_eff| (2 beta cosh(beta H rho) + |sh|)/
+    (beta omega)`` (``|cosh/sinh|(beta H L) >= tanh(beta H rho)`` at any rod phase) for some
+    shear phase ``theta = H omega``, taken as free. The bound is the largest such ``rho`` over
+    ``omega`` in ``W`` times :data:`PC_OMEGA`, with the margin ``(1 + k/W)`` of the rigid bound.
+    Near a coincidence of the two resonances it is ``O(sqrt(k f/(alpha_pc beta))/(H omega))``,
+    not ``O(k)``: the pair splits by the square root of the coupling.
+
+    Args:
+        p: Parameters (stress top; any ``alpha_pc >= 0``, ``alpha_ld``).
+        k: Wavenumber ``> 0``.
+        W: Frequency beyond which the bound holds.
+
+    Returns:
+        The bound, ``inf`` when ``W <= max(k, 1, |Delta - 1|)`` or when it exceeds the scanned
+        range (``rho`` about 7).
+    """
+    k, W = float(k), float(W)
+    if not (W > max(k, 1.0, abs(p.Delta - 1.0))):
+        return math.inf
+    return _pc_stress_bound(p.H, p.beta, p.alpha_pc, p.gamma, p.Delta, p.f, p.alpha_ld, k, W)
+
+
 def tail_bound(p: Params, k: float, W: float) -> float | None:
     """Upper bound on ``Re Lambda`` of every root with ``|Im Lambda| > W`` at wavenumber ``k``.
 
@@ -198,6 +313,8 @@ def tail_bound(p: Params, k: float, W: float) -> float | None:
     W = float(W)
     if p.two_body:
         return tail_stack.stack_tail_bound(p, k, W)
+    if p.bc == "stress" and p.alpha_pc > 0:
+        return pc_stress_bound(p, k, W)
     if not (W > max(k, 1.0, abs(p.Delta - 1.0))):
         return math.inf
     f_eff = abs(p.f - p.alpha_ld) + p.alpha_ld / W

@@ -199,8 +199,7 @@ def test_prakash_clifton_stress_bound_is_the_edge_of_an_interval(p, k, w):
     that the bound is at or just above its last passing rho (measured 1.001-1.015 above)."""
     from analytic.physics import tail
 
-    K = k * (abs(p.f - p.alpha_ld) + p.alpha_ld / w) * (1.0 + k / w)
-    c = (p.H, p.beta, p.alpha_pc, p.gamma, p.Delta, K)
+    c = tail.pc_constants(p, k, w)
     rho = 1e-7 * 1.02 ** np.arange(900)
     edge = 0.0
     for om in w * np.asarray(tail.PC_OMEGA):

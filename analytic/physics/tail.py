@@ -241,12 +241,23 @@ def _pc_min_ratio(c: tuple[float, ...], rho: np.ndarray, om: np.ndarray) -> np.n
     return best
 
 
+def f_eff_bound(p: Params, W: float) -> float:
+    """``|f_eff| <= |f - alpha_ld| + alpha_ld/W`` beyond ``W`` (both rigid bounds)."""
+    return abs(p.f - p.alpha_ld) + p.alpha_ld / W
+
+
+def pc_constants(p: Params, k: float, W: float) -> tuple[float, ...]:
+    """``(H, beta, alpha_pc, gamma, Delta, K)`` of :func:`_pc_ratio`.
+
+    ``K = k |f_eff| (1 + k/W)``: the coupling with the rigid bound's margin.
+    """
+    return (p.H, p.beta, p.alpha_pc, p.gamma, p.Delta,
+            k * f_eff_bound(p, W) * (1.0 + k / W))
+
+
 @functools.lru_cache(maxsize=4096)
-def _pc_stress_bound(H: float, beta: float, alpha: float, gamma: float, delta: float, f: float,
-                     alpha_ld: float, k: float, W: float) -> float:
-    """:func:`pc_stress_bound` of the parameters it depends on, remembered."""
-    K = k * (abs(f - alpha_ld) + alpha_ld / W) * (1.0 + k / W)
-    c = (H, beta, alpha, gamma, delta, K)
+def _pc_stress_bound(c: tuple[float, ...], W: float) -> float:
+    """:func:`pc_stress_bound` of its constants (:func:`pc_constants`), remembered."""
     om = W * np.asarray(PC_OMEGA)
     rho_g, om_g = np.meshgrid(_PC_RHO, om)
     holds = (_pc_min_ratio(c, rho_g.ravel(), om_g.ravel()) <= 1.0).reshape(rho_g.shape)
@@ -290,7 +301,7 @@ def pc_stress_bound(p: Params, k: float, W: float) -> float:
     k, W = float(k), float(W)
     if not (W > max(k, 1.0, abs(p.Delta - 1.0))):
         return math.inf
-    return _pc_stress_bound(p.H, p.beta, p.alpha_pc, p.gamma, p.Delta, p.f, p.alpha_ld, k, W)
+    return _pc_stress_bound(pc_constants(p, k, W), W)
 
 
 def tail_bound(p: Params, k: float, W: float) -> float | None:
@@ -317,6 +328,6 @@ def tail_bound(p: Params, k: float, W: float) -> float | None:
         return pc_stress_bound(p, k, W)
     if not (W > max(k, 1.0, abs(p.Delta - 1.0))):
         return math.inf
-    f_eff = abs(p.f - p.alpha_ld) + p.alpha_ld / W
+    f_eff = f_eff_bound(p, W)
     G = phase_factor(p, W)
     return k * f_eff * G * (1.0 + k / W) / (p.beta**2 * p.H * W)

@@ -62,6 +62,9 @@ QUICK = 180
 SITECUSTOMIZE = textwrap.dedent('''
     import builtins, errno, os, time
     _n = int(os.environ.get("FAULT_ENOSPC_AT", "0"))
+    if os.environ.get("FAULT_RANK", os.environ.get("OMPI_COMM_WORLD_RANK")) \\
+            != os.environ.get("OMPI_COMM_WORLD_RANK"):
+        _n = 0  # FAULT_RANK: only that rank's disk is full
     _pause = int(os.environ.get("FAULT_PAUSE_AT", "0"))
     _open = builtins.open
     _seen = [0]
@@ -175,6 +178,23 @@ def test_disk_fills_during_sweep(tmp_path, nproc):
                nproc)
     assert res.returncode == 0, res.stderr[-3000:]
     assert "most unstable" in res.stdout
+    assert_trustworthy(out)
+
+
+@pytest.mark.serial
+@pytest.mark.slow  # measured 15-25 s a run
+@pytest.mark.parametrize(("fault_rank", "at"), [("0", "3"), ("1", "1")])
+def test_disk_fills_on_one_rank_only(tmp_path, fault_rank, at):
+    """Only one rank's writes fail (rank 1's first: its first k's part): one line, not two.
+
+    Rank 1's line used to be followed by rank 0's watcher's ``stopped by SIGTERM`` (rank 0
+    stopped by mpirun after rank 1's abort); the failing rank now tells rank 0's watcher.
+    """
+    out = tmp_path / "out"
+    res = _run("sweep_k.py", ["--k", "1:8:8", "--quiet", "--out", str(out)], tmp_path, 2,
+               FAULT_ENOSPC_AT=at, FAULT_RANK=fault_rank)
+    assert res.returncode == 1, res.stderr[-3000:]
+    assert_one_stop_line(res, "no space left on device", str(out))
     assert_trustworthy(out)
 
 

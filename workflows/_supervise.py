@@ -17,7 +17,9 @@ SIGKILL, or a rank blocked in MPI     (mpirun)   rank 0's watcher (:mod:`_watche
 
 Each ``stopped`` line ends with what to do: ``--resume`` if the run's folder holds finished
 results of a resumable scene, else "run the same command again" (a run that wrote nothing
-removes its ``run.json``). With several ranks a failing rank calls ``MPI_Abort`` after its line.
+removes its ``run.json``). With several ranks a failing rank calls ``MPI_Abort`` after its line,
+having told rank 0's watcher that the line is said (:func:`_watcher.say_reported`: one line,
+not a second one for rank 0's SIGTERM).
 """
 
 from __future__ import annotations
@@ -123,6 +125,11 @@ def _stop(line: str, code: int, *, everyone: bool = False) -> None:
     _flush()
     if everyone and world_size() > 1:
         from mpi4py import MPI
+
+        if rank() != 0:  # rank 0's watcher would add a second line for rank 0's SIGTERM
+            from _watcher import say_reported
+
+            say_reported(os.getppid())
 
         MPI.COMM_WORLD.Abort(code)
     os._exit(code)

@@ -6,15 +6,23 @@ without ``done`` (killed, or stopped by mpirun because another rank died), remov
 lock and, for rank 0 only, says in one line what happened and what to do. A Python signal
 handler cannot do this: a rank blocked in a PETSc/MPI call holds the GIL until mpirun's
 SIGKILL. Standard library only (it starts in a few milliseconds).
+
+Under mpirun a rank that fails (a full disk, a bug) prints its own line before it aborts the
+job; rank 0's watcher would then add a second one (rank 0 stopped by mpirun's SIGTERM). So the
+failing rank first tells rank 0's watcher (:func:`say_reported`): a datagram to an abstract Unix
+socket named after mpirun's pid (:func:`address`; no file, so a full disk cannot stop it; one
+node, like the rest of the watcher), which rank 0's watcher reads when its rank has ended.
 """
 
 import json
 import os
 import signal
+import socket
 import sys
 
 RECORD, LOCK, PARTIAL = "run.json", "run.lock", ".partial"
 SEEN: list[int] = []  # signals received (under mpirun: see _join_launcher)
+REPORTED = b"reported"
 
 
 def _holds_outputs(folder: str) -> bool:
@@ -33,6 +41,46 @@ def _remove_lock(folder: str, pid: int) -> None:
                 os.remove(lock)
     except (OSError, ValueError, AttributeError):
         pass
+
+
+def address(launcher: int) -> bytes:
+    """The abstract socket of rank 0's watcher under the mpirun of pid ``launcher``."""
+    return f"\0frictional-watcher-{os.getuid()}-{launcher}".encode()
+
+
+def say_reported(launcher: int) -> None:
+    """Tell rank 0's watcher that this rank printed the run's stop line (best effort)."""
+    try:
+        with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as sock:
+            sock.sendto(REPORTED, address(launcher))
+    except OSError:  # no watcher listening (not started yet, or not on this node)
+        pass
+
+
+def _listen(launcher: int) -> socket.socket | None:
+    try:
+        sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    except OSError:
+        return None
+    try:
+        sock.bind(address(launcher))
+        sock.setblocking(False)
+    except OSError:
+        sock.close()
+        return None
+    return sock
+
+
+def _reported(sock: socket.socket | None) -> bool:
+    """Another rank has printed the stop line (its datagram is queued before it aborted)."""
+    if sock is None:
+        return False
+    try:
+        while True:
+            if sock.recv(64) == REPORTED:
+                return True
+    except OSError:  # nothing (more) queued
+        return False
 
 
 def _note(signum: int, frame: object) -> None:
@@ -82,10 +130,12 @@ def _launcher_stderr(launcher: int, default: int) -> int:
 def main() -> int:
     """Watch the rank; see the module docstring."""
     rank, parent, launcher = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
-    err = 2
+    err, sock = 2, None
     if launcher:  # mpirun's own stderr: the rank's pipe to mpirun dies with the rank
         _join_launcher(launcher)
         err = _launcher_stderr(launcher, err)
+        if rank == 0:
+            sock = _listen(launcher)
     folder, resumable, why = None, False, None
     for line in sys.stdin:
         key, _, rest = line.rstrip("\n").partition("\t")
@@ -105,6 +155,7 @@ def main() -> int:
     if why is None:
         why = ("stopped: the run ended without finishing (killed or interrupted; under mpirun"
                " every rank is stopped when one of them fails or is killed)")
+    said = _reported(sock)
     if folder and _holds_outputs(folder):
         why += (f"; the finished part is in {folder}: run the same command with --resume to"
                 " continue" if resumable else f"; {folder} holds only complete files; run the"
@@ -117,7 +168,8 @@ def main() -> int:
         except OSError:
             pass
         why += f"; nothing was written to {folder}: run the same command again"
-    os.write(err, ("\n" + why + "\n").encode())
+    if not said:
+        os.write(err, ("\n" + why + "\n").encode())
     return 0
 
 

@@ -61,7 +61,8 @@ square root of the coupling, ``Re omega`` stays bounded). Asymptotic, made safe 
 measurement as the others (tests/test_tail.py).
 
 Not derived (:func:`tail_bound` returns ``None``): ``alpha_pc |Delta - 1| >= 1`` on the
-velocity top, and ``alpha_pc > 0`` with two bodies.
+velocity top. Two bodies with ``alpha_pc > 0``: :mod:`analytic.physics.tail_stack_pc` (the
+first-order equation multiplied out, roots excluded by moduli at complex ``L``).
 
 A deformable substrate (finite ``mu2``): the resonances are those of the stack's dilatational
 rod; :mod:`analytic.physics.tail_stack` derives the first-order shift there and bounds it over
@@ -78,7 +79,7 @@ import math
 import numpy as np
 
 from analytic.params import Params
-from analytic.physics import tail_stack
+from analytic.physics import tail_stack, tail_stack_pc
 
 #: Grid points in the phase ``H omega`` (on ``[0, pi/2]``) for the supremum over it.
 _N_PHASE = 4001
@@ -107,9 +108,6 @@ def velocity_scale(p: Params) -> float:
 
 def why_no_tail_bound(p: Params) -> str:
     """Why :func:`tail_bound` has no bound for ``p`` ("" if it has one)."""
-    if p.alpha_pc > 0 and p.two_body:
-        return ("no tail bound derived for alpha_pc > 0 with two bodies: the region is not "
-                "proven to hold the fastest mode")
     if p.alpha_pc * abs(p.Delta - 1.0) >= 1.0 and p.bc == "velocity":
         return ("no tail bound derived for alpha_pc |Delta - 1| >= 1: the region is not "
                 "proven to hold the fastest mode")
@@ -316,13 +314,16 @@ def tail_bound(p: Params, k: float, W: float) -> float | None:
         ``k |f_eff| G (1 + k/W) / (beta^2 H W)`` (module docstring), ``inf`` when ``W`` is too
         small for the expansion (``W <= max(k, 1, |Delta - 1|)``), or ``None`` when no bound is
         derived for ``p`` (:func:`why_no_tail_bound`). Two bodies:
-        :func:`analytic.physics.tail_stack.stack_tail_bound`.
+        :func:`analytic.physics.tail_stack.stack_tail_bound`, with ``alpha_pc > 0``
+        :func:`analytic.physics.tail_stack_pc.stack_pc_bound`.
     """
     if why_no_tail_bound(p):
         return None
     k = float(k)
     W = float(W)
     if p.two_body:
+        if p.alpha_pc > 0:
+            return tail_stack_pc.stack_pc_bound(p, k, W)
         return tail_stack.stack_tail_bound(p, k, W)
     if p.bc == "stress" and p.alpha_pc > 0:
         return pc_stress_bound(p, k, W)

@@ -122,15 +122,17 @@ def first_order_shift(p: Params, k: float, w: np.ndarray, phases: np.ndarray,
                       dR: np.ndarray) -> np.ndarray:
     """The first-order shift ``dLambda`` of the resonance root at ``Lambda ~ i omega``.
 
-    Complex, with the friction law's ``b`` and ``e`` at ``L = i omega`` exactly (a check of
-    the closed form against the determinant; the bound uses :func:`growth_factor`).
+    Complex, with the friction law's ``b``, ``e`` and ``a = 1 + alpha_pc L`` (which multiplies
+    ``d1 d2`` in ``Y``) at ``L = i omega`` exactly (a check of the closed form against the
+    determinant; the ``alpha_pc = 0`` bound uses :func:`growth_factor`, the ``alpha_pc > 0``
+    one :mod:`analytic.physics.tail_stack_pc`).
     """
     X, Dd, N = _xyn(p, phases)
     L = 1j * w
     s = stack_constants(p)
     e = (p.Delta - 1.0) / (L + 1.0)
     b = p.f - p.alpha_ld * L / (L + 1.0)
-    Y = Dd + 1j * (1.0 + e) * N / p.gamma
+    Y = (1.0 + p.alpha_pc * L) * Dd + 1j * (1.0 + e) * N / p.gamma
     return (k / w) * b * s["Z1"] * s["Z2"] * X / (dR * Y)
 
 

@@ -1,0 +1,284 @@
+"""Tail bound of a two-body stack with a Prakash-Clifton term (``alpha_pc > 0``) at fixed ``k``.
+
+Derivation (docs/design.md section 8.1). With ``a = 1 + alpha_pc L`` multiplying ``d1 d2`` in
+the stack's shear factor ``Y`` (:mod:`analytic.physics.tail_stack`), the first-order shift of a
+rod resonance, multiplied out, is the equation::
+
+    R(L) Y(L) = (k / L) b Z1 Z2 X(L),   Y = a d1 d2 + i (1 + e) N / gamma
+
+(``R`` the composite rod's resonance function, ``X``, ``N``, ``d_j`` as in ``tail_stack``, all
+of the stack's partial-wave phases ``psi_j = H_j sqrt(-L^2/c_j^2 - k^2)`` continued to complex
+``L``). It holds both members of a hybridised pair: a rod resonance and a shear thickness mode
+that ``a`` makes nearly undamped at high frequency (``Y`` small), for which the first-order
+shift ``X / (R' Y)`` is not small and the ``alpha_pc = 0`` stack bound does not hold. No phase
+is taken as free here (on free phases ``Y`` vanishes at ``rho > 0`` and the stack's shear
+coincidences make every bound infinite): a root ``L = rho + i omega`` is **excluded** wherever
+
+    |R(L)| |Y(L)| > (1 + k/W) k |b(L)| Z1 Z2 |X(L)| / |L|
+
+(moduli only). The margin ``(1 + 2 c_max k/W)``, ``c_max`` the stack's largest wave speed, is
+for the terms left out, relative ``O(k c_j/omega)`` in a layer of speed ``c_j``; it is not
+derived, its coefficient is measured. With the other bounds' ``(1 + k/W)`` a root reached 1.09
+of the bound (``mu2 = 9``, ``c_d2 = 6``, ``alpha_pc = 0.0138``, ``k = 1.6``, a hybridised pair
+at ``0.2975 + 33.04 i``, where ``k c_d2/omega = 0.29``), with ``(1 + c_max k/W)`` 1.13 (the same
+stack, stress top, velocity bottom, ``alpha_pc = 0.0195``, ``k = 1.58``: the root ``0.2252 +
+33.043 i`` needs the margin 1.39 where ``k c_d2/omega = 0.29``). The bound is the largest
+``rho`` not excluded at some ``omega >= W``:
+
+- ``W <= omega <= Omega``: the exact phases at ``k`` on a grid of ``omega`` (40 points per
+  ``pi`` of the summed phase rates), plus 13 points within ``3 min(rho, h)/2`` of every real
+  zero of ``d1``, ``d2``, ``R`` and ``alpha_pc omega d1 d2 + N/gamma`` on the axis (where the
+  narrow dips of ``|R|``, ``|Y|`` lie: their width is ``rho``; 7 points instead of 13 missed
+  the bottom of one by 1 %, 25 points and a grid twice as fine changed nothing);
+- ``omega > Omega``: one period of the ``k = 0`` phases ``rates (x - i rho)`` lowered by offsets
+  ``0 .. H_j c_j k^2 / Omega`` (both ends, each phase independently), with ``|L| >= Omega``,
+  ``|a| >= A = |1 + alpha_pc rho + i alpha_pc Omega|``, ``|b| <= |f - alpha_ld| + alpha_ld/Omega``
+  and ``Y / a = d1 d2 + c N`` where ``c = i (1 + e)/(gamma a)`` ranges over the sector ``|c| <=
+  (1 + |Delta - 1|/Omega)/(gamma A)``, ``arg c`` in ``[-asin(|Delta - 1|/Omega), pi/2 -
+  atan(alpha_pc Omega/(1 + alpha_pc rho)) + asin(...)]`` (``|d1 d2 + c N| >= |N|`` times the
+  distance of ``-d1 d2/N`` to the sector). That needs commensurate phase rates
+  (:func:`analytic.physics.tail_stack.period`).
+
+``rho`` is scanned down from 4 by halving to the first ``rho`` not excluded (on every 8th grid
+point and all the dips' points: a ``rho`` not excluded there is not excluded), then up on the
+whole grid to the first one excluded, then bisected 6 times (the bound is the upper end: 1.1 %
+above the edge at most). Asymptotic and checked by
+measurement, as the other bounds: tests/test_tail.py compares it with exact roots of
+:func:`analytic.physics.twobody.det_twobody` beyond ``W``.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import numpy as np
+
+from analytic.params import Params
+from analytic.physics import tail_stack as ts
+
+#: Largest number of grid points (both parts) before the bound gives up (``inf``); measured
+#: 9 s for 535 000 points, 15 s for 580 000 (the machine loaded by two other processes).
+MAX_POINTS = 1_000_000
+#: Coefficient of the margin ``1 + MARGIN c_max k / W`` (measured, module docstring).
+MARGIN = 2.0
+#: Grid points per ``pi`` of the summed phase rates.
+STEPS_PER_PI = 40
+#: Offsets per phase beyond ``Omega`` (0 and the largest): 2, 3 (``tail_stack``'s), 4 gave the
+#: same bounds to 5 digits in four stacks, 2 in a third of the time.
+TUBE_POINTS = 2
+#: Largest ``rho`` scanned (a root above it is not excluded: the bound is then ``inf``).
+RHO_MAX = 4.0
+#: Halvings below :data:`RHO_MAX` before the bound is taken as 0.
+_HALVINGS = 40
+#: The halving's grid subset (every ``_SUBSET``-th point): only the bisection takes them all.
+_SUBSET = 8
+#: Bisections between the last excluded ``rho`` and the first one not excluded.
+_BISECTIONS = 6
+#: Offsets (in units of ``min(rho, h)/2``) of the points placed at each dip.
+_DIP = np.linspace(-3.0, 3.0, 13)
+#: Bisection steps locating a dip on the axis.
+_ZERO_STEPS = 32
+
+
+def _parts(p: Params, ph: np.ndarray) -> tuple[np.ndarray, ...]:
+    """``R``, ``X``, ``d1 d2``, ``N``, ``d1``, ``d2`` of the phases ``ph`` (shape ``(4, ...)``).
+
+    The same as :func:`analytic.physics.tail_stack.resonance` and ``_xyn`` (tested), with each
+    phase's sine and cosine computed once.
+    """
+    s = ts.stack_constants(p)
+    sn, cs = np.sin(ph), np.cos(ph)
+    ends = []
+    for j, (bc, beta) in enumerate(((p.bc, p.beta), (p.bc2, p.substrate_beta))):
+        sp, cp, st, ct = sn[2 * j], cs[2 * j], sn[2 * j + 1], cs[2 * j + 1]
+        if bc == "velocity":
+            ends.append((cp, sp, cp * st - 2.0 * beta * sp * ct))
+        else:
+            ends.append((sp, -cp, sp * st - 2.0 * beta * (1.0 - cp * ct)))
+    (d1, n1, G1), (d2, n2, G2) = ends
+    R = s["Z1"] * sn[1] * cs[3] + s["Z2"] * cs[1] * sn[3]
+    X = G1 * d2 * sn[3] - G2 * d1 * sn[1] / p.rho2
+    return R, X, d1 * d2, n1 * d2 + n2 * d1 / s["Zs"], d1, d2
+
+
+def _zeros(fun, t: np.ndarray, rows: int):  # noqa: ANN001, ANN202
+    """Real zeros of ``fun(x, row)`` on the grid ``t`` for every ``row`` (vectorised bisection).
+
+    Returns ``(x, row)`` of every sign change, bisected :data:`_ZERO_STEPS` times.
+    """
+    X = np.broadcast_to(t[None, :], (rows, len(t)))
+    ridx = np.broadcast_to(np.arange(rows)[:, None], X.shape)
+    v = fun(X.ravel(), ridx.ravel()).reshape(X.shape)
+    i, j = np.nonzero(np.sign(v[:, :-1]) * np.sign(v[:, 1:]) <= 0)
+    lo, hi, flo = t[j], t[j + 1], v[i, j]
+    for _ in range(_ZERO_STEPS):
+        mid = 0.5 * (lo + hi)
+        fm = fun(mid, i)
+        left = np.sign(flo) * np.sign(fm) <= 0
+        hi = np.where(left, mid, hi)
+        lo = np.where(left, lo, mid)
+        flo = np.where(left, flo, fm)
+    return 0.5 * (lo + hi), i
+
+
+def _segment_distance(z: np.ndarray, end: complex) -> np.ndarray:
+    """Distance from the points ``z`` to the segment ``[0, end]``."""
+    t = np.clip((z * np.conj(end)).real / abs(end) ** 2, 0.0, 1.0) if end != 0 else 0.0
+    return np.abs(z - t * end)
+
+
+def sector_distance(z: np.ndarray, r: float, phi1: float, phi2: float) -> np.ndarray:
+    """Distance from ``z`` to the sector ``|c| <= r``, ``phi1 <= arg c <= phi2`` (``< pi`` wide)."""
+    ang = np.angle(z)
+    arc = np.where((ang >= phi1) & (ang <= phi2), np.maximum(np.abs(z) - r, 0.0), np.inf)
+    return np.minimum(arc, np.minimum(_segment_distance(z, r * np.exp(1j * phi1)),
+                                      _segment_distance(z, r * np.exp(1j * phi2))))
+
+
+class _Exclusion:
+    """The samples of one ``(p, k, W)`` and the exclusion test at a given ``rho``."""
+
+    def __init__(self, p: Params, k: float, W: float) -> None:
+        s = ts.stack_constants(p)
+        self.p, self.k, self.W, self.s = p, k, W, s
+        self.omega = max(2.0 * W, float(np.max(s["H"] * s["c"])) * k * k / ts.TUBE_EPS)
+        self.h = math.pi / (STEPS_PER_PI * float(np.sum(s["rates"])))
+        # the margin for the terms left out: relative O(k c_j / omega) in the layer of speed
+        # c_j (its vertical wavenumber's k c_j / omega), with the coefficient 2 measured
+        # (module docstring)
+        self.margin = 1.0 + MARGIN * float(np.max(s["c"])) * k / W
+        n = int(math.ceil((self.omega - W) / self.h)) + 2
+        self.w = np.linspace(W, self.omega, n)
+
+        def axis(which: int):  # noqa: ANN202
+            def fun(x: np.ndarray, row: np.ndarray) -> np.ndarray:
+                P = _parts(p, ts.exact_phases(p, k, x)[0])
+                return (P[4], P[5], P[0], p.alpha_pc * x * P[2] + P[3] / p.gamma)[which]
+            return fun
+
+        self.w_dips = np.concatenate([_zeros(axis(q), self.w, 1)[0] for q in range(4)])
+        # beyond Omega: one period of the k = 0 orbit, every offset at once (rows)
+        eps = s["H"] * s["c"] * k * k / self.omega
+        grid = np.linspace(0.0, 1.0, TUBE_POINTS)
+        self.offs = np.stack(np.meshgrid(*([grid] * 4), indexing="ij"), -1).reshape(-1, 4) * eps
+        self.T = float(ts.period(p))
+        x = np.linspace(0.0, self.T, int(math.ceil(self.T / self.h)) + 2)
+        r0 = self._sector(0.0)[0]
+        offs, rates = self.offs, s["rates"][:, None]
+
+        def orbit(which: int):  # noqa: ANN202
+            def fun(t: np.ndarray, row: np.ndarray) -> np.ndarray:
+                P = _parts(p, rates * t[None, :] - offs[row].T)
+                return (P[4], P[5], P[0], P[2] + r0 * P[3])[which]
+            return fun
+
+        dips = [_zeros(orbit(q), x, len(offs)) for q in range(4)]
+        self.x = np.tile(x, len(offs))
+        self.x_row = np.repeat(np.arange(len(offs)), len(x))
+        self.x_dips = np.concatenate([d[0] for d in dips])
+        self.x_dip_row = np.concatenate([d[1] for d in dips])
+
+    def _sector(self, rho: float) -> tuple[float, float, float, float]:
+        """``(r, phi1, phi2, A)``: the sector of ``c`` beyond ``Omega`` and ``|a| >= A``."""
+        p, om = self.p, self.omega
+        A = math.hypot(1.0 + p.alpha_pc * rho, p.alpha_pc * om)
+        de = abs(p.Delta - 1.0) / om
+        th = math.asin(min(de, 1.0))
+        top = 0.5 * math.pi - math.atan2(p.alpha_pc * om, 1.0 + p.alpha_pc * rho)
+        return (1.0 + de) / (p.gamma * A), -th, top + th, A
+
+    def _direct(self, rho: float, w: np.ndarray) -> np.ndarray:
+        p, s = self.p, self.s
+        L = rho + 1j * w
+        ph = s["H"][:, None] * np.sqrt(((w - 1j * rho)[None, :] / s["c"][:, None]) ** 2
+                                       - self.k**2)
+        R, X, Dd, N, _, _ = _parts(p, ph)
+        Y = (1.0 + p.alpha_pc * L) * Dd + 1j * (1.0 + (p.Delta - 1.0) / (L + 1.0)) * N / p.gamma
+        b = p.f - p.alpha_ld * L / (L + 1.0)
+        return (np.abs(R) * np.abs(Y)
+                - self.margin * self.k * np.abs(b) * s["Z1"] * s["Z2"] * np.abs(X) / np.abs(L))
+
+    def _tube(self, rho: float, x: np.ndarray, row: np.ndarray) -> np.ndarray:
+        p, s = self.p, self.s
+        ph = s["rates"][:, None] * (x - 1j * rho)[None, :] - self.offs[row].T
+        R, X, Dd, N, _, _ = _parts(p, ph)
+        r, phi1, phi2, A = self._sector(rho)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            y = np.where(N != 0, np.abs(N) * sector_distance(-Dd / N, r, phi1, phi2),
+                         np.abs(Dd))
+        b = abs(p.f - p.alpha_ld) + p.alpha_ld / self.omega
+        return (np.abs(R) * y
+                - self.margin * self.k * b * s["Z1"] * s["Z2"] * np.abs(X) / (self.omega * A))
+
+    def excluded(self, rho: float, every: int = 1) -> bool:
+        """No root with this ``rho`` at any ``omega >= W`` (module docstring).
+
+        ``every > 1`` takes only every ``every``-th grid point (the dips' points all): a
+        ``False`` is then final, a ``True`` is not.
+        """
+        step = 0.5 * min(rho, self.h)
+        w = np.concatenate([self.w[::every], (self.w_dips[:, None] + step * _DIP).ravel()])
+        if not np.min(self._direct(rho, w[w >= self.W])) > 0:
+            return False
+        x = np.concatenate([self.x[::every],
+                            (self.x_dips[:, None] + step * _DIP).ravel() % self.T])
+        row = np.concatenate([self.x_row[::every], np.repeat(self.x_dip_row, len(_DIP))])
+        return bool(np.min(self._tube(rho, x, row)) > 0)
+
+
+def _points(p: Params, k: float, W: float) -> float:
+    """Grid points of :class:`_Exclusion` (the ``omega`` grid and the orbit's, every offset)."""
+    s = ts.stack_constants(p)
+    omega = max(2.0 * W, float(np.max(s["H"] * s["c"])) * k * k / ts.TUBE_EPS)
+    h = math.pi / (STEPS_PER_PI * float(np.sum(s["rates"])))
+    return (omega - W) / h + float(ts.period(p)) / h * TUBE_POINTS**4
+
+
+@lru_cache(maxsize=4096)
+def stack_pc_bound(p: Params, k: float, W: float) -> float:
+    """Bound on ``Re Lambda`` of every root with ``|Im| > W``: two bodies, ``alpha_pc > 0``.
+
+    Args:
+        p: Parameters (finite ``mu2``, ``H``, ``H2``, commensurate phase rates).
+        k: Wavenumber ``> 0``.
+        W: Frequency beyond which the bound holds.
+
+    Returns:
+        The largest ``rho`` not excluded (module docstring); ``inf`` when ``W <= 2 k c_d`` of
+        either layer (or ``max(1, |Delta - 1|)``), when the phase rates are not commensurate,
+        when the grids would exceed :data:`MAX_POINTS` (large ``k``: ``Omega`` grows as
+        ``k^2``) or when :data:`RHO_MAX` is not excluded. 0.3-0.5 s a call for ``Omega`` up to 800,
+        9 s for 5 500 (measured), cached. The stress top, ``mu2 = 4, rho2 = 1, H2 = 0.5``,
+        ``W`` of 4 ``c_d2``: ``inf`` from ``k = 27`` on (the grids' size).
+    """
+    k, W = float(k), float(W)
+    cmax = float(np.max(ts.stack_constants(p)["c"]))
+    if not (W > max(2.0 * k * cmax, 1.0, abs(p.Delta - 1.0))) or ts.period(p) is None:
+        return math.inf
+    if _points(p, k, W) > MAX_POINTS:
+        return math.inf
+    ex = _Exclusion(p, k, W)
+    # halve on a subset of the grid (its "not excluded" is final) to the first rho not excluded
+    lo = RHO_MAX
+    for _ in range(_HALVINGS):
+        if not ex.excluded(lo, _SUBSET):
+            break
+        lo *= 0.5
+    else:
+        return 0.0
+    if lo == RHO_MAX:
+        return math.inf
+    # then on the whole grid: up from there to the first rho excluded, and bisect
+    while not ex.excluded(2.0 * lo):
+        lo *= 2.0
+        if lo >= RHO_MAX:
+            return math.inf
+    hi = 2.0 * lo
+    for _ in range(_BISECTIONS):
+        mid = math.sqrt(lo * hi)
+        if ex.excluded(mid):
+            hi = mid
+        else:
+            lo = mid
+    return hi

@@ -480,6 +480,20 @@ def test_stack_tail_bound_above_every_root_beyond_w(case):
     assert z.real.max() / tb > 0.5
 
 
+def test_stack_tail_bound_just_above_its_lowest_w():
+    """The tightest of 34 random stacks at W = 2.05-3.1 x 2 k c_max (session 30): every root of
+    W < |Im| < 2W below the bound at W (measured 0.92 of it) and at its own frequency (0.93)."""
+    p = Params(bc="velocity", bc2="stress", mu2=16.0, rho2=1.0, H2=1.0, f=0.161, gamma=4.388,
+               Delta=-0.0315)
+    k, w = 0.506, 10.585
+    z = _band_roots(p, k, w, 2.0 * w)
+    assert len(z) >= 4
+    tb = tail_bound(p, k, w)
+    assert np.all(z.real < tb), (z[np.argmax(z.real)], tb)
+    up = z[z.real > 0]
+    assert len(up) and np.all(up.real < [tail_bound(p, k, abs(v.imag)) for v in up])
+
+
 @pytest.mark.slow  # 5-23 s wall on the loaded 2-core machine (one rank, FE only)
 @pytest.mark.parametrize("extra", [(), ("--bc", "stress", "--alpha-pc", "0.05")])
 def test_fe_sweep_two_body_proves_the_fastest_mode(tmp_path, extra):

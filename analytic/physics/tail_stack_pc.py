@@ -14,7 +14,7 @@ shift ``X / (R' Y)`` is not small and the ``alpha_pc = 0`` stack bound does not 
 is taken as free here (on free phases ``Y`` vanishes at ``rho > 0`` and the stack's shear
 coincidences make every bound infinite): a root ``L = rho + i omega`` is **excluded** wherever
 
-    |R(L)| |Y(L)| > (1 + k/W) k |b(L)| Z1 Z2 |X(L)| / |L|
+    |R(L)| |Y(L)| > (1 + 2 c_max k/W) k |b(L)| Z1 Z2 |X(L)| / |L|
 
 (moduli only). The margin ``(1 + 2 c_max k/W)``, ``c_max`` the stack's largest wave speed, is
 for the terms left out, relative ``O(k c_j/omega)`` in a layer of speed ``c_j``; it is not
@@ -67,7 +67,7 @@ STEPS_PER_PI = 40
 #: Offsets per phase beyond ``Omega`` (0 and the largest): 2, 3 (``tail_stack``'s), 4 gave the
 #: same bounds to 5 digits in four stacks, 2 in a third of the time.
 TUBE_POINTS = 2
-#: Largest ``rho`` scanned (a root above it is not excluded: the bound is then ``inf``).
+#: Largest ``rho`` scanned (if it is not excluded, the bound is ``inf``).
 RHO_MAX = 4.0
 #: Halvings below :data:`RHO_MAX` before the bound is taken as 0.
 _HALVINGS = 40

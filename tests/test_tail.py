@@ -526,13 +526,18 @@ def test_fe_sweep_two_body_proves_the_fastest_mode(tmp_path, extra):
 @pytest.mark.parametrize("p", [Params(bc="velocity", mu2=9.0, rho2=1.0, H2=0.75, bc2="stress"),
                                Params(bc="stress", mu2=4.0, rho2=2.0, H2=0.5, beta2=0.4)])
 def test_stack_pc_parts_are_tail_stacks(p):
-    """tail_stack_pc's one-pass R, X, d1 d2, N, d1, d2 are tail_stack's, at complex phases."""
+    """tail_stack.stack_parts (one pass over sines and cosines, which tail_stack_pc and _xyn use)
+    against resonance's R and the module docstring's X, d1 d2, N built from _end, at complex
+    phases."""
     from analytic.physics import tail_stack, tail_stack_pc
 
     ph = np.random.default_rng(0).normal(size=(4, 50)) * (10 + 1j)
-    d1 = tail_stack._end(p.bc, p.beta, ph[0], ph[1])[0]
-    d2 = tail_stack._end(p.bc2, p.substrate_beta, ph[2], ph[3])[0]
-    want = (tail_stack.resonance(p, ph)[0], *tail_stack._xyn(p, ph), d1, d2)
+    d1, n1, G1 = tail_stack._end(p.bc, p.beta, ph[0], ph[1])
+    d2, n2, G2 = tail_stack._end(p.bc2, p.substrate_beta, ph[2], ph[3])
+    Zs = tail_stack.stack_constants(p)["Zs"]
+    want = (tail_stack.resonance(p, ph)[0],
+            G1 * d2 * np.sin(ph[3]) - G2 * d1 * np.sin(ph[1]) / p.rho2, d1 * d2,
+            n1 * d2 + n2 * d1 / Zs, d1, d2)
     for got, ref in zip(tail_stack_pc._parts(p, ph), want, strict=True):
         np.testing.assert_array_equal(got, ref)
 

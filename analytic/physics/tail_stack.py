@@ -112,10 +112,30 @@ def resonance(p: Params, phases: np.ndarray, rates: np.ndarray | None = None
 def _end(bc: str, beta: float, ps: np.ndarray, t: np.ndarray
          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(d, n, G)`` of one body's outer end (module docstring)."""
-    sp, cp, st, ct = np.sin(ps), np.cos(ps), np.sin(t), np.cos(t)
+    return _end_trig(bc, beta, np.sin(ps), np.cos(ps), np.sin(t), np.cos(t))
+
+
+def _end_trig(bc: str, beta: float, sp: np.ndarray, cp: np.ndarray, st: np.ndarray,
+              ct: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_end` of the shear phase's and the dilatational phase's sines and cosines."""
     if bc == "velocity":
         return cp, sp, cp * st - 2.0 * beta * sp * ct
     return sp, -cp, sp * st - 2.0 * beta * (1.0 - cp * ct)
+
+
+def stack_parts(p: Params, sn: np.ndarray, cs: np.ndarray) -> tuple[np.ndarray, ...]:
+    """``R``, ``X``, ``d1 d2``, ``N``, ``d1``, ``d2`` of the phases' sines and cosines.
+
+    One pass (each phase's sine and cosine given once, shape ``(4, ...)``): :func:`resonance`'s
+    ``R`` and :func:`_xyn`'s ``X``, ``d1 d2``, ``N`` (module docstring), for the callers that
+    need them all (:mod:`analytic.physics.tail_stack_pc`).
+    """
+    s = stack_constants(p)
+    d1, n1, G1 = _end_trig(p.bc, p.beta, sn[0], cs[0], sn[1], cs[1])
+    d2, n2, G2 = _end_trig(p.bc2, p.substrate_beta, sn[2], cs[2], sn[3], cs[3])
+    R = s["Z1"] * sn[1] * cs[3] + s["Z2"] * cs[1] * sn[3]
+    X = G1 * d2 * sn[3] - G2 * d1 * sn[1] / p.rho2
+    return R, X, d1 * d2, n1 * d2 + n2 * d1 / s["Zs"], d1, d2
 
 
 def first_order_shift(p: Params, k: float, w: np.ndarray, phases: np.ndarray,
@@ -138,11 +158,7 @@ def first_order_shift(p: Params, k: float, w: np.ndarray, phases: np.ndarray,
 
 def _xyn(p: Params, phases: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``X``, ``d1 d2`` and ``n1 d2 + n2 d1 / (rho2 c_s2)`` (module docstring)."""
-    d1, n1, G1 = _end(p.bc, p.beta, phases[0], phases[1])
-    d2, n2, G2 = _end(p.bc2, p.substrate_beta, phases[2], phases[3])
-    Zs = stack_constants(p)["Zs"]
-    X = G1 * d2 * np.sin(phases[3]) - G2 * d1 * np.sin(phases[1]) / p.rho2
-    return X, d1 * d2, n1 * d2 + n2 * d1 / Zs
+    return stack_parts(p, np.sin(phases), np.cos(phases))[1:4]
 
 
 def growth_factor(p: Params, w: np.ndarray | float, phases: np.ndarray, dR: np.ndarray
@@ -168,18 +184,28 @@ def growth_factor(p: Params, w: np.ndarray | float, phases: np.ndarray, dR: np.n
 
 def _roots_on_grid(fun, t: np.ndarray) -> np.ndarray:  # noqa: ANN001
     """Every sign change of ``fun`` on the grid ``t``, bisected to rounding (vectorised)."""
-    v = fun(t)
-    i = np.nonzero(np.sign(v[:-1]) * np.sign(v[1:]) <= 0)[0]
-    lo, hi = t[i], t[i + 1]
-    flo = v[i]
-    for _ in range(60):
+    return roots_on_grid_rows(lambda x, row: fun(x), t, 1, 60)[0]
+
+
+def roots_on_grid_rows(fun, t: np.ndarray, rows: int, steps: int  # noqa: ANN001
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """Every sign change of ``fun(x, row)`` on the grid ``t``, for each of ``rows`` rows.
+
+    Vectorised bisection, ``steps`` halvings. Returns ``(x, row)`` of every zero found.
+    """
+    X = np.broadcast_to(t[None, :], (rows, len(t)))
+    v = fun(X.ravel(), np.broadcast_to(np.arange(rows)[:, None], X.shape).ravel())
+    v = v.reshape(X.shape)
+    i, j = np.nonzero(np.sign(v[:, :-1]) * np.sign(v[:, 1:]) <= 0)
+    lo, hi, flo = t[j], t[j + 1], v[i, j]
+    for _ in range(steps):
         mid = 0.5 * (lo + hi)
-        fm = fun(mid)
+        fm = fun(mid, i)
         left = np.sign(flo) * np.sign(fm) <= 0
         hi = np.where(left, mid, hi)
         lo = np.where(left, lo, mid)
         flo = np.where(left, flo, fm)
-    return 0.5 * (lo + hi)
+    return 0.5 * (lo + hi), i
 
 
 def exact_resonances(p: Params, k: float, w1: float, w2: float) -> np.ndarray:

@@ -82,44 +82,8 @@ _ZERO_STEPS = 32
 
 
 def _parts(p: Params, ph: np.ndarray) -> tuple[np.ndarray, ...]:
-    """``R``, ``X``, ``d1 d2``, ``N``, ``d1``, ``d2`` of the phases ``ph`` (shape ``(4, ...)``).
-
-    The same as :func:`analytic.physics.tail_stack.resonance` and ``_xyn`` (tested), with each
-    phase's sine and cosine computed once.
-    """
-    s = ts.stack_constants(p)
-    sn, cs = np.sin(ph), np.cos(ph)
-    ends = []
-    for j, (bc, beta) in enumerate(((p.bc, p.beta), (p.bc2, p.substrate_beta))):
-        sp, cp, st, ct = sn[2 * j], cs[2 * j], sn[2 * j + 1], cs[2 * j + 1]
-        if bc == "velocity":
-            ends.append((cp, sp, cp * st - 2.0 * beta * sp * ct))
-        else:
-            ends.append((sp, -cp, sp * st - 2.0 * beta * (1.0 - cp * ct)))
-    (d1, n1, G1), (d2, n2, G2) = ends
-    R = s["Z1"] * sn[1] * cs[3] + s["Z2"] * cs[1] * sn[3]
-    X = G1 * d2 * sn[3] - G2 * d1 * sn[1] / p.rho2
-    return R, X, d1 * d2, n1 * d2 + n2 * d1 / s["Zs"], d1, d2
-
-
-def _zeros(fun, t: np.ndarray, rows: int):  # noqa: ANN001, ANN202
-    """Real zeros of ``fun(x, row)`` on the grid ``t`` for every ``row`` (vectorised bisection).
-
-    Returns ``(x, row)`` of every sign change, bisected :data:`_ZERO_STEPS` times.
-    """
-    X = np.broadcast_to(t[None, :], (rows, len(t)))
-    ridx = np.broadcast_to(np.arange(rows)[:, None], X.shape)
-    v = fun(X.ravel(), ridx.ravel()).reshape(X.shape)
-    i, j = np.nonzero(np.sign(v[:, :-1]) * np.sign(v[:, 1:]) <= 0)
-    lo, hi, flo = t[j], t[j + 1], v[i, j]
-    for _ in range(_ZERO_STEPS):
-        mid = 0.5 * (lo + hi)
-        fm = fun(mid, i)
-        left = np.sign(flo) * np.sign(fm) <= 0
-        hi = np.where(left, mid, hi)
-        lo = np.where(left, lo, mid)
-        flo = np.where(left, flo, fm)
-    return 0.5 * (lo + hi), i
+    """``R``, ``X``, ``d1 d2``, ``N``, ``d1``, ``d2`` of the phases ``ph`` (shape ``(4, ...)``)."""
+    return ts.stack_parts(p, np.sin(ph), np.cos(ph))
 
 
 def _segment_distance(z: np.ndarray, end: complex) -> np.ndarray:
@@ -136,14 +100,26 @@ def sector_distance(z: np.ndarray, r: float, phi1: float, phi2: float) -> np.nda
                                       _segment_distance(z, r * np.exp(1j * phi2))))
 
 
+def _grid(p: Params, k: float, W: float) -> tuple[float, float]:
+    """``(Omega, h)``: where the orbit takes over, and the grid step in ``omega``."""
+    s = ts.stack_constants(p)
+    omega = max(2.0 * W, float(np.max(s["H"] * s["c"])) * k * k / ts.TUBE_EPS)
+    return omega, math.pi / (STEPS_PER_PI * float(np.sum(s["rates"])))
+
+
+def _points(p: Params, k: float, W: float) -> float:
+    """Grid points of :class:`_Exclusion` (the ``omega`` grid and the orbit's, every offset)."""
+    omega, h = _grid(p, k, W)
+    return (omega - W) / h + float(ts.period(p)) / h * TUBE_POINTS**4
+
+
 class _Exclusion:
     """The samples of one ``(p, k, W)`` and the exclusion test at a given ``rho``."""
 
     def __init__(self, p: Params, k: float, W: float) -> None:
         s = ts.stack_constants(p)
         self.p, self.k, self.W, self.s = p, k, W, s
-        self.omega = max(2.0 * W, float(np.max(s["H"] * s["c"])) * k * k / ts.TUBE_EPS)
-        self.h = math.pi / (STEPS_PER_PI * float(np.sum(s["rates"])))
+        self.omega, self.h = _grid(p, k, W)
         # the margin for the terms left out: relative O(k c_j / omega) in the layer of speed
         # c_j (its vertical wavenumber's k c_j / omega), with the coefficient 2 measured
         # (module docstring)
@@ -157,7 +133,8 @@ class _Exclusion:
                 return (P[4], P[5], P[0], p.alpha_pc * x * P[2] + P[3] / p.gamma)[which]
             return fun
 
-        self.w_dips = np.concatenate([_zeros(axis(q), self.w, 1)[0] for q in range(4)])
+        self.w_dips = np.concatenate([ts.roots_on_grid_rows(axis(q), self.w, 1, _ZERO_STEPS)[0]
+                                      for q in range(4)])
         # beyond Omega: one period of the k = 0 orbit, every offset at once (rows)
         eps = s["H"] * s["c"] * k * k / self.omega
         grid = np.linspace(0.0, 1.0, TUBE_POINTS)
@@ -173,7 +150,7 @@ class _Exclusion:
                 return (P[4], P[5], P[0], P[2] + r0 * P[3])[which]
             return fun
 
-        dips = [_zeros(orbit(q), x, len(offs)) for q in range(4)]
+        dips = [ts.roots_on_grid_rows(orbit(q), x, len(offs), _ZERO_STEPS) for q in range(4)]
         self.x = np.tile(x, len(offs))
         self.x_row = np.repeat(np.arange(len(offs)), len(x))
         self.x_dips = np.concatenate([d[0] for d in dips])
@@ -225,14 +202,6 @@ class _Exclusion:
                             (self.x_dips[:, None] + step * _DIP).ravel() % self.T])
         row = np.concatenate([self.x_row[::every], np.repeat(self.x_dip_row, len(_DIP))])
         return bool(np.min(self._tube(rho, x, row)) > 0)
-
-
-def _points(p: Params, k: float, W: float) -> float:
-    """Grid points of :class:`_Exclusion` (the ``omega`` grid and the orbit's, every offset)."""
-    s = ts.stack_constants(p)
-    omega = max(2.0 * W, float(np.max(s["H"] * s["c"])) * k * k / ts.TUBE_EPS)
-    h = math.pi / (STEPS_PER_PI * float(np.sum(s["rates"])))
-    return (omega - W) / h + float(ts.period(p)) / h * TUBE_POINTS**4
 
 
 @lru_cache(maxsize=4096)

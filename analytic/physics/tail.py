@@ -66,9 +66,11 @@ first-order equation multiplied out, roots excluded by moduli at complex ``L``).
 
 A deformable substrate (finite ``mu2``): the resonances are those of the stack's dilatational
 rod; :mod:`analytic.physics.tail_stack` derives the first-order shift there and bounds it over
-the stack's own phases (not over independent phases, on which it is unbounded). Not derived for
-a half-space substrate or slider (``H2`` or ``H`` infinite: no resonances, radiation) nor for
-phase rates that are not commensurate (:func:`analytic.physics.tail_stack.period`).
+the stack's own phases (not over independent phases, on which it is unbounded). A half-space
+substrate (``H2`` infinite, any ``alpha_pc``): :mod:`analytic.physics.tail_stack_pc`'s exclusion
+in the substrate's radiating limit (its sines and cosines ``-i`` and 1), on the slider's phases
+alone. Not derived for a half-space slider (``H`` infinite) nor for phase rates that are not
+commensurate (:func:`analytic.physics.tail_stack.period`; over a half-space the slider's).
 """
 
 from __future__ import annotations
@@ -111,10 +113,15 @@ def why_no_tail_bound(p: Params) -> str:
     if p.alpha_pc * abs(p.Delta - 1.0) >= 1.0 and p.bc == "velocity":
         return ("no tail bound derived for alpha_pc |Delta - 1| >= 1: the region is not "
                 "proven to hold the fastest mode")
-    if p.two_body and not (math.isfinite(p.H) and math.isfinite(p.H2)):
-        return ("no tail bound derived for a half-space (H or H2 = inf): no thickness "
+    if p.two_body and not math.isfinite(p.H):
+        return ("no tail bound derived for a half-space slider (H = inf): no thickness "
                 "resonances; the region is not proven to hold the fastest mode")
-    if p.two_body and tail_stack.period(p) is None:
+    if tail_stack_pc.half_space(p) and tail_stack_pc.period(p) is None:
+        return ("no tail bound derived for a half-space substrate under a slider whose phase "
+                "rates H, beta H are not commensurate (beta = p/q, q <= "
+                f"{tail_stack.MAX_DENOMINATOR}); the region is not proven to hold the fastest "
+                "mode")
+    if p.two_body and math.isfinite(p.H2) and tail_stack.period(p) is None:
         return ("no tail bound derived for two bodies whose phase rates H, beta H, H2/c_s2, "
                 "H2/c_d2 are not commensurate (ratios p/q, q <= "
                 f"{tail_stack.MAX_DENOMINATOR}): shear resonances of the two bodies come "
@@ -125,17 +132,20 @@ def why_no_tail_bound(p: Params) -> str:
 
 
 def loose_tail_bound(p: Params) -> bool:
-    """The bound exists but is far above the roots it bounds: ``alpha_pc > 0`` (any model).
+    """The bound exists but is far above the roots it bounds (``alpha_pc > 0``, half-space).
 
+    ``alpha_pc > 0`` in any model, or a half-space substrate.
     Measured (tests/test_tail.py): the fastest root beyond ``W`` reaches 1e-4 .. 0.7 of the
     bound (velocity top), 1e-3 .. 0.8 (stress top), 3e-6 .. 0.75 (two bodies, 87 random
     stacks with a root of positive ``Re`` in the band, docs/design.md 8.1), against
-    0.11 .. 0.84 for ``alpha_pc = 0``.
+    0.11 .. 0.84 for ``alpha_pc = 0``. Over a half-space substrate the roots beyond ``W`` are
+    damped by radiation into it: in HS_SCAN random stacks only those of a stress top with
+    ``alpha_pc > 0`` had a root of positive ``Re`` there, at HS_RANGE of the bound.
     The adaptive region does not climb to its top rung for such a bound unless the top rung's
     bound is below the fastest value already found
     (:func:`analytic.numerics.spectrum.provable_region`).
     """
-    return p.alpha_pc > 0 and not why_no_tail_bound(p)
+    return (p.alpha_pc > 0 or tail_stack_pc.half_space(p)) and not why_no_tail_bound(p)
 
 
 def phase_factor(p: Params, W: float) -> float:
@@ -324,7 +334,7 @@ def tail_bound(p: Params, k: float, W: float) -> float | None:
     k = float(k)
     W = float(W)
     if p.two_body:
-        if p.alpha_pc > 0:
+        if p.alpha_pc > 0 or tail_stack_pc.half_space(p):
             return tail_stack_pc.stack_pc_bound(p, k, W)
         return tail_stack.stack_tail_bound(p, k, W)
     if p.bc == "stress" and p.alpha_pc > 0:

@@ -123,16 +123,18 @@ def _end_trig(bc: str, beta: float, sp: np.ndarray, cp: np.ndarray, st: np.ndarr
     return sp, -cp, sp * st - 2.0 * beta * (1.0 - cp * ct)
 
 
-def stack_parts(p: Params, sn: np.ndarray, cs: np.ndarray) -> tuple[np.ndarray, ...]:
+def stack_parts(p: Params, sn: np.ndarray, cs: np.ndarray, bc2: str | None = None
+                ) -> tuple[np.ndarray, ...]:
     """``R``, ``X``, ``d1 d2``, ``N``, ``d1``, ``d2`` of the phases' sines and cosines.
 
     One pass (each phase's sine and cosine given once, shape ``(4, ...)``): :func:`resonance`'s
     ``R`` and :func:`_xyn`'s ``X``, ``d1 d2``, ``N`` (module docstring), for the callers that
-    need them all (:mod:`analytic.physics.tail_stack_pc`).
+    need them all (:mod:`analytic.physics.tail_stack_pc`). ``bc2`` overrides ``p.bc2`` (the
+    half-space substrate's radiating limit takes the velocity end's form).
     """
     s = stack_constants(p)
     d1, n1, G1 = _end_trig(p.bc, p.beta, sn[0], cs[0], sn[1], cs[1])
-    d2, n2, G2 = _end_trig(p.bc2, p.substrate_beta, sn[2], cs[2], sn[3], cs[3])
+    d2, n2, G2 = _end_trig(bc2 or p.bc2, p.substrate_beta, sn[2], cs[2], sn[3], cs[3])
     R = s["Z1"] * sn[1] * cs[3] + s["Z2"] * cs[1] * sn[3]
     X = G1 * d2 * sn[3] - G2 * d1 * sn[1] / p.rho2
     return R, X, d1 * d2, n1 * d2 + n2 * d1 / s["Zs"], d1, d2
@@ -219,7 +221,14 @@ def exact_resonances(p: Params, k: float, w1: float, w2: float) -> np.ndarray:
 
 def period(p: Params) -> float | None:
     """Period in ``omega`` of the ``k = 0`` phases (all ``2 pi`` periodic), or ``None``."""
-    a = stack_constants(p)["rates"]
+    return period_of_rates(stack_constants(p)["rates"])
+
+
+def period_of_rates(a: np.ndarray) -> float | None:
+    """Common period in ``omega`` of the phases ``a_j omega`` (``a_0 > 0``), or ``None``.
+
+    A rate of 0 (a phase that does not turn) leaves the period alone.
+    """
     if not np.all(np.isfinite(a)):
         return None
     den = 1

@@ -79,8 +79,10 @@ def test_contrast_rigid_limit_and_rows(tmp_path, nproc):
     # mu2 = 1e6: roots move by O(1/mu2) (docs/twobody.md: first order in 1/mu2)
     assert rows[1]["re_lambda"] == pytest.approx(exact, abs=1e-4)
     assert rows[0]["re_lambda"] < rows[1]["re_lambda"]
-    # neither case can be proven in the 4 c_d region: mu2 = 3 (rho2 = 1) has incommensurate
-    # phase rates (no tail bound), mu2 = 1e6 a bound that is inf below 2 k c_d2 (c_d2 = 2000);
+    # neither case can be proven in the 4 c_d region: mu2 = 3 (rho2 = 1), whose phase rates
+    # are not commensurate, has bounds 0.086 and 0.162 there against its fastest roots 0.077
+    # and 0.136 at k = 1, 2 (--c-max auto proves them at 16 and 8 c_d2: tests/test_tail.py),
+    # mu2 = 1e6 a bound that is inf below 2 k c_d2 (c_d2 = 2000);
     # the line says the maximum is the largest in R only
     assert [(r["proven_k_count"], r["k_with_root"]) for r in rows] == [(0, 2), (0, 2)]
     assert "in R only, R proven to hold the fastest mode at 0 of 4 k with a root" in proc.stdout

@@ -37,7 +37,14 @@ stack, stress top, velocity bottom, ``alpha_pc = 0.0195``, ``k = 1.58``: the roo
   (1 + |Delta - 1|/Omega)/(gamma A)``, ``arg c`` in ``[-asin(|Delta - 1|/Omega), pi/2 -
   atan(alpha_pc Omega/(1 + alpha_pc rho)) + asin(...)]`` (``|d1 d2 + c N| >= |N|`` times the
   distance of ``-d1 d2/N`` to the sector). That needs commensurate phase rates
-  (:func:`analytic.physics.tail_stack.period`).
+  (:func:`period`). Otherwise (session 31) the orbit is dense on the torus, and beyond
+  ``Omega`` every real part of the four phases is taken (:func:`free_excluded`: the
+  coefficients of ``X`` on the dilatational phases' monomials over the sector bound on
+  ``|Y / a|`` maximised on a grid of the two shear phases, ``|R|`` minimised in closed form
+  over ``t2``). On free phases the stack's shear coincidences (``d1 = d2 = 0``) keep ``|Y|``
+  down to order ``rho`` (the decay of the phases), and ``|R|`` too, so this bound falls
+  only as ``Omega^(-1/2)``: ``Omega`` is pushed out (:func:`_free_bound`) until it is below
+  the exact phases' bound from ``W`` or the grid reaches :data:`MAX_POINTS`.
 
 **A half-space substrate** (``H2 = inf``, any ``alpha_pc`` including 0; :func:`half_space`):
 at ``Re L > 0`` the substrate's partial waves decay into it, and as ``H2 -> inf`` each of its
@@ -60,7 +67,9 @@ measurement, as the other bounds: tests/test_tail.py compares it with exact root
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
 from functools import lru_cache
 
 import numpy as np
@@ -71,6 +80,11 @@ from analytic.physics import tail_stack as ts
 #: Largest number of grid points (both parts) before the bound gives up (``inf``); measured
 #: 9 s for 535 000 points, 15 s for 580 000 (the machine loaded by two other processes).
 MAX_POINTS = 1_000_000
+#: Largest exact-phase grid an incommensurate stack's Omega is pushed out to (the free torus's
+#: bound falls as Omega^(-1/2), its cost grows as Omega). Measured, stress top, mu2 = 0.3,
+#: rho2 = 1, H2 = 0.5, k = 5, W = 500: 5e4 points 0.093 in 2.3 s, 2.5e5 0.046 in 6 s, 1e6 0.024
+#: in 22 s (mu2 = 3, k = 1-3: the same bounds from 2.5e5 on, 0.7-2.8 s).
+FREE_MAX_POINTS = 250_000
 #: Coefficient of the margin ``1 + MARGIN c_max k / W`` (measured, module docstring).
 MARGIN = 2.0
 #: Grid points per ``pi`` of the summed phase rates.
@@ -152,7 +166,7 @@ def sector_distance(z: np.ndarray, r: float, phi1: float, phi2: float) -> np.nda
 
 
 def _grid(p: Params, k: float, W: float) -> tuple[float, float]:
-    """``(Omega, h)``: where the orbit takes over, and the grid step in ``omega``."""
+    """``(Omega, h)``: where the orbit (or the free torus) takes over, and the grid step."""
     s = stack_constants(p)
     omega = max(2.0 * W, float(np.max(s["H"] * s["c"])) * k * k / ts.TUBE_EPS)
     return omega, math.pi / (STEPS_PER_PI * float(np.sum(s["rates"])))
@@ -165,18 +179,28 @@ def _points(p: Params, k: float, W: float) -> float:
 
 
 class _Exclusion:
-    """The samples of one ``(p, k, W)`` and the exclusion test at a given ``rho``."""
+    """The samples of one ``(p, k, W)`` and the exclusion test at a given ``rho``.
 
-    def __init__(self, p: Params, k: float, W: float) -> None:
+    ``omega`` overrides where the exact phases stop and ``start`` where they begin (default
+    ``W``); for phase rates that are not commensurate :meth:`excluded` tests the exact phases
+    only (the free torus beyond ``omega``: :func:`free_excluded`).
+    """
+
+    def __init__(self, p: Params, k: float, W: float, omega: float | None = None,
+                 start: float | None = None) -> None:
         s = stack_constants(p)
         self.p, self.k, self.W, self.s = p, k, W, s
         self.omega, self.h = _grid(p, k, W)
+        if omega is not None:
+            self.omega = omega
+        self.free = period(p) is None
         # the margin for the terms left out: relative O(k c_j / omega) in the layer of speed
         # c_j (its vertical wavenumber's k c_j / omega), with the coefficient 2 measured
         # (module docstring)
         self.margin = 1.0 + MARGIN * float(np.max(s["c"])) * k / W
-        n = int(math.ceil((self.omega - W) / self.h)) + 2
-        self.w = np.linspace(W, self.omega, n)
+        start = W if start is None else start
+        n = int(math.ceil((self.omega - start) / self.h)) + 2
+        self.w = np.linspace(start, self.omega, n)
 
         def axis(which: int):  # noqa: ANN202
             def fun(x: np.ndarray, row: np.ndarray) -> np.ndarray:
@@ -187,6 +211,8 @@ class _Exclusion:
 
         self.w_dips = np.concatenate([ts.roots_on_grid_rows(axis(q), self.w, 1, _ZERO_STEPS)[0]
                                       for q in range(4)])
+        if self.free:
+            return
         # beyond Omega: one period of the k = 0 orbit, every offset at once (rows)
         eps = s["H"] * s["c"] * k * k / self.omega
         grid = np.linspace(0.0, 1.0, TUBE_POINTS)
@@ -209,13 +235,7 @@ class _Exclusion:
         self.x_dip_row = np.concatenate([d[1] for d in dips])
 
     def _sector(self, rho: float) -> tuple[float, float, float, float]:
-        """``(r, phi1, phi2, A)``: the sector of ``c`` beyond ``Omega`` and ``|a| >= A``."""
-        p, om = self.p, self.omega
-        A = math.hypot(1.0 + p.alpha_pc * rho, p.alpha_pc * om)
-        de = abs(p.Delta - 1.0) / om
-        th = math.asin(min(de, 1.0))
-        top = 0.5 * math.pi - math.atan2(p.alpha_pc * om, 1.0 + p.alpha_pc * rho)
-        return (1.0 + de) / (p.gamma * A), -th, top + th, A
+        return _sector(self.p, self.omega, rho)
 
     def _direct(self, rho: float, w: np.ndarray) -> np.ndarray:
         p, s = self.p, self.s
@@ -248,43 +268,135 @@ class _Exclusion:
         """
         step = 0.5 * min(rho, self.h)
         w = np.concatenate([self.w[::every], (self.w_dips[:, None] + step * _DIP).ravel()])
-        if not np.min(self._direct(rho, w[w >= self.W])) > 0:
+        if not np.min(self._direct(rho, w[w >= self.w[0]])) > 0:
             return False
+        if self.free:
+            return True
         x = np.concatenate([self.x[::every],
                             (self.x_dips[:, None] + step * _DIP).ravel() % self.T])
         row = np.concatenate([self.x_row[::every], np.repeat(self.x_dip_row, len(_DIP))])
         return bool(np.min(self._tube(rho, x, row)) > 0)
 
 
-@lru_cache(maxsize=4096)
-def stack_pc_bound(p: Params, k: float, W: float) -> float:
-    """Bound on ``Re Lambda`` of every root with ``|Im| > W``: two bodies, ``alpha_pc > 0``.
+def _sector(p: Params, om: float, rho: float) -> tuple[float, float, float, float]:
+    """``(r, phi1, phi2, A)``: the sector of ``c`` beyond ``om`` and ``|a| >= A``."""
+    A = math.hypot(1.0 + p.alpha_pc * rho, p.alpha_pc * om)
+    de = abs(p.Delta - 1.0) / om
+    th = math.asin(min(de, 1.0))
+    top = 0.5 * math.pi - math.atan2(p.alpha_pc * om, 1.0 + p.alpha_pc * rho)
+    return (1.0 + de) / (p.gamma * A), -th, top + th, A
 
-    Args:
-        p: Parameters (finite ``mu2`` and ``H``; finite ``H2`` or a half-space substrate;
-            commensurate phase rates, :func:`period`).
-        k: Wavenumber ``> 0``.
-        W: Frequency beyond which the bound holds.
 
-    Returns:
-        The largest ``rho`` not excluded (module docstring); ``inf`` when ``W <= 2 k c_d`` of
-        either layer (or ``max(1, |Delta - 1|)``), when the phase rates are not commensurate,
-        when the grids would exceed :data:`MAX_POINTS` (large ``k``: ``Omega`` grows as
-        ``k^2``) or when :data:`RHO_MAX` is not excluded. 0.3-0.5 s a call for ``Omega`` up to 800,
-        9 s for 5 500 (measured), cached. The stress top, ``mu2 = 4, rho2 = 1, H2 = 0.5``,
-        ``W`` of 4 ``c_d2``: ``inf`` from ``k = 27`` on (the grids' size).
+def free_excluded(p: Params, k: float, W: float, omega: float, rho: float) -> bool:
+    """No root with this ``rho`` beyond ``omega`` wherever the four phases' real parts are.
+
+    For phase rates that are not commensurate: the ``k = 0`` orbit is dense on the torus,
+    so every real part is taken (imaginary parts ``-rates rho``). ``X`` is a sum of five
+    products of a function of the shear phases and a monomial in the dilatational phases'
+    sines and cosines (:func:`_free_coefficients`); each monomial is at most its
+    ``cosh(Im)`` product, each coefficient over the sector bound on ``|Y / a|`` is
+    maximised on a grid of the two shear phases (dense where ``d1``, ``d2`` vanish), and
+    ``|R|`` is minimised in closed form over ``t2`` and on a grid over ``t1``. Excluded
+    where ``min |R| > margin k |b| Z1 Z2 / (omega A) * sum_m U_m max |c_m| / |Y / a|``
+    (the margin of ``W``, as :class:`_Exclusion`'s).
     """
-    k, W = float(k), float(W)
-    cmax = float(np.max(stack_constants(p)["c"]))
-    if not (W > max(2.0 * k * cmax, 1.0, abs(p.Delta - 1.0))) or period(p) is None:
-        return math.inf
-    if _points(p, k, W) > MAX_POINTS:
-        return math.inf
-    ex = _Exclusion(p, k, W)
-    # halve on a subset of the grid (its "not excluded" is final) to the first rho not excluded
+    s = stack_constants(p)
+    y = s["rates"] * rho
+    r, phi1, phi2, A = _sector(p, omega, rho)
+    coefs, d1, d2, N = _free_coefficients(p, y)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ylow = np.where(N != 0, np.abs(N) * sector_distance(-d1 * d2 / N, r, phi1, phi2),
+                        np.abs(d1 * d2))
+        ratio = [float(np.max(np.abs(c) / ylow)) for c in coefs]
+    ch1, ch3 = math.cosh(y[1]), math.cosh(y[3])
+    M = sum(m * u for m, u in zip(ratio, (ch3, ch1 * ch3, ch1 * ch3, ch1, ch1 * ch3),
+                                  strict=True))
+    margin = 1.0 + MARGIN * float(np.max(s["c"])) * k / W
+    b = abs(p.f - p.alpha_ld) + p.alpha_ld / omega
+    kappa = margin * k * b * s["Z1"] * s["Z2"] / (omega * A)
+    return bool(np.isfinite(M) and _min_resonance(p, y) > kappa * M)
+
+
+#: Uniform grid points per shear phase of the free torus (plus :data:`_FREE_DENSE` points on
+#: each zero of its ``d``); 256 and 512 gave the same bounds to 3 digits in three stacks.
+_FREE_GRID = 128
+#: Points placed within six decay lengths ``Im psi`` of each zero of ``d`` (two per period).
+_FREE_DENSE = 41
+#: Grid points in ``t1`` for the minimum of ``|R|`` (then refined around the 8 smallest).
+_R_GRID = 2048
+
+
+def _shear_grid(bc: str, y: float) -> np.ndarray:
+    """Real parts of a shear phase: uniform, and dense around the zeros of its ``d``."""
+    base = (0.5 * math.pi if bc == "velocity" else 0.0) + np.array([0.0, math.pi])
+    dense = (base[:, None] + np.linspace(-6.0, 6.0, _FREE_DENSE)[None, :] * max(y, 1e-12))
+    return np.concatenate([np.linspace(0.0, 2.0 * math.pi, _FREE_GRID, endpoint=False),
+                           dense.ravel() % (2.0 * math.pi)])
+
+
+def _g_parts(bc: str, beta: float, sp: np.ndarray, cp: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``G = g0 + gs sin t + gc cos t`` of one body's end (``tail_stack._end_trig``)."""
+    if bc == "velocity":
+        return np.zeros_like(sp), cp, -2.0 * beta * sp
+    return np.full_like(sp, -2.0 * beta), sp, 2.0 * beta * cp
+
+
+def _free_coefficients(p: Params, y: np.ndarray
+                       ) -> tuple[list[np.ndarray], np.ndarray, np.ndarray, np.ndarray]:
+    """Coefficients of ``X`` on ``(st2, st1 st2, ct1 st2, st1, st1 ct2)``, ``d1``, ``d2``, ``N``.
+
+    On the grid of the shear phases (:func:`_shear_grid`; imaginary parts ``-y[0]``, ``-y[2]``).
+    """
+    s = stack_constants(p)
+    z1 = _shear_grid(p.bc, y[0])[:, None] - 1j * y[0]
+    z2 = _shear_grid(p.bc2, y[2])[None, :] - 1j * y[2]
+    sp1, cp1, sp2, cp2 = np.sin(z1), np.cos(z1), np.sin(z2), np.cos(z2)
+    d1, n1, _ = ts._end_trig(p.bc, p.beta, sp1, cp1, sp1, cp1)
+    d2, n2, _ = ts._end_trig(p.bc2, p.substrate_beta, sp2, cp2, sp2, cp2)
+    a0, as1, ac1 = _g_parts(p.bc, p.beta, sp1, cp1)
+    b0, bs2, bc2 = _g_parts(p.bc2, p.substrate_beta, sp2, cp2)
+    r2 = p.rho2
+    # X = G1 d2 st2 - G2 d1 st1 / rho2, G1 = a0 + as1 st1 + ac1 ct1, G2 = b0 + bs2 st2 + bc2 ct2
+    coefs = [d2 * a0, d2 * as1 - d1 * bs2 / r2, d2 * ac1, -d1 * b0 / r2, -d1 * bc2 / r2]
+    return coefs, d1, d2, n1 * d2 + n2 * d1 / s["Zs"]
+
+
+def _min_resonance(p: Params, y: np.ndarray) -> float:
+    """Smallest ``|R|`` over the real parts of ``t1``, ``t2`` (imaginary parts ``-y[1, 3]``).
+
+    ``R = S sin(t2 + phi)`` with ``S cos phi = Z2 cos t1``, ``S sin phi = Z1 sin t1``, whose
+    smallest modulus over real ``t2`` is ``|S| |sinh(Im phi - y3)|``; ``t1`` on a grid,
+    refined around its smallest values.
+    """
+    s = stack_constants(p)
+
+    def f(x: np.ndarray) -> np.ndarray:
+        t1 = x - 1j * y[1]
+        A, B = s["Z2"] * np.cos(t1), s["Z1"] * np.sin(t1)
+        phi = np.arctan(B / A)
+        return np.abs(A / np.cos(phi)) * np.abs(np.sinh(phi.imag - y[3]))
+
+    x = np.linspace(0.0, 2.0 * math.pi, _R_GRID, endpoint=False)
+    v = f(x)
+    dx = x[1] - x[0]
+    near = x[np.argsort(v)[:8]]
+    fine = (near[:, None] + np.linspace(-dx, dx, 65)[None, :]).ravel()
+    return float(min(v.min(), f(fine).min()))
+
+
+def _search(full: Callable[[float], bool], subset: Callable[[float], bool] | None = None
+            ) -> float:
+    """The largest ``rho`` not excluded (module docstring), ``inf`` at :data:`RHO_MAX`.
+
+    ``subset`` (default ``full``) is the test on a subset of the grid, whose "not excluded" is
+    final: the halving uses it, the climb and the bisection ``full``.
+    """
+    subset = subset or full
+    # halve on a subset of the grid to the first rho not excluded
     lo = RHO_MAX
     for _ in range(_HALVINGS):
-        if not ex.excluded(lo, _SUBSET):
+        if not subset(lo):
             break
         lo *= 0.5
     else:
@@ -292,15 +404,101 @@ def stack_pc_bound(p: Params, k: float, W: float) -> float:
     if lo == RHO_MAX:
         return math.inf
     # then on the whole grid: up from there to the first rho excluded, and bisect
-    while not ex.excluded(2.0 * lo):
+    while not full(2.0 * lo):
         lo *= 2.0
         if lo >= RHO_MAX:
             return math.inf
     hi = 2.0 * lo
     for _ in range(_BISECTIONS):
         mid = math.sqrt(lo * hi)
-        if ex.excluded(mid):
+        if full(mid):
             hi = mid
         else:
             lo = mid
     return hi
+
+
+def _search_grid(ex: _Exclusion) -> float:
+    """:func:`_search` with ``ex``'s test (every :data:`_SUBSET`-th point while halving)."""
+    return _search(ex.excluded, lambda rho: ex.excluded(rho, _SUBSET))
+
+
+#: Smallest factor between the successive ``Omega`` of an incommensurate stack, squared
+#: (:func:`_free_bound`).
+_FREE_STEP = 4.0
+
+
+@lru_cache(maxsize=4096)
+def stack_pc_bound(p: Params, k: float, W: float) -> float:
+    """Bound on ``Re Lambda`` of every root with ``|Im| > W``: two bodies by exclusion.
+
+    ``alpha_pc > 0``, a half-space substrate, or phase rates that are not commensurate.
+
+    Args:
+        p: Parameters (finite ``mu2`` and ``H``; finite ``H2`` or a half-space substrate).
+        k: Wavenumber ``> 0``.
+        W: Frequency beyond which the bound holds.
+
+    Returns:
+        The largest ``rho`` not excluded (module docstring); ``inf`` when ``W <= 2 k c_d`` of
+        either layer (or ``max(1, |Delta - 1|)``), over a half-space substrate under a slider
+        whose phase rates are not commensurate, when the grids would exceed
+        :data:`MAX_POINTS` (large ``k``: ``Omega`` grows as ``k^2``) or when :data:`RHO_MAX` is
+        not excluded. 0.3-0.5 s a call for ``Omega`` up to 800, 9 s for 5 500 (measured);
+        not commensurate: 1.4-5 s (``mu2 = 3``, ``rho2 = 1``, ``H2 = 0.5``, ``k`` 1-3); cached.
+        The stress top, ``mu2 = 4, rho2 = 1, H2 = 0.5``, ``W`` of 4 ``c_d2``: ``inf`` from
+        ``k = 27`` on (the grids' size).
+    """
+    k, W = float(k), float(W)
+    cmax = float(np.max(stack_constants(p)["c"]))
+    if not (W > max(2.0 * k * cmax, 1.0, abs(p.Delta - 1.0))):
+        return math.inf
+    if period(p) is None:
+        return _free_bound(p, k, W)
+    if _points(p, k, W) > MAX_POINTS:
+        return math.inf
+    return _search_grid(_Exclusion(p, k, W))
+
+
+def _both(ex: _Exclusion, omega: float, rho: float) -> bool:
+    """``ex``'s exact phases and the free torus beyond ``omega`` both exclude ``rho``."""
+    return ex.excluded(rho) and free_excluded(ex.p, ex.k, ex.W, omega, rho)
+
+
+def _free_bound(p: Params, k: float, W: float) -> float:
+    """:func:`stack_pc_bound` for phase rates that are not commensurate.
+
+    Exact phases from ``W`` to ``Omega``, the free torus beyond
+    (:meth:`_Exclusion.free_excluded`), whose bound falls as ``Omega^(-1/2)``: the exact
+    phases' bound ``rho_d`` on the first ``Omega`` (:func:`_grid`), then ``Omega`` grown by
+    :data:`_FREE_STEP` until the free torus's bound is at most ``rho_d`` (or the grid would
+    exceed :data:`MAX_POINTS`), and the exact phases from the first ``Omega`` to the last
+    checked at the larger of the two bounds (and its doublings up to :data:`RHO_MAX`); if a
+    ``rho`` there is not excluded, the whole search on ``W .. Omega``.
+    """
+    omega0, h = _grid(p, k, W)
+    if half_space(p) or (omega0 - W) / h > MAX_POINTS:
+        return math.inf  # (the half-space's radiating limit has no free torus here)
+    rho_d = _search_grid(_Exclusion(p, k, W, omega0))
+    if not math.isfinite(rho_d):
+        return math.inf
+    omega_max = W + FREE_MAX_POINTS * h
+    omega = omega0
+    while True:
+        rho_f = _search(functools.partial(free_excluded, p, k, W, omega))
+        if rho_f <= rho_d or omega >= omega_max:
+            break
+        # the free torus's bound falls as omega^(-1/2): jump to where it would be rho_d (a
+        # third beyond), at least by _FREE_STEP's square root
+        omega = min(omega_max, omega * max(math.sqrt(_FREE_STEP),
+                                           1.3 * (rho_f / rho_d) ** 2 if rho_d > 0 else 1e9))
+    rho = max(rho_d, rho_f)
+    if not math.isfinite(rho) or omega == omega0:
+        return rho
+    ext = _Exclusion(p, k, W, omega, start=omega0)
+    r = rho
+    while r < RHO_MAX:
+        if not ext.excluded(r):
+            return _search(functools.partial(_both, _Exclusion(p, k, W, omega), omega))
+        r *= 2.0
+    return rho

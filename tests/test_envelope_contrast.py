@@ -80,7 +80,7 @@ def test_contrast_rigid_limit_and_rows(tmp_path, nproc):
     assert rows[1]["re_lambda"] == pytest.approx(exact, abs=1e-4)
     assert rows[0]["re_lambda"] < rows[1]["re_lambda"]
     # neither case can be proven in the 4 c_d region: mu2 = 3 (rho2 = 1), whose phase rates
-    # are not commensurate, has bounds 0.086 and 0.162 there against its fastest roots 0.077
+    # are not commensurate, has bounds 0.087 and 0.162 there against its fastest roots 0.077
     # and 0.136 at k = 1, 2 (--c-max auto proves them at 16 and 8 c_d2: tests/test_tail.py),
     # mu2 = 1e6 a bound that is inf below 2 k c_d2 (c_d2 = 2000);
     # the line says the maximum is the largest in R only

@@ -268,14 +268,15 @@ class _Exclusion:
         """
         step = 0.5 * min(rho, self.h)
         w = np.concatenate([self.w[::every], (self.w_dips[:, None] + step * _DIP).ravel()])
-        if not np.min(self._direct(rho, w[w >= self.w[0]])) > 0:
-            return False
-        if self.free:
-            return True
-        x = np.concatenate([self.x[::every],
-                            (self.x_dips[:, None] + step * _DIP).ravel() % self.T])
-        row = np.concatenate([self.x_row[::every], np.repeat(self.x_dip_row, len(_DIP))])
-        return bool(np.min(self._tube(rho, x, row)) > 0)
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow: nan, not excluded
+            if not np.min(self._direct(rho, w[w >= self.w[0]])) > 0:
+                return False
+            if self.free:
+                return True
+            x = np.concatenate([self.x[::every],
+                                (self.x_dips[:, None] + step * _DIP).ravel() % self.T])
+            row = np.concatenate([self.x_row[::every], np.repeat(self.x_dip_row, len(_DIP))])
+            return bool(np.min(self._tube(rho, x, row)) > 0)
 
 
 def _sector(p: Params, om: float, rho: float) -> tuple[float, float, float, float]:
@@ -301,20 +302,28 @@ def free_excluded(p: Params, k: float, W: float, omega: float, rho: float) -> bo
     (the margin of ``W``, as :class:`_Exclusion`'s).
     """
     s = stack_constants(p)
-    y = s["rates"] * rho
+    # the phases' decay at omega >= Omega: rates rho times 1 .. 1/sqrt(1 - (k c_j/Omega)^2)
+    # (both ends are tested)
+    stretch = 1.0 / np.sqrt(1.0 - np.minimum((k * s["c"] / omega) ** 2, 0.25))
+    return all(_free_test(p, k, W, omega, rho, s["rates"] * rho * f) for f in (1.0, stretch))
+
+
+def _free_test(p: Params, k: float, W: float, omega: float, rho: float, y: np.ndarray) -> bool:
+    """:func:`free_excluded` at the phases' decays ``y`` (non-finite values: not excluded)."""
+    s = stack_constants(p)
     r, phi1, phi2, A = _sector(p, omega, rho)
-    coefs, d1, d2, N = _free_coefficients(p, y)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(all="ignore"):  # overflow at a large decay: not excluded, below
+        coefs, d1, d2, N = _free_coefficients(p, y)
         ylow = np.where(N != 0, np.abs(N) * sector_distance(-d1 * d2 / N, r, phi1, phi2),
                         np.abs(d1 * d2))
         ratio = [float(np.max(np.abs(c) / ylow)) for c in coefs]
-    ch1, ch3 = math.cosh(y[1]), math.cosh(y[3])
-    M = sum(m * u for m, u in zip(ratio, (ch3, ch1 * ch3, ch1 * ch3, ch1, ch1 * ch3),
-                                  strict=True))
-    margin = 1.0 + MARGIN * float(np.max(s["c"])) * k / W
-    b = abs(p.f - p.alpha_ld) + p.alpha_ld / omega
-    kappa = margin * k * b * s["Z1"] * s["Z2"] / (omega * A)
-    return bool(np.isfinite(M) and _min_resonance(p, y) > kappa * M)
+        ch1, ch3 = math.cosh(min(y[1], 700.0)), math.cosh(min(y[3], 700.0))
+        M = sum(m * u for m, u in zip(ratio, (ch3, ch1 * ch3, ch1 * ch3, ch1, ch1 * ch3),
+                                      strict=True))
+        margin = 1.0 + MARGIN * float(np.max(s["c"])) * k / W
+        b = abs(p.f - p.alpha_ld) + p.alpha_ld / omega
+        kappa = margin * k * b * s["Z1"] * s["Z2"] / (omega * A)
+        return bool(np.isfinite(M) and _min_resonance(p, y) > kappa * M)
 
 
 #: Uniform grid points per shear phase of the free torus (plus :data:`_FREE_DENSE` points on
@@ -468,16 +477,19 @@ def _both(ex: _Exclusion, omega: float, rho: float) -> bool:
 def _free_bound(p: Params, k: float, W: float) -> float:
     """:func:`stack_pc_bound` for phase rates that are not commensurate.
 
-    Exact phases from ``W`` to ``Omega``, the free torus beyond
-    (:meth:`_Exclusion.free_excluded`), whose bound falls as ``Omega^(-1/2)``: the exact
-    phases' bound ``rho_d`` on the first ``Omega`` (:func:`_grid`), then ``Omega`` grown by
-    :data:`_FREE_STEP` until the free torus's bound is at most ``rho_d`` (or the grid would
-    exceed :data:`MAX_POINTS`), and the exact phases from the first ``Omega`` to the last
+    Exact phases from ``W`` to ``Omega``, the free torus beyond (:func:`free_excluded`),
+    whose bound falls as ``Omega^(-1/2)``: the exact phases' bound ``rho_d`` on the first
+    ``Omega = 2 W``, then ``Omega`` grown until the free torus's bound is at most ``rho_d``
+    (or the grid would exceed :data:`FREE_MAX_POINTS`), and the exact phases from ``2 W`` to
+    the last
     checked at the larger of the two bounds (and its doublings up to :data:`RHO_MAX`); if a
     ``rho`` there is not excluded, the whole search on ``W .. Omega``.
     """
-    omega0, h = _grid(p, k, W)
-    if half_space(p) or (omega0 - W) / h > MAX_POINTS:
+    h = _grid(p, k, W)[1]
+    # the free torus takes every real part, so the k-offsets of the commensurate tube do not
+    # set Omega here
+    omega0 = 2.0 * W
+    if half_space(p) or (omega0 - W) / h > FREE_MAX_POINTS:
         return math.inf  # (the half-space's radiating limit has no free torus here)
     rho_d = _search_grid(_Exclusion(p, k, W, omega0))
     if not math.isfinite(rho_d):

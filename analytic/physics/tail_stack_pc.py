@@ -83,8 +83,10 @@ MAX_POINTS = 1_000_000
 #: Largest exact-phase grid an incommensurate stack's Omega is pushed out to (the free torus's
 #: bound falls as Omega^(-1/2), its cost grows as Omega). Measured, stress top, mu2 = 0.3,
 #: rho2 = 1, H2 = 0.5, k = 5, W = 500: 5e4 points 0.093 in 2.3 s, 2.5e5 0.046 in 6 s, 1e6 0.024
-#: in 22 s (mu2 = 3, k = 1-3: the same bounds from 2.5e5 on, 0.7-2.8 s).
-FREE_MAX_POINTS = 250_000
+#: in 22 s; mu2 = 0.1, H2 = 0.5, the 4 and 16 c_d2 rungs at k = 1, 5, 20: 0.029-0.14 in
+#: 1.1-1.7 s at 6e4 points against 0.014-0.072 in 4.7-11.5 s at 2.5e5. An adaptive region
+#: asks for several rungs' bounds at each k: the cheaper, larger bound.
+FREE_MAX_POINTS = 60_000
 #: Coefficient of the margin ``1 + MARGIN c_max k / W`` (measured, module docstring).
 MARGIN = 2.0
 #: Grid points per ``pi`` of the summed phase rates.
@@ -454,7 +456,7 @@ def stack_pc_bound(p: Params, k: float, W: float) -> float:
         whose phase rates are not commensurate, when the grids would exceed
         :data:`MAX_POINTS` (large ``k``: ``Omega`` grows as ``k^2``) or when :data:`RHO_MAX` is
         not excluded. 0.3-0.5 s a call for ``Omega`` up to 800, 9 s for 5 500 (measured);
-        not commensurate: 1.4-5 s (``mu2 = 3``, ``rho2 = 1``, ``H2 = 0.5``, ``k`` 1-3); cached.
+        not commensurate: 0.8-1.8 s (``mu2 = 0.1, 3``, ``rho2 = 1``, ``H2 = 0.5``); cached.
         The stress top, ``mu2 = 4, rho2 = 1, H2 = 0.5``, ``W`` of 4 ``c_d2``: ``inf`` from
         ``k = 27`` on (the grids' size).
     """

@@ -127,9 +127,10 @@ def why_no_tail_bound(p: Params) -> str:
 
 
 def loose_tail_bound(p: Params) -> bool:
-    """The bound exists but is far above the roots it bounds (``alpha_pc > 0``, half-space).
+    """The bound exists but is far above the roots it bounds (``alpha_pc > 0``, two bodies).
 
-    ``alpha_pc > 0`` in any model, or a half-space substrate.
+    ``alpha_pc > 0`` in any model, a half-space substrate, or two bodies whose phase rates are
+    not commensurate (beyond ``Omega`` the free torus's bound, 0.015-0.08 of it far out).
     Measured (tests/test_tail.py): the fastest root beyond ``W`` reaches 1e-4 .. 0.7 of the
     bound (velocity top), 1e-3 .. 0.8 (stress top), 3e-6 .. 0.75 (two bodies, 87 random
     stacks with a root of positive ``Re`` in the band, docs/design.md 8.1), against
@@ -141,7 +142,9 @@ def loose_tail_bound(p: Params) -> bool:
     bound is below the fastest value already found
     (:func:`analytic.numerics.spectrum.provable_region`).
     """
-    return (p.alpha_pc > 0 or tail_stack_pc.half_space(p)) and not why_no_tail_bound(p)
+    return ((p.alpha_pc > 0 or tail_stack_pc.half_space(p)
+             or (p.two_body and tail_stack.period(p) is None))
+            and not why_no_tail_bound(p))
 
 
 def phase_factor(p: Params, W: float) -> float:

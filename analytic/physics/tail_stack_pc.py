@@ -483,9 +483,8 @@ def _free_bound(p: Params, k: float, W: float) -> float:
     whose bound falls as ``Omega^(-1/2)``: the exact phases' bound ``rho_d`` on the first
     ``Omega = 2 W``, then ``Omega`` grown until the free torus's bound is at most ``rho_d``
     (or the grid would exceed :data:`FREE_MAX_POINTS`), and the exact phases from ``2 W`` to
-    the last
-    checked at the larger of the two bounds (and its doublings up to :data:`RHO_MAX`); if a
-    ``rho`` there is not excluded, the whole search on ``W .. Omega``.
+    the last ``Omega`` checked at the larger of the two bounds (and its doublings up to
+    :data:`RHO_MAX`); if a ``rho`` there is not excluded, the whole search on ``W .. Omega``.
     """
     h = _grid(p, k, W)[1]
     # the free torus takes every real part, so the k-offsets of the commensurate tube do not

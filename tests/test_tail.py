@@ -903,3 +903,35 @@ def test_incommensurate_bound_far_out(bc, band):
     # measured 0.026, 0.015 (velocity), 0.080, 0.034 (stress): loose out here (the free torus,
     # within FREE_MAX_POINTS)
     assert np.all(z.real < tb)
+
+
+#: The README's contrast points (rho2 = 1, H2 = 0.5) whose fastest root the 4 c_d curve committed
+#: before session 31 (2026-11-22: c_d of the slider) missed: (mu2, k, root of
+#: workflows/results/contrast_auto/).
+CONTRAST_BEYOND = [(100.0, 14.210244885426443, 0.3364036286288998 - 798.4154496660256j),
+                   (56.23413251903491, 8.439606304753964, 0.3448075250346006
+                    - 220.69965493711217j),
+                   (5.623413251903491, 20.0, 0.22557403299213175 - 222.33833243309678j)]
+
+
+@pytest.mark.slow  # 2-10 s per case
+@pytest.mark.parametrize("case", range(len(CONTRAST_BEYOND)))
+def test_contrast_points_beyond_the_old_region(case):
+    """A root at the README's value, found by zeros_in_box in a small box around it (not by the
+    climb), lies beyond the region of the curve committed before (4 c_d of the slider) and grows
+    faster than everything inside it; at mu2 = 100 it lies beyond today's 4 c_d2 region too, and the
+    climb proves it the fastest mode."""
+    from analytic.numerics.branches import spectrum_function
+
+    mu2, k, z = CONTRAST_BEYOND[case]
+    p = Params(mu2=mu2, rho2=1.0, H2=0.5)
+    box = (z.real - 0.01, z.real + 0.01, z.imag - 2.0, z.imag + 2.0)
+    found = [r.value for r in zeros_in_box(spectrum_function(p, k), box, n_initial=64)]
+    assert len(found) == 1 and abs(found[0] - z) < 1e-8 * abs(z)
+    old = Region(1e-4, 2.0, 4.0 / (p.beta * velocity_scale(p)))  # 4 c_d of the slider
+    assert abs(z.imag) > old.im_max(p, k)
+    assert fastest_mode(p, k, old).root.real < z.real - 0.005
+    if mu2 == 100.0:
+        assert abs(z.imag) > Region(1e-4, 2.0, 4.0).im_max(p, k)
+        m = fastest_mode(p, k, Region(1e-4, 2.0, None))
+        assert m.proven and abs(m.root - z) < 1e-8 * abs(z)

@@ -142,9 +142,17 @@ def loose_tail_bound(p: Params) -> bool:
     bound is below the fastest value already found
     (:func:`analytic.numerics.spectrum.provable_region`).
     """
-    return ((p.alpha_pc > 0 or tail_stack_pc.half_space(p)
-             or (p.two_body and tail_stack.period(p) is None))
-            and not why_no_tail_bound(p))
+    return (p.alpha_pc > 0 or _by_exclusion(p)) and not why_no_tail_bound(p)
+
+
+def _by_exclusion(p: Params) -> bool:
+    """Two bodies whose bound is :func:`analytic.physics.tail_stack_pc.stack_pc_bound`'s.
+
+    ``alpha_pc > 0``, or phase rates without a common period
+    (:func:`analytic.physics.tail_stack.period` ``None``): not commensurate, or a half-space
+    substrate, whose rates are infinite.
+    """
+    return p.two_body and (p.alpha_pc > 0 or tail_stack.period(p) is None)
 
 
 def phase_factor(p: Params, W: float) -> float:
@@ -334,7 +342,7 @@ def tail_bound(p: Params, k: float, W: float) -> float | None:
     k = float(k)
     W = float(W)
     if p.two_body:
-        if p.alpha_pc > 0 or tail_stack_pc.half_space(p) or tail_stack.period(p) is None:
+        if _by_exclusion(p):
             return tail_stack_pc.stack_pc_bound(p, k, W)
         return tail_stack.stack_tail_bound(p, k, W)
     if p.bc == "stress" and p.alpha_pc > 0:

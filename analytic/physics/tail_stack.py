@@ -123,6 +123,19 @@ def _end_trig(bc: str, beta: float, sp: np.ndarray, cp: np.ndarray, st: np.ndarr
     return sp, -cp, sp * st - 2.0 * beta * (1.0 - cp * ct)
 
 
+def end_coefficients(bc: str, beta: float, sp: np.ndarray, cp: np.ndarray
+                     ) -> tuple[np.ndarray, ...]:
+    """``(d, n, g0, gs, gc)`` of one body's end, ``G = g0 + gs sin t + gc cos t``.
+
+    :func:`_end_trig` with ``G`` split by the dilatational phase's sine and cosine, for a
+    bound taken over that phase separately (:mod:`analytic.physics.tail_stack_pc`'s free
+    torus); equal to it to rounding (tests/test_tail.py).
+    """
+    if bc == "velocity":
+        return cp, sp, np.zeros_like(sp), cp, -2.0 * beta * sp
+    return sp, -cp, np.full_like(sp, -2.0 * beta), sp, 2.0 * beta * cp
+
+
 def stack_parts(p: Params, sn: np.ndarray, cs: np.ndarray, bc2: str | None = None
                 ) -> tuple[np.ndarray, ...]:
     """``R``, ``X``, ``d1 d2``, ``N``, ``d1``, ``d2`` of the phases' sines and cosines.

@@ -44,7 +44,7 @@ stack, stress top, velocity bottom, ``alpha_pc = 0.0195``, ``k = 1.58``: the roo
   over ``t2``). On free phases the stack's shear coincidences (``d1 = d2 = 0``) keep ``|Y|``
   down to order ``rho`` (the decay of the phases), and ``|R|`` too, so this bound falls
   only as ``Omega^(-1/2)``: ``Omega`` is pushed out (:func:`_free_bound`) until it is below
-  the exact phases' bound from ``W`` or the grid reaches :data:`MAX_POINTS`.
+  the exact phases' bound from ``W`` or the grid reaches :data:`FREE_MAX_POINTS`.
 
 **A half-space substrate** (``H2 = inf``, any ``alpha_pc`` including 0; :func:`half_space`):
 at ``Re L > 0`` the substrate's partial waves decay into it, and as ``H2 -> inf`` each of its
@@ -329,7 +329,8 @@ def _free_test(p: Params, k: float, W: float, omega: float, rho: float, y: np.nd
 
 
 #: Uniform grid points per shear phase of the free torus (plus :data:`_FREE_DENSE` points on
-#: each zero of its ``d``); 256 and 512 gave the same bounds to 3 digits in three stacks.
+#: each zero of its ``d``); 128, 256 and 1024 (and 161 dense points) gave the same bounds to 5
+#: digits in four stacks.
 _FREE_GRID = 128
 #: Points placed within six decay lengths ``Im psi`` of each zero of ``d`` (two per period).
 _FREE_DENSE = 41
@@ -345,14 +346,6 @@ def _shear_grid(bc: str, y: float) -> np.ndarray:
                            dense.ravel() % (2.0 * math.pi)])
 
 
-def _g_parts(bc: str, beta: float, sp: np.ndarray, cp: np.ndarray
-             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``G = g0 + gs sin t + gc cos t`` of one body's end (``tail_stack._end_trig``)."""
-    if bc == "velocity":
-        return np.zeros_like(sp), cp, -2.0 * beta * sp
-    return np.full_like(sp, -2.0 * beta), sp, 2.0 * beta * cp
-
-
 def _free_coefficients(p: Params, y: np.ndarray
                        ) -> tuple[list[np.ndarray], np.ndarray, np.ndarray, np.ndarray]:
     """Coefficients of ``X`` on ``(st2, st1 st2, ct1 st2, st1, st1 ct2)``, ``d1``, ``d2``, ``N``.
@@ -362,11 +355,8 @@ def _free_coefficients(p: Params, y: np.ndarray
     s = stack_constants(p)
     z1 = _shear_grid(p.bc, y[0])[:, None] - 1j * y[0]
     z2 = _shear_grid(p.bc2, y[2])[None, :] - 1j * y[2]
-    sp1, cp1, sp2, cp2 = np.sin(z1), np.cos(z1), np.sin(z2), np.cos(z2)
-    d1, n1, _ = ts._end_trig(p.bc, p.beta, sp1, cp1, sp1, cp1)
-    d2, n2, _ = ts._end_trig(p.bc2, p.substrate_beta, sp2, cp2, sp2, cp2)
-    a0, as1, ac1 = _g_parts(p.bc, p.beta, sp1, cp1)
-    b0, bs2, bc2 = _g_parts(p.bc2, p.substrate_beta, sp2, cp2)
+    d1, n1, a0, as1, ac1 = ts.end_coefficients(p.bc, p.beta, np.sin(z1), np.cos(z1))
+    d2, n2, b0, bs2, bc2 = ts.end_coefficients(p.bc2, p.substrate_beta, np.sin(z2), np.cos(z2))
     r2 = p.rho2
     # X = G1 d2 st2 - G2 d1 st1 / rho2, G1 = a0 + as1 st1 + ac1 ct1, G2 = b0 + bs2 st2 + bc2 ct2
     coefs = [d2 * a0, d2 * as1 - d1 * bs2 / r2, d2 * ac1, -d1 * b0 / r2, -d1 * bc2 / r2]

@@ -71,8 +71,8 @@ that are not commensurate (:func:`analytic.physics.tail_stack.period` ``None``, 
 ``alpha_pc``): :mod:`analytic.physics.tail_stack_pc`'s exclusion, exact phases up to ``Omega``
 and every real part of the phases beyond. A half-space substrate (``H2`` infinite, any
 ``alpha_pc``): the same exclusion in the substrate's radiating limit (its sines and cosines
-``-i`` and 1), on the slider's phases alone. Not derived for a half-space slider (``H``
-infinite) nor over a half-space for a slider whose rates ``H, beta H`` are not commensurate.
+``-i`` and 1), on the slider's phases alone (the free torus of those two beyond ``Omega`` for
+an irrational ``beta``). Not derived for a half-space slider (``H`` infinite).
 """
 
 from __future__ import annotations
@@ -118,11 +118,6 @@ def why_no_tail_bound(p: Params) -> str:
     if p.two_body and not math.isfinite(p.H):
         return ("no tail bound derived for a half-space slider (H = inf): no thickness "
                 "resonances; the region is not proven to hold the fastest mode")
-    if tail_stack_pc.half_space(p) and tail_stack_pc.period(p) is None:
-        return ("no tail bound derived for a half-space substrate under a slider whose phase "
-                "rates H, beta H are not commensurate (beta = p/q, q <= "
-                f"{tail_stack.MAX_DENOMINATOR}); the region is not proven to hold the fastest "
-                "mode")
     return ""
 
 

@@ -55,7 +55,14 @@ whatever ``bc2`` (:func:`_parts`). The exclusion then runs on the slider's two p
 (periodic for a rational ``beta``); the margin keeps the substrate's ``c_d2`` in ``c_max``.
 Measured: in 456 random stacks (``mu2`` 0.1-100, ``W`` 1.02-1.3 times ``2 k c_max``) the
 roots of ``W < |Im| < 2 W`` reach at most 0.43 of the bound at ``W`` and 0.60 at their own
-frequency; far out (``|Im|`` 400 and 3000) 0.77-0.86.
+frequency; far out (``|Im|`` 400 and 3000) 0.77-0.86. For an irrational ``beta`` (session 32;
+a Poisson solid, ``beta = 1/sqrt 3``) the free torus of the slider's two phases beyond
+``Omega``, as for two finite bodies: ``X`` on the monomials ``(1, st1, ct1)`` and ``R = Z1 sin
+t1 - i Z2 cos t1`` (:func:`_free_coefficients`, :func:`_min_resonance`). Radiation keeps
+``|R|`` (at least ``min(Z1, Z2)`` on the real axis) and ``|Y|`` off zero, so this part falls
+as ``1/Omega``, not as ``Omega^(-1/2)``. Measured in 120 random stacks (``beta`` 0.3-0.68,
+``W`` 1.02-1.5 times ``2 k c_max``): 13 with a root of positive ``Re`` in ``W .. 2 W``, at
+most 0.49 of the bound at ``W`` and 0.58 at its own frequency.
 
 ``rho`` is scanned down from 4 by halving to the first ``rho`` not excluded (on every 8th grid
 point and all the dips' points: a ``rho`` not excluded there is not excluded), then up on the
@@ -301,7 +308,8 @@ def free_excluded(p: Params, k: float, W: float, omega: float, rho: float) -> bo
     maximised on a grid of the two shear phases (dense where ``d1``, ``d2`` vanish), and
     ``|R|`` is minimised in closed form over ``t2`` and on a grid over ``t1``. Excluded
     where ``min |R| > margin k |b| Z1 Z2 / (omega A) * sum_m U_m max |c_m| / |Y / a|``
-    (the margin of ``W``, as :class:`_Exclusion`'s).
+    (the margin of ``W``, as :class:`_Exclusion`'s). Over a half-space substrate the slider's
+    two phases alone (its radiating limit, :func:`_parts`).
     """
     s = stack_constants(p)
     # the phases' decay at omega >= Omega: rates rho times 1 .. 1/sqrt(1 - (k c_j/Omega)^2)
@@ -315,13 +323,10 @@ def _free_test(p: Params, k: float, W: float, omega: float, rho: float, y: np.nd
     s = stack_constants(p)
     r, phi1, phi2, A = _sector(p, omega, rho)
     with np.errstate(all="ignore"):  # overflow at a large decay: not excluded, below
-        coefs, d1, d2, N = _free_coefficients(p, y)
+        coefs, units, d1, d2, N = _free_coefficients(p, y)
         ylow = np.where(N != 0, np.abs(N) * sector_distance(-d1 * d2 / N, r, phi1, phi2),
                         np.abs(d1 * d2))
-        ratio = [float(np.max(np.abs(c) / ylow)) for c in coefs]
-        ch1, ch3 = math.cosh(min(y[1], 700.0)), math.cosh(min(y[3], 700.0))
-        M = sum(m * u for m, u in zip(ratio, (ch3, ch1 * ch3, ch1 * ch3, ch1, ch1 * ch3),
-                                      strict=True))
+        M = sum(float(np.max(np.abs(c) / ylow)) * u for c, u in zip(coefs, units, strict=True))
         margin = 1.0 + MARGIN * float(np.max(s["c"])) * k / W
         b = abs(p.f - p.alpha_ld) + p.alpha_ld / omega
         kappa = margin * k * b * s["Z1"] * s["Z2"] / (omega * A)
@@ -347,20 +352,36 @@ def _shear_grid(bc: str, y: float) -> np.ndarray:
 
 
 def _free_coefficients(p: Params, y: np.ndarray
-                       ) -> tuple[list[np.ndarray], np.ndarray, np.ndarray, np.ndarray]:
-    """Coefficients of ``X`` on ``(st2, st1 st2, ct1 st2, st1, st1 ct2)``, ``d1``, ``d2``, ``N``.
+                       ) -> tuple[list[np.ndarray], list[float], np.ndarray, np.ndarray,
+                                  np.ndarray]:
+    """``X``'s coefficients on monomials of the dilatational phases, their bounds, ``d1, d2, N``.
 
-    On the grid of the shear phases (:func:`_shear_grid`; imaginary parts ``-y[0]``, ``-y[2]``).
+    Two finite bodies: the monomials ``(st2, st1 st2, ct1 st2, st1, st1 ct2)`` of the
+    dilatational phases ``t1``, ``t2`` (imaginary parts ``-y[1]``, ``-y[3]``), each at most its
+    ``cosh`` product. Over a half-space substrate (its radiating limit, :func:`_parts`: ``st2 =
+    -i``, ``ct2 = 1``, the velocity end's form) the monomials ``(1, st1, ct1)``. The
+    coefficients on the grid of the shear phases (:func:`_shear_grid`; imaginary parts
+    ``-y[0]``, ``-y[2]``; the half-space's has none).
     """
     s = stack_constants(p)
     z1 = _shear_grid(p.bc, y[0])[:, None] - 1j * y[0]
-    z2 = _shear_grid(p.bc2, y[2])[None, :] - 1j * y[2]
     d1, n1, a0, as1, ac1 = ts.end_coefficients(p.bc, p.beta, np.sin(z1), np.cos(z1))
-    d2, n2, b0, bs2, bc2 = ts.end_coefficients(p.bc2, p.substrate_beta, np.sin(z2), np.cos(z2))
     r2 = p.rho2
+    ch1 = math.cosh(min(y[1], 700.0))
+    if half_space(p):
+        one = np.ones((1, 1), dtype=complex)
+        d2, n2, b0, bs2, bc2 = ts.end_coefficients("velocity", p.substrate_beta, -1j * one, one)
+        g2 = b0 - 1j * bs2 + bc2
+        # X = -i d2 G1 - G2 d1 st1 / rho2 on (1, st1, ct1)
+        coefs = [-1j * d2 * a0, -1j * d2 * as1 - d1 * g2 / r2, -1j * d2 * ac1]
+        return coefs, [1.0, ch1, ch1], d1, d2, n1 * d2 + n2 * d1 / s["Zs"]
+    z2 = _shear_grid(p.bc2, y[2])[None, :] - 1j * y[2]
+    d2, n2, b0, bs2, bc2 = ts.end_coefficients(p.bc2, p.substrate_beta, np.sin(z2), np.cos(z2))
     # X = G1 d2 st2 - G2 d1 st1 / rho2, G1 = a0 + as1 st1 + ac1 ct1, G2 = b0 + bs2 st2 + bc2 ct2
     coefs = [d2 * a0, d2 * as1 - d1 * bs2 / r2, d2 * ac1, -d1 * b0 / r2, -d1 * bc2 / r2]
-    return coefs, d1, d2, n1 * d2 + n2 * d1 / s["Zs"]
+    ch3 = math.cosh(min(y[3], 700.0))
+    units = [ch3, ch1 * ch3, ch1 * ch3, ch1, ch1 * ch3]
+    return coefs, units, d1, d2, n1 * d2 + n2 * d1 / s["Zs"]
 
 
 def _min_resonance(p: Params, y: np.ndarray) -> float:
@@ -368,13 +389,17 @@ def _min_resonance(p: Params, y: np.ndarray) -> float:
 
     ``R = S sin(t2 + phi)`` with ``S cos phi = Z2 cos t1``, ``S sin phi = Z1 sin t1``, whose
     smallest modulus over real ``t2`` is ``|S| |sinh(Im phi - y3)|``; ``t1`` on a grid,
-    refined around its smallest values.
+    refined around its smallest values. Over a half-space substrate ``R = Z1 sin t1 - i Z2 cos
+    t1`` (``sin t2 -> -i``, ``cos t2 -> 1``: :func:`_parts`) on the same grid of ``t1``.
     """
     s = stack_constants(p)
+    hs = half_space(p)
 
     def f(x: np.ndarray) -> np.ndarray:
         t1 = x - 1j * y[1]
         A, B = s["Z2"] * np.cos(t1), s["Z1"] * np.sin(t1)
+        if hs:
+            return np.abs(B - 1j * A)
         phi = np.arctan(B / A)
         return np.abs(A / np.cos(phi)) * np.abs(np.sinh(phi.imag - y[3]))
 
@@ -442,8 +467,7 @@ def stack_pc_bound(p: Params, k: float, W: float) -> float:
 
     Returns:
         The largest ``rho`` not excluded (module docstring); ``inf`` when ``W <= 2 k c_d`` of
-        either layer (or ``max(1, |Delta - 1|)``), over a half-space substrate under a slider
-        whose phase rates are not commensurate, when the grids would exceed
+        either layer (or ``max(1, |Delta - 1|)``), when the grids would exceed
         :data:`MAX_POINTS` (large ``k``: ``Omega`` grows as ``k^2``) or when :data:`RHO_MAX` is
         not excluded. 0.3-0.5 s a call for ``Omega`` up to 800, 9 s for 5 500 (measured);
         not commensurate: 0.8-1.8 s (``mu2 = 0.1, 3``, ``rho2 = 1``, ``H2 = 0.5``); cached.
@@ -480,8 +504,8 @@ def _free_bound(p: Params, k: float, W: float) -> float:
     # the free torus takes every real part, so the k-offsets of the commensurate tube do not
     # set Omega here
     omega0 = 2.0 * W
-    if half_space(p) or (omega0 - W) / h > FREE_MAX_POINTS:
-        return math.inf  # (the half-space's radiating limit has no free torus here)
+    if (omega0 - W) / h > FREE_MAX_POINTS:
+        return math.inf
     rho_d = _search_grid(_Exclusion(p, k, W, omega0))
     if not math.isfinite(rho_d):
         return math.inf

@@ -49,17 +49,38 @@ def test_envelope_is_the_fastest_exact_root(tmp_path, nproc):
     assert "R proven to hold the fastest mode at all 3 k with a root" in proc.stdout
 
 
-def test_envelope_says_in_r_only_where_no_tail_bound_exists(tmp_path):
-    """alpha_pc |Delta - 1| >= 1 (velocity top): no tail bound is derived
-    (analytic.physics.tail), so the global maximum is the largest in R only, and the printed
-    line and summary.json say so."""
+def test_envelope_says_in_r_only_where_the_bound_cannot_prove(tmp_path):
+    """alpha_pc = 1 (velocity top): the tail bound (analytic.physics.tail) is far above the
+    fastest roots (0.006 and 0.002 here against bounds of 0.07 and more), so the global maximum
+    is the largest in R only, and the printed line and summary.json say so."""
+    out = tmp_path / "env"
+    proc = run_workflow("envelope.py", ["--alpha-pc", "1", "--k", "1,3", "--refine-rounds", "0",
+                                        "--out", str(out)])
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    s = json.loads((out / "summary.json").read_text())
+    assert s["fastest_proven"] == {**s["fastest_proven"], "proven_k": 0, "k_with_root": 2}
+    assert "in R only, R proven to hold the fastest mode at 0 of 2 k with a root" in proc.stdout
+
+
+def test_envelope_proves_beyond_alpha_pc_delta_one(tmp_path):
+    """alpha_pc |Delta - 1| = 1.2 (velocity top): no bound before session 32, now the
+    multiplied-out one (tail.pc_velocity_bound) proves both samples, and each value is the
+    fastest root of a region eight times as tall (32 c_d), searched on its own."""
     out = tmp_path / "env"
     proc = run_workflow("envelope.py", ["--alpha-pc", "0.6", "--Delta", "-1", "--k", "1,3",
                                         "--refine-rounds", "0", "--out", str(out)])
     assert proc.returncode == 0, proc.stderr[-2000:]
     s = json.loads((out / "summary.json").read_text())
-    assert s["fastest_proven"] == {**s["fastest_proven"], "proven_k": 0, "k_with_root": 2}
-    assert "in R only, R proven to hold the fastest mode at 0 of 2 k with a root" in proc.stdout
+    assert s["fastest_proven"] == {**s["fastest_proven"], "proven_k": 2, "k_with_root": 2}
+    assert "R proven to hold the fastest mode at all 2 k with a root" in proc.stdout
+    p = Params(alpha_pc=0.6, Delta=-1.0)
+    with open(out / "envelope.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    for r in rows:
+        wide = fastest_mode(p, float(r["k"]), Region(1e-4, 2.0, 32.0)).root
+        got = complex(float(r["re_lambda_max"]), float(r["im_lambda"]))
+        # the same root found twice: measured below 1e-16 relative (polished roots)
+        assert abs(got - wide) < 1e-12 * abs(wide)
 
 
 @pytest.mark.parametrize("nproc", [1, 2])

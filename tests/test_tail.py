@@ -108,8 +108,15 @@ def test_tail_bound_decreases_and_is_none_where_not_derived():
     # first order: ~ 1/W, with the (1 + k/W) margin
     assert tb[1] / tb[2] == pytest.approx(2.0 * (1 + 26.5 / 600) / (1 + 26.5 / 1200), rel=1e-3)
     assert tail_bound(p, 26.5, 10.0) == math.inf  # W below k: no expansion
-    for q in (Params(mu2=4.0, H=math.inf, H2=0.5), Params(alpha_pc=0.6, Delta=-1.0)):
-        assert tail_bound(q, 5.0, 500.0) is None and why_no_tail_bound(q)
+    q = Params(mu2=4.0, H=math.inf, H2=0.5)  # a half-space slider on a deformable substrate
+    assert tail_bound(q, 5.0, 500.0) is None and why_no_tail_bound(q)
+    # velocity top, alpha_pc |Delta - 1| >= 1 (session 32): the multiplied-out bound, falling
+    # faster than 1/W (measured 2.91 from W = 600 to 1200: |D| grows as alpha_pc omega off the
+    # shear modes)
+    q = Params(alpha_pc=0.6, Delta=-1.0)
+    tb = [tail_bound(q, 5.0, w) for w in ws]
+    assert not why_no_tail_bound(q) and tb[0] > tb[1] > tb[2] > 0
+    assert 2.5 < tb[1] / tb[2] < 3.5
     # two bodies with alpha_pc > 0 (session 30): tail_stack_pc's bound
     q = Params(alpha_pc=0.1, mu2=4.0, H2=0.5)
     assert not why_no_tail_bound(q) and 0 < tail_bound(q, 5.0, 500.0) < math.inf
@@ -204,26 +211,74 @@ def test_prakash_clifton_stress_bound_above_every_root_beyond_w(case):
         assert z.real.max() / tb > least
 
 
+#: Velocity top with alpha_pc |Delta - 1| >= 1 (tail.pc_velocity_bound, session 32): the three of
+#: 120 random stacks (alpha_pc |Delta - 1| 1.0-3.0, bands W .. 2 W with W 1-16 times the 4 c_d
+#: region's) whose roots came closest to the bound at their own frequency (the scan's parameters
+#: rounded), and Delta > 1 with alpha_pc (Delta - 1) = 0.5, whose shear thickness modes grow at
+#: every high frequency: (parameters, k, W).
+PC_VELOCITY_CASES = {
+    "Delta=-0.82": (Params(alpha_pc=0.5526, Delta=-0.824, f=0.785, gamma=0.515, beta=0.623,
+                           H=2.04), 0.286, 6.78),
+    "Delta=4.0": (Params(alpha_pc=0.769408231451614, Delta=3.995468632857893,
+                         f=0.7819303352814788, gamma=1.842603186582871,
+                         beta=0.3891138766345331, H=2.4403120752600844),
+                  1.2152080595523895, 19.109004640933613),  # rounded: 0.09, not 0.66
+    "Delta=2.9": (Params(alpha_pc=1.357, Delta=2.928, f=0.138, gamma=1.179, beta=0.496,
+                         H=0.663), 0.128, 20.14),
+    "Delta=2.5-shear": (Params(alpha_pc=1.0, Delta=2.5), 2.0, 41.0),
+}
+
+
+@pytest.mark.slow  # 0.5-3 s per case
+@pytest.mark.parametrize("case", list(PC_VELOCITY_CASES))
+def test_prakash_clifton_velocity_bound_above_every_root_beyond_w(case):
+    """Every exact root of ``W < |Im| < 2 W`` lies below the bound at ``W``, those of ``Re > 0``
+    below the bound at their own frequency; where ``alpha_pc (Delta - 1) > 1`` the growing shear
+    thickness modes are there, at about ``(alpha_pc (Delta - 1) - 1)/(gamma alpha_pc^2 omega^2
+    H)``."""
+    p, k, w = PC_VELOCITY_CASES[case]
+    assert why_no_tail_bound(p) == "" and p.alpha_pc * abs(p.Delta - 1.0) >= 1.0
+    z = _band_roots(p, k, w, 2.0 * w, re_min=-0.5)
+    _, ratio = _below_bound(p, k, w, z)
+    # not absurdly loose: measured max Re / bound at its own frequency 0.88, 0.66, 0.57, 0.028
+    assert np.max(ratio) > 0.01
+    if case == "Delta=2.5-shear":
+        # 16 roots of Re > 0: 12 shear thickness modes (H |Im| within 0.05 pi of (n + 1/2) pi),
+        # at 0.84-1.15 of the estimate at their own frequency, and 4 at the rod's resonances
+        up = z[z.real > 0]
+        phase = p.H * np.abs(up.imag) / math.pi - 0.5
+        shear = up[np.abs(phase - np.round(phase)) < 0.05]
+        est = (p.alpha_pc * (p.Delta - 1.0) - 1.0) / (p.gamma * p.alpha_pc**2 * p.H
+                                                        * np.abs(shear.imag) ** 2)
+        assert len(shear) >= 10 and np.all(np.abs(shear.real / est - 1.0) < 0.2)
+
+
 @pytest.mark.parametrize("p,k,w", [
     (Params(bc="stress", beta=1.0 / math.sqrt(5.0), alpha_pc=0.02), 2.0, 1125.0),
     (Params(bc="stress", alpha_pc=1.0), 5.0, 65.0),
     (Params(bc="stress", alpha_pc=0.0012, beta=0.518, gamma=0.56, Delta=1.31, f=0.77, H=2.11,
-            alpha_ld=0.17), 0.17, 73.0)])
-def test_prakash_clifton_stress_bound_is_the_edge_of_an_interval(p, k, w):
-    """pc_stress_bound scans rho with ratio 2 and bisects: right only if the rho that pass form
-    an interval from 0. A scan with ratio 1.02 at every frequency of PC_OMEGA checks that, and
-    that the bound is at or just above its last passing rho (measured 1.001-1.015 above)."""
+            alpha_ld=0.17), 0.17, 73.0),
+    (Params(alpha_pc=0.6, Delta=-1.0), 5.0, 65.0),
+    (Params(alpha_pc=1.0, Delta=2.5), 2.0, 41.0),
+    (Params(alpha_pc=0.5526, Delta=-0.824, f=0.785, gamma=0.515, beta=0.623, H=2.04), 0.286,
+     6.78)])
+def test_prakash_clifton_bound_is_the_edge_of_an_interval(p, k, w):
+    """pc_stress_bound and pc_velocity_bound scan rho with ratio 2 and bisect: right only if the
+    rho that pass form an interval from 0. A scan with ratio 1.02 at every frequency of PC_OMEGA
+    checks that, and that the bound is at or just above its last passing rho (measured
+    1.001-1.015 above)."""
     from analytic.physics import tail
 
     c = tail.pc_constants(p, k, w)
     rho = 1e-7 * 1.02 ** np.arange(900)
     edge = 0.0
     for om in w * np.asarray(tail.PC_OMEGA):
-        ok = tail._pc_min_ratio(c, rho, np.full(rho.size, om)) <= 1.0
+        ok = tail._pc_min_ratio(c, rho, np.full(rho.size, om), p.bc) <= 1.0
         last = np.nonzero(ok)[0][-1]
         assert ok[: last + 1].all() and last < rho.size - 1
         edge = max(edge, rho[last])
-    assert edge <= tail.pc_stress_bound(p, k, w) <= 1.02 * edge
+    bound = tail.pc_stress_bound if p.bc == "stress" else tail.pc_velocity_bound
+    assert edge <= bound(p, k, w) <= 1.02 * edge
 
 
 @pytest.mark.parametrize("alpha_pc,fastest,climbs", [(1.0, 0.004, False), (0.05, 0.154, True)])

@@ -60,8 +60,14 @@ coincidence, ``O(sqrt(k f_eff/(alpha_pc beta))/(H omega))`` at one (the pair spl
 square root of the coupling, ``Re omega`` stays bounded). Asymptotic, made safe by
 measurement as the others (tests/test_tail.py).
 
-Not derived (:func:`tail_bound` returns ``None``): ``alpha_pc |Delta - 1| >= 1`` on the
-velocity top. Two bodies with ``alpha_pc > 0``: :mod:`analytic.physics.tail_stack_pc` (the
+Prakash-Clifton, velocity top with ``alpha_pc |Delta - 1| >= 1`` (:func:`pc_velocity_bound`,
+session 32), where ``G_velocity(alpha)`` is not finite: the same multiplied-out exclusion,
+``cosh(beta H L) D(L) = -i k f_eff sd ch/(beta L)`` with ``D = (1 + alpha_pc L) ch + (F_0/L)
+sh``; a root needs ``tanh(beta H rho) |D| <= k |f_eff| (1 + k/W) |ch|/(beta omega)`` for some
+free shear phase. ``D = 0`` are the shear thickness modes, whose ``Re`` is about ``(alpha_pc
+(Delta - 1) - 1)/(gamma alpha_pc^2 omega^2 H)``: with ``alpha_pc (Delta - 1) > 1`` they grow at
+every high frequency (falling as ``omega^-2``), and the bound holds them.
+Two bodies with ``alpha_pc > 0``: :mod:`analytic.physics.tail_stack_pc` (the
 first-order equation multiplied out, roots excluded by moduli at complex ``L``).
 
 A deformable substrate (finite ``mu2``): the resonances are those of the stack's dilatational
@@ -112,9 +118,6 @@ def velocity_scale(p: Params) -> float:
 
 def why_no_tail_bound(p: Params) -> str:
     """Why :func:`tail_bound` has no bound for ``p`` ("" if it has one)."""
-    if p.alpha_pc * abs(p.Delta - 1.0) >= 1.0 and p.bc == "velocity":
-        return ("no tail bound derived for alpha_pc |Delta - 1| >= 1: the region is not "
-                "proven to hold the fastest mode")
     if p.two_body and not math.isfinite(p.H):
         return ("no tail bound derived for a half-space slider (H = inf): no thickness "
                 "resonances; the region is not proven to hold the fastest mode")
@@ -217,12 +220,13 @@ _PC_RHO = 1e-7 * 2.0 ** np.arange(28)
 
 
 def _pc_ratio(c: tuple[float, ...], rho: np.ndarray, om: np.ndarray, cos: np.ndarray,
-              sin: np.ndarray) -> np.ndarray:
+              sin: np.ndarray, bc: str = "stress") -> np.ndarray:
     """``tanh(beta H rho) |D| / RHS`` of :func:`pc_stress_bound` (broadcast over the arrays).
 
     ``c = (H, beta, alpha_pc, gamma, Delta, K)``; ``rho``, ``om`` the growth rate and frequency
     of ``L = rho + i omega``; ``cos``, ``sin`` of the shear phase ``theta`` (``H omega`` taken
-    as free).
+    as free). ``bc = "velocity"``: :func:`pc_velocity_bound`'s, ``D = (1 + alpha_pc L) ch +
+    (F_0/L) sh`` against ``K |ch| / (beta omega)``.
     """
     H, beta, alpha, gamma, delta, K = c
     x = H * rho
@@ -230,24 +234,31 @@ def _pc_ratio(c: tuple[float, ...], rho: np.ndarray, om: np.ndarray, cos: np.nda
     sh = shx * cos + 1j * chx * sin  # sinh(x + i theta)
     ch = chx * cos + 1j * shx * sin  # cosh(x + i theta)
     L = rho + 1j * om
-    D = (1.0 + alpha * L) * sh + (L + delta) / (gamma * (L + 1.0)) * ch
+    f0 = (L + delta) / (gamma * (L + 1.0))  # F_0 / L
+    if bc == "velocity":
+        D = (1.0 + alpha * L) * ch + f0 * sh
+        rhs = K * np.abs(ch)
+    else:
+        D = (1.0 + alpha * L) * sh + f0 * ch
+        rhs = K * (2.0 * beta * np.cosh(beta * H * rho) + np.abs(sh))
     lhs = np.tanh(beta * H * rho) * np.abs(D)
-    return lhs * (beta * om) / (K * (2.0 * beta * np.cosh(beta * H * rho) + np.abs(sh)))
+    return lhs * (beta * om) / rhs
 
 
-def _pc_min_ratio(c: tuple[float, ...], rho: np.ndarray, om: np.ndarray) -> np.ndarray:
+def _pc_min_ratio(c: tuple[float, ...], rho: np.ndarray, om: np.ndarray, bc: str = "stress"
+                  ) -> np.ndarray:
     """Minimum of :func:`_pc_ratio` over the phase, for each pair ``(rho[i], om[i])``.
 
     The grid's minimum is refined twice on finer grids around it (the dip of ``|D|`` is as
     narrow as ``H rho`` where the shear mode is nearly undamped).
     """
     rho, om = rho[:, None], om[:, None]
-    r = _pc_ratio(c, rho, om, _PC_COS, _PC_SIN)
+    r = _pc_ratio(c, rho, om, _PC_COS, _PC_SIN, bc)
     best = r.min(axis=1)
     t0 = _PC_THETA[np.argmin(r, axis=1)][:, None]
     for half in (2.0 * math.pi / _PC_THETA.size, 0.1 * math.pi / _PC_THETA.size):
         th = t0 + np.linspace(-half, half, 41)[None, :]
-        r = _pc_ratio(c, rho, om, np.cos(th), np.sin(th))
+        r = _pc_ratio(c, rho, om, np.cos(th), np.sin(th), bc)
         best = np.minimum(best, r.min(axis=1))
         t0 = np.take_along_axis(th, np.argmin(r, axis=1)[:, None], 1)
     return best
@@ -268,11 +279,14 @@ def pc_constants(p: Params, k: float, W: float) -> tuple[float, ...]:
 
 
 @functools.lru_cache(maxsize=4096)
-def _pc_stress_bound(c: tuple[float, ...], W: float) -> float:
-    """:func:`pc_stress_bound` of its constants (:func:`pc_constants`), remembered."""
+def _pc_bound(c: tuple[float, ...], W: float, bc: str = "stress") -> float:
+    """:func:`pc_stress_bound` (or :func:`pc_velocity_bound`) of its constants, remembered.
+
+    ``c``: :func:`pc_constants`.
+    """
     om = W * np.asarray(PC_OMEGA)
     rho_g, om_g = np.meshgrid(_PC_RHO, om)
-    holds = (_pc_min_ratio(c, rho_g.ravel(), om_g.ravel()) <= 1.0).reshape(rho_g.shape)
+    holds = (_pc_min_ratio(c, rho_g.ravel(), om_g.ravel(), bc) <= 1.0).reshape(rho_g.shape)
     if holds[:, -1].any():
         return math.inf
     last = np.array([np.nonzero(h)[0][-1] if h.any() else -1 for h in holds])
@@ -280,7 +294,7 @@ def _pc_stress_bound(c: tuple[float, ...], W: float) -> float:
     hi = _PC_RHO[last + 1]
     for _ in range(14):  # hi / lo from 2 to 2^(1/16384)
         mid = np.where(lo > 0, np.sqrt(lo * hi), 0.5 * hi)
-        ok = _pc_min_ratio(c, mid, om) <= 1.0
+        ok = _pc_min_ratio(c, mid, om, bc) <= 1.0
         lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
     return float(hi.max())
 
@@ -313,7 +327,34 @@ def pc_stress_bound(p: Params, k: float, W: float) -> float:
     k, W = float(k), float(W)
     if not (W > max(k, 1.0, abs(p.Delta - 1.0))):
         return math.inf
-    return _pc_stress_bound(pc_constants(p, k, W), W)
+    return _pc_bound(pc_constants(p, k, W), W)
+
+
+def pc_velocity_bound(p: Params, k: float, W: float) -> float:
+    """Bound on ``Re Lambda`` beyond ``|Im| = W``: velocity top, ``alpha_pc |Delta - 1| >= 1``.
+
+    The velocity top's first-order shift multiplied out as :func:`pc_stress_bound`'s:
+    ``cosh(beta H L) D(L) = -i k f_eff sd ch/(beta L)`` with ``D = (1 + alpha_pc L) ch + (F_0/L)
+    sh``, so a root ``rho + i omega``, ``rho > 0``, needs ``tanh(beta H rho) |D| <= k |f_eff|
+    |ch|/(beta omega)`` for some free shear phase; the largest such ``rho`` over ``omega`` in
+    ``W`` times :data:`PC_OMEGA`, with the margin ``(1 + k/W)``. A zero of ``D`` is a shear
+    thickness mode: with ``alpha_pc (Delta - 1) > 1`` they grow at every high frequency (``Re``
+    about ``(alpha_pc (Delta - 1) - 1)/(gamma alpha_pc^2 omega^2 H)``), and the bound holds
+    them too (docs/design.md 8.1).
+
+    Args:
+        p: Parameters (velocity top; any ``alpha_pc > 0``, ``alpha_ld``).
+        k: Wavenumber ``> 0``.
+        W: Frequency beyond which the bound holds.
+
+    Returns:
+        The bound, ``inf`` when ``W <= max(k, 1, |Delta - 1|)`` or when it exceeds the scanned
+        range (``rho`` about 7).
+    """
+    k, W = float(k), float(W)
+    if not (W > max(k, 1.0, abs(p.Delta - 1.0))):
+        return math.inf
+    return _pc_bound(pc_constants(p, k, W), W, "velocity")
 
 
 def tail_bound(p: Params, k: float, W: float) -> float | None:
@@ -342,6 +383,8 @@ def tail_bound(p: Params, k: float, W: float) -> float | None:
         return tail_stack.stack_tail_bound(p, k, W)
     if p.bc == "stress" and p.alpha_pc > 0:
         return pc_stress_bound(p, k, W)
+    if p.alpha_pc * abs(p.Delta - 1.0) >= 1.0:  # velocity top: G(alpha_pc) is not finite
+        return pc_velocity_bound(p, k, W)
     if not (W > max(k, 1.0, abs(p.Delta - 1.0))):
         return math.inf
     f_eff = f_eff_bound(p, W)

@@ -975,6 +975,20 @@ def test_half_space_free_bound_far_out(band):
         assert z.real.max() / tb > 0.2
 
 
+@pytest.mark.slow  # 3-10 s per top
+@pytest.mark.parametrize("bc", ["velocity", "stress"])
+def test_half_space_poisson_solid_fastest_mode_proven(bc):
+    """A Poisson solid (beta = 1/sqrt 3, no bound before session 32) on a stiff half-space,
+    k = 1: the adaptive region proves its fastest root, and a fixed region three times as tall
+    (12 c_d2), searched on its own, has the same fastest root."""
+    p = Params(bc=bc, mu2=100.0, rho2=1.0, beta=1.0 / math.sqrt(3.0))
+    fm = fastest_mode(p, 1.0, Region(1e-4, 2.0, None))
+    assert fm.proven and fm.tail_bound < fm.root.real
+    wide = fastest_mode(p, 1.0, Region(1e-4, 2.0, 12.0))
+    # the same polished root (measured below 1e-15 relative)
+    assert abs(wide.root - fm.root) < 1e-12 * abs(fm.root) and wide.c_max == 12.0
+
+
 @pytest.mark.parametrize("bc", ["velocity", "stress"])
 def test_half_space_free_torus_falls_as_one_over_omega(bc):
     """Over a half-space the free torus's bound falls as ``1/Omega`` (radiation keeps ``|R|`` and

@@ -57,7 +57,9 @@ def test_two_layers_every_fe_value_is_an_exact_root_and_counts_agree(tmp_path, b
     assert proc.returncode == 0, proc.stderr[-2000:]
     rows, summary = _read(out)
     assert summary["check_exact"] is False and summary["families"]["count"] == 0
+    # no --layers-bound yes: not proven, and the summary says how to ask
     assert summary["region"]["proven_to_hold_fastest_mode"] is False
+    assert "--layers-bound yes" in summary["region"]["why_not"]
     assert summary["most_unstable"]["certificate"]["fastest_mode"] is False
     # the largest c_d of the stack: the second layer's 1/beta = 2 (the first: sqrt(0.6/1.3)/0.45)
     assert summary["region"]["velocity_scale"] == pytest.approx(2.0, rel=1e-12)
@@ -81,6 +83,52 @@ def test_two_layers_every_fe_value_is_an_exact_root_and_counts_agree(tmp_path, b
         n = count_zeros(np.vectorize(lambda z, k=k: det_layered(complex(z), k, p, EXACT_TWO),
                                      otypes=[complex]), box)
         assert n == per_k["n_fe"] == len(fe) >= 2
+
+
+#: A slow, dense layer under the body, its phase rates commensurate with the body's (c_s = 1/2).
+SLOW_LAYER = "y_top,mu,rho,beta\n0.1,0.5,2,0.5\n0.5,1,1,0.5\n"
+EXACT_SLOW = [ExactLayer(0.0, 0.1, 0.5, 2.0, 0.5), ExactLayer(0.1, 0.5, 1.0, 1.0, 0.5)]
+
+
+@pytest.mark.slow  # measured about 15 s (the scene, two exact counts of a tall box)
+@pytest.mark.serial
+def test_layered_tail_bound_proves_and_a_taller_box_agrees(tmp_path):
+    """Commensurate constant layers on a rigid substrate, velocity top, k = 1: the layers' tail
+    bound (analytic.physics.tail_layers) at the first rung is below the fastest FE value, so
+    the scene says R holds the fastest mode; the exact layered determinant in a box three times
+    as tall counts no root above that value and one at and above 0.9999 of it."""
+    layers = tmp_path / "slow.csv"
+    layers.write_text(SLOW_LAYER)
+    out = str(tmp_path / "out")
+    proc = _scene(["--model", "layers", "--layers", str(layers), "--k", "1", "--layers-bound",
+                   "yes"], out, preamble=NO_EXACT, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    rows, summary = _read(out)
+    assert summary["region"]["proven_to_hold_fastest_mode"] is True
+    assert summary["region"]["why_not"] == "" and summary["most_unstable"]["certificate"][
+        "fastest_mode"] is True
+    per_k = summary["per_k"][0]
+    fastest = max(float(r["re_lambda"]) for r in rows)
+    # measured: the bound 0.036 against the fastest 0.2455
+    assert per_k["fastest_proven"] and 0 < per_k["tail_bound"] < fastest
+    p, w = Params(), 3.0 * per_k["box"][3]
+
+    def det(z: complex) -> complex:
+        return det_layered(complex(z), 1.0, p, EXACT_SLOW)
+
+    fun = np.vectorize(det, otypes=[complex])
+    assert count_zeros(fun, (fastest * 1.0001, 2.0, -w, w)) == 0
+    assert count_zeros(fun, (fastest * 0.9999, 2.0, -w, w)) >= 1
+    # the body's c_s sqrt(0.6/1.3) in the first layer: its rates are not commensurate, no bound
+    odd = tmp_path / "two.csv"
+    odd.write_text(TWO_LAYERS)
+    proc = _scene(["--model", "layers", "--layers", str(odd), "--k", "1", "--layers-bound",
+                   "yes", "--no-plot"], str(tmp_path / "odd"), preamble=NO_EXACT, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    _, summary = _read(str(tmp_path / "odd"))
+    assert summary["region"]["proven_to_hold_fastest_mode"] is False
+    assert "not commensurate" in summary["region"]["why_not"]
+    assert summary["per_k"][0]["tail_bound"] is None
 
 
 def _res(k: float, values: list[complex], nexts: list[complex]) -> KResult:

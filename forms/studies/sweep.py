@@ -44,7 +44,9 @@ from analytic.numerics.spectrum import (
     provable_region,
 )
 from analytic.params import ParameterError, Params
+from analytic.physics.layered_exact import ExactLayer
 from analytic.physics.tail import SCALE_CAP, tail_bound, velocity_scale, why_no_tail_bound
+from analytic.physics.tail_layers import NO_BOUND_GRADED, layered_bound, why_no_layered_bound
 from forms.models.profiles import SliderMaterial
 from forms.solvers.certified import (
     CertifiedSolver,
@@ -79,24 +81,33 @@ METHODS = {
 #: What ``most_unstable.certificate.fastest_mode`` states.
 FASTEST_STATEMENT = (
     "at every swept k, every root outside R (|Im Lambda| > W(k)) has Re Lambda below the tail "
-    "bound (analytic.physics.tail, docs/design.md 8.1), and the largest tail bound is below the "
-    "most unstable value: no mode outside R grows faster")
+    "bound (analytic.physics.tail; a layered slider's analytic.physics.tail_layers; "
+    "docs/design.md 8.1), and the largest tail bound is below the most unstable value: no mode "
+    "outside R grows faster")
 #: Flagged rows listed in the summary at most (all of them are in the CSV).
 MAX_FLAGGED_LISTED = 200
-#: Why a layered or graded slider has no tail bound (``summary.json``, ``fastest_mode_statement``).
-LAYERED_NO_TAIL = (
-    "no tail bound derived for a layered or graded slider (analytic.physics.tail assumes one "
-    "homogeneous layer on the substrate): the region R is the box used at each k, not proven "
-    "to hold the fastest mode")
+#: Why a layered slider on a deformable substrate has no tail bound (``summary.json``).
+LAYERED_TWO_BODY = (
+    "no tail bound derived for layers on a deformable substrate (analytic.physics.tail_layers "
+    "takes a rigid one): the region R is the box used at each k, not proven to hold the "
+    "fastest mode")
 #: How rows are labelled with ``track=True`` (``summary.json``, key ``labels``).
 TRACK_STATEMENT = (
     "c0, c1, ...: continuation of the FE eigenpairs in k; each row at k_i is followed by Newton "
     "on the discrete NEP (eigenvector kept, secant predictor, 4 sub-steps) to k_(i+1) and "
     "linked to the row there that is the mutually nearest one and within 1e-6 relative; a row "
     "without such a link starts a new label (numbered by first appearance, then |Im Lambda|)")
+#: Why a layered sweep's region is not proven without ``--layers-bound yes``.
+LAYERED_NOT_ASKED = (
+    "the layers' tail bound was not asked for (sweep_k.py --layers-bound yes: "
+    "analytic.physics.tail_layers, constant layers with commensurate phase rates on a rigid "
+    "substrate; it costs more than the solve): the region R is the box used at each k, not "
+    "proven to hold the fastest mode")
 #: The scene's one-line note for a layered/graded slider (stderr).
 LAYERED_NOTE = ("note: several layers or profiles: FE only (--check-exact no), certificate 'fe'; "
-                "the region is not proven to hold the fastest mode (no tail bound for layers)")
+                "the region is its first rung at every k (no climb), proven to hold the fastest "
+                "mode only with --layers-bound yes, where the layers' tail bound is below the "
+                "fastest value (summary.json)")
 #: Sub-steps of the continuation from one swept ``k`` to the next (``track=True``).
 TRACK_SUBSTEPS = 4
 #: Largest relative gap between a continued value and the row it is linked to.
@@ -129,8 +140,9 @@ def layered_region(params: Params, material: SliderMaterial, region: Region) -> 
     :class:`analytic.numerics.spectrum.Region` scales ``c_max`` by the homogeneous slider's
     :func:`analytic.physics.tail.velocity_scale` of ``params``; the copy returned has ``c_max``
     (``None``, adaptive, is its first rung :data:`analytic.numerics.spectrum.C_LADDER` ``[0]``:
-    without a tail bound nothing tells a larger rung is needed) rescaled so that
-    ``im_max = c_max k c_d,max + omega0``, ``c_d,max`` of :func:`slider_velocity_scale`, and
+    the layered sweep does not climb, its tail bound only says whether that rung proves)
+    rescaled so that ``im_max = c_max k c_d,max + omega0``, ``c_d,max`` of
+    :func:`slider_velocity_scale`, and
     ``omega0`` (unless given) ``2 pi c_d,max / H`` with ``H`` the slider's height.
     """
     c = slider_velocity_scale(params, material)
@@ -156,17 +168,51 @@ def layered_params(params: Params, material: SliderMaterial, check_exact: str,
     return params.replace(H=material.layer_rows(params.H, params.beta)[-1].y_top)
 
 
-def layered_summary(params: Params, material: SliderMaterial, region: Region) -> dict:
-    """``summary.json`` keys of a layered slider's region (``region`` as given by the user)."""
+def layered_tail_layers(params: Params, material: SliderMaterial
+                        ) -> tuple[list[list[float]], str]:
+    """The slider's constant layers ``[bottom, top, mu, rho, beta]`` for the tail bound.
+
+    Returns:
+        ``(layers, why_not)``: ``why_not`` says why no bound exists (profiles, a deformable
+        substrate, phase rates not commensurate: :func:`analytic.physics.tail_layers.
+        why_no_layered_bound`), ``""`` otherwise.
+    """
+    rows, below, out = material.layer_rows(params.H, params.beta), 0.0, []
+    for row in rows:
+        out.append([below, row.y_top, row.mu, row.rho, row.beta])
+        below = row.y_top
+    if params.two_body:
+        return out, LAYERED_TWO_BODY
+    if material.profiles:
+        return out, NO_BOUND_GRADED
+    return out, why_no_layered_bound(_exact_layers(out))
+
+
+def _exact_layers(layers: list[list[float]]) -> list[ExactLayer]:
+    """:class:`analytic.physics.layered_exact.ExactLayer` of :func:`layered_tail_layers`'s."""
+    return [ExactLayer(*map(float, lay)) for lay in layers]
+
+
+def layered_summary(params: Params, material: SliderMaterial, region: Region,
+                    bound: bool = False) -> dict:
+    """``summary.json`` keys of a layered slider's region (``region`` as given by the user).
+
+    ``tail_layers``, ``why_not``: :func:`layered_tail_layers` (with ``bound``, the scene's
+    ``--layers-bound yes``, :func:`summarise` bounds the tail with them and sets
+    ``proven_to_hold_fastest_mode``; without, ``why_not`` is :data:`LAYERED_NOT_ASKED`).
+    """
     c_max = C_LADDER[0] if region.c_max is None else region.c_max
+    layers, why_not = layered_tail_layers(params, material)
+    why_not = why_not if bound else LAYERED_NOT_ASKED
     return {"velocity_scale": slider_velocity_scale(params, material),
             "c_max": c_max,
             "definition": ("re_min <= Re Lambda <= re_max and |Im Lambda| <= c_max * k * "
                            "velocity_scale + omega0 (velocity_scale: the largest c_d of the "
                            "layered/graded stack, units of mu = rho = 1; c_max = auto is the "
-                           "first rung, 4: no tail bound tells whether more is needed)"),
-            "proven_to_hold_fastest_mode": False, "why_not": LAYERED_NO_TAIL,
-            "by": "fixed (no tail bound for a layered slider to climb with)"}
+                           "first rung, 4: the layered sweep does not climb)"),
+            "proven_to_hold_fastest_mode": False, "why_not": why_not, "tail_layers": layers,
+            "by": ("fixed (the first rung; its tail bound, analytic.physics.tail_layers, "
+                   "says whether it holds the fastest mode)")}
 
 
 def _float_back(v: object) -> object:
@@ -750,15 +796,16 @@ def describe_discretisation(params: Params, discretisation: tuple[int, int, floa
 
 
 def tail_at_k(params: Params, region: Region, res: KResult, c_max: float,
-              derived: bool = True) -> dict:
+              derived: bool = True, layers: list[ExactLayer] | None = None) -> dict:
     """``per_k`` keys of the region proof at one ``k``.
 
-    The bound used, the tail bound at its ``W`` (:func:`analytic.physics.tail.tail_bound`;
-    ``None`` when not ``derived``, e.g. a layered slider) and whether it is below the fastest
-    row.
+    The bound used, the tail bound at its ``W`` (:func:`analytic.physics.tail.tail_bound`, or
+    with ``layers`` :func:`analytic.physics.tail_layers.layered_bound`; ``None`` when not
+    ``derived``) and whether it is below the fastest row.
     """
-    tb = (tail_bound(params, res.k, region.fixed(c_max).im_max(params, res.k)) if derived
-          else None)
+    w = region.fixed(c_max).im_max(params, res.k)
+    tb = ((layered_bound(params, layers, res.k, w) if layers is not None
+           else tail_bound(params, res.k, w)) if derived else None)
     fastest = max((r["re_lambda"] for r in res.rows), default=None)
     target = fastest if fastest is not None else region.re_min
     return {"c_max": c_max, "tail_bound": tb,
@@ -813,8 +860,8 @@ def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResu
     largest error estimate), ``families`` (count, notes), ``most_unstable``
     (:func:`most_unstable`), ``per_k`` (counts, box, seconds, factorisations, and the
     certificate each row carries: ``fe`` and/or ``exact``). ``layered``
-    (:func:`layered_summary`): a layered/graded slider, no tail bound, its keys join
-    ``region``.
+    (:func:`layered_summary`): a layered/graded slider, its keys join ``region``; its tail
+    bound is :func:`analytic.physics.tail_layers.layered_bound` where one is derived.
     """
     rows = [r for res in results for r in res.rows]
     flagged = [r for r in rows if r["status"] != "ok"]
@@ -823,10 +870,16 @@ def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResu
     errs = [r["rel_error"] for r in rows if math.isfinite(r["rel_error"])]
     ests = [r["error_estimate"] for r in rows if math.isfinite(r["error_estimate"])]
     cs = list(c_max_at_k) if c_max_at_k is not None else [region.c_max] * len(results)
-    tails = [tail_at_k(params, region, res, c, layered is None)
+    why_not = layered["why_not"] if layered is not None else why_no_tail_bound(params)
+    layers = (_exact_layers(layered["tail_layers"]) if layered is not None and not why_not
+              else None)
+    tails = [tail_at_k(params, region, res, c, not why_not, layers)
              | ({"c_max": layered["c_max"]} if layered is not None else {})
              for res, c in zip(results, cs, strict=True)]
-    why_not = layered["why_not"] if layered is not None else why_no_tail_bound(params)
+    most = most_unstable(rows, results, k, open_k, tails, why_not, check_exact)
+    if layered is not None:
+        layered = layered | {"proven_to_hold_fastest_mode": bool(
+            most is not None and most["certificate"]["fastest_mode"])}
     return {
         "region": region.as_dict(params) | (layered or {}),
         "certificate": {"k_values": len(results), "k_closed": len(results) - len(open_k),
@@ -838,8 +891,7 @@ def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResu
         "accuracy": {"max_rel_error_vs_exact": max(errs) if errs else None,
                      "max_error_estimate": max(ests) if ests else None},
         "families": {"count": len(fams), "notes": {f.label: f.note for f in fams if f.note}},
-        "most_unstable": most_unstable(rows, results, k, open_k, tails, why_not,
-                                       check_exact),
+        "most_unstable": most,
         **({"labels": TRACK_STATEMENT} if any("re_next" in r for r in rows) else {}),
         "per_k": [{"k": res.k, "n_fe": res.n_fe, "n_exact": res.n_exact, "closed": res.closed,
                    "box": list(res.box), **tail, "seconds": res.seconds,

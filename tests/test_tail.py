@@ -801,6 +801,23 @@ def test_layered_bound_above_every_root_beyond_w(case):
     assert top > 0.2
 
 
+@pytest.mark.slow  # about 3 s
+def test_layered_bound_is_the_edge_of_an_interval():
+    """layered_bound halves and bisects: right only if the excluded rho form an interval up to
+    RHO_MAX. A scan with ratio 1.1 checks that, and that the bound is within one step of the
+    scan's edge (measured with ratio 1.05: first excluded 0.2844, bound 0.2756)."""
+    from analytic.physics import tail_layers
+
+    p, rows, k, _ = LAYER_CASES["slow-bottom-stress"]
+    layers = _layers(*rows)
+    ex = tail_layers._LayeredExclusion(p, layers, k, 49.0)
+    rho = 1e-3 * 1.1 ** np.arange(60)
+    ok = np.array([ex.excluded(r) for r in rho])
+    first = int(np.argmax(ok))
+    assert 0 < first and ok[first:].all() and not ok[:first].any()
+    assert rho[first - 1] <= tail_layers.layered_bound(p, layers, k, 49.0) <= rho[first]
+
+
 def test_layered_bound_where_derived():
     """Graded layers and layers whose phase rates are not commensurate: no bound (None, with
     the reason); one homogeneous layer: a bound of the size of the homogeneous slider's

@@ -1,8 +1,10 @@
-"""First-order shift of a layered slider's dilatational resonances on a rigid substrate.
+"""Tail bound of a layered slider on a rigid substrate, from its first-order shift.
 
-A first step towards a tail bound for layered sliders (docs/design.md section 8.1): no bound
-(the two-body method carried over failed its measurement, up to 1.47 of the bound), and
-nothing uses it in the sweep.
+The first-order shift of the dilatational resonances (below, :func:`first_order_slope`), and
+from it (session 32) :func:`layered_bound`: the shift multiplied out and roots excluded by
+moduli, as :mod:`analytic.physics.tail_stack_pc` does for two bodies (the first-order bound
+carried over from two bodies had failed its measurement, up to 1.47 of the bound; the
+exclusion holds there, docs/design.md section 8.1). ``sweep_k.py --layers-bound yes`` uses it.
 
 Piecewise-constant layers (:class:`analytic.physics.layered_exact.ExactLayer` with constant
 coefficients) on a rigid substrate. At ``k = 0`` the ``x`` and ``y`` motions decouple; the

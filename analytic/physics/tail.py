@@ -324,10 +324,7 @@ def pc_stress_bound(p: Params, k: float, W: float) -> float:
         The bound, ``inf`` when ``W <= max(k, 1, |Delta - 1|)`` or when it exceeds the scanned
         range (``rho`` about 7).
     """
-    k, W = float(k), float(W)
-    if not (W > max(k, 1.0, abs(p.Delta - 1.0))):
-        return math.inf
-    return _pc_bound(pc_constants(p, k, W), W)
+    return _pc_checked(p, k, W, "stress")
 
 
 def pc_velocity_bound(p: Params, k: float, W: float) -> float:
@@ -340,21 +337,18 @@ def pc_velocity_bound(p: Params, k: float, W: float) -> float:
     ``W`` times :data:`PC_OMEGA`, with the margin ``(1 + k/W)``. A zero of ``D`` is a shear
     thickness mode: with ``alpha_pc (Delta - 1) > 1`` they grow at every high frequency (``Re``
     about ``(alpha_pc (Delta - 1) - 1)/(gamma alpha_pc^2 omega^2 H)``), and the bound holds
-    them too (docs/design.md 8.1).
-
-    Args:
-        p: Parameters (velocity top; any ``alpha_pc > 0``, ``alpha_ld``).
-        k: Wavenumber ``> 0``.
-        W: Frequency beyond which the bound holds.
-
-    Returns:
-        The bound, ``inf`` when ``W <= max(k, 1, |Delta - 1|)`` or when it exceeds the scanned
-        range (``rho`` about 7).
+    them too (docs/design.md 8.1). Arguments and value as :func:`pc_stress_bound`'s (a velocity
+    top, any ``alpha_pc > 0``).
     """
+    return _pc_checked(p, k, W, "velocity")
+
+
+def _pc_checked(p: Params, k: float, W: float, bc: str) -> float:
+    """:func:`_pc_bound` of ``p``, ``inf`` when ``W <= max(k, 1, |Delta - 1|)``."""
     k, W = float(k), float(W)
     if not (W > max(k, 1.0, abs(p.Delta - 1.0))):
         return math.inf
-    return _pc_bound(pc_constants(p, k, W), W, "velocity")
+    return _pc_bound(pc_constants(p, k, W), W, bc)
 
 
 def tail_bound(p: Params, k: float, W: float) -> float | None:

@@ -44,7 +44,8 @@ min_lam max(...))``: finite iff ``alpha |Delta - 1| < 1``; it tends to ``1/(1 - 
 gives one). The supremum is attained only where the phase tunes ``alpha omega a + s/gamma``
 to 0, which the resonances' own phases seldom do: the bound is loose by up to 1e4 at
 ``alpha_pc = 1`` (tests/test_tail.py), and proves the fastest mode only for small ``alpha_pc``
-(about ``<= 0.1`` at the defaults).
+(about ``<= 0.1`` at the defaults). So from ``alpha_pc = 0.01`` (:data:`PC_VELOCITY_FROM`,
+session 32) the bound is the smaller of it and :func:`pc_velocity_bound` (below).
 
 Prakash-Clifton, stress top (:func:`pc_stress_bound`, session 29). The first-order shift's
 denominator ``D = (1 + i alpha omega) i s + (1 + e) a/gamma`` vanishes to ``O(1/omega)`` where
@@ -327,6 +328,16 @@ def pc_stress_bound(p: Params, k: float, W: float) -> float:
     return _pc_checked(p, k, W, "stress")
 
 
+#: Smallest ``alpha_pc`` from which the velocity top's bound is also :func:`pc_velocity_bound`
+#: (the smaller of the two) where ``G(alpha_pc)`` is finite. Measured (session 32, 70 random
+#: stacks, ``alpha_pc |Delta - 1| < 1``, bands ``W .. 2 W``): the exclusion bound is as tight
+#: as the first-order one at small ``alpha_pc`` (a root at 0.998 of it at ``alpha_pc = 8e-4``,
+#: 0.985 at 0.0027), at most 0.945 of it from 0.01 on (0.91 at 0.018, 0.86 at 0.027, at most
+#: 0.68 from 0.05 on), and far below the ``G`` bound there (``alpha_pc = 0.1``, ``k = 5``:
+#: 0.055 against 0.205).
+PC_VELOCITY_FROM = 0.01
+
+
 def pc_velocity_bound(p: Params, k: float, W: float) -> float:
     """Bound on ``Re Lambda`` beyond ``|Im| = W``: velocity top, ``alpha_pc |Delta - 1| >= 1``.
 
@@ -383,4 +394,7 @@ def tail_bound(p: Params, k: float, W: float) -> float | None:
         return math.inf
     f_eff = f_eff_bound(p, W)
     G = phase_factor(p, W)
-    return k * f_eff * G * (1.0 + k / W) / (p.beta**2 * p.H * W)
+    first = k * f_eff * G * (1.0 + k / W) / (p.beta**2 * p.H * W)
+    if p.alpha_pc >= PC_VELOCITY_FROM:  # both hold; the exclusion is the tighter one mostly
+        return min(first, pc_velocity_bound(p, k, W))
+    return first

@@ -191,18 +191,24 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
 
 def write_outputs(out: str, params: Params, region: Region, k: np.ndarray,
                   results: list[KResult], fams: list, meta: dict, plot: bool,
-                  c_max_at_k: list[float], layered: dict | None = None) -> dict:
+                  c_max_at_k: list[float], layered: dict | None = None,
+                  quiet: bool = False) -> dict:
     """Rank 0: spectrum.csv and dispersion.png; returns the summary.
 
     The caller adds the timings and writes ``summary.json`` once. ``layered``: the region's
-    keys of a layered slider (:func:`forms.studies.sweep.layered_summary`).
+    keys of a layered slider (:func:`forms.studies.sweep.layered_summary`); its tail bounds
+    (``--layers-bound yes``) with a progress bar unless ``quiet``.
     """
+    def bar(pairs: list) -> object:
+        return pairs if quiet else tqdm(pairs, desc="tail bounds of the layers (rank 0)",
+                                        unit=" k values", file=sys.stderr)
+
     with _cli.atomic_open(os.path.join(out, "spectrum.csv"), "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(ROW_FIELDS))
         w.writeheader()
         w.writerows(sweep.csv_rows(results, ROW_FIELDS))
     summary = meta | sweep.summarise(params, region, k, results, fams, c_max_at_k,
-                                     meta["check_exact"], layered)
+                                     meta["check_exact"], layered, bar)
     if plot:
         plot_dispersion(os.path.join(out, "dispersion.png"), params,
                         sweep.largest_region(params, region, k, c_max_at_k), results, fams,
@@ -272,7 +278,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                                     check, times, run.resumed, len(todo)) | {
                 "versions": _cli.versions(), "command": _cli.command()}
             summary = write_outputs(out, params, region, k, results, fams, meta,
-                                    not args.no_plot, used, args.layered)
+                                    not args.no_plot, used, args.layered, args.quiet)
             summary["region"] = plan.referee(k, used, check) | summary["region"]  # layered: "by"
             wall = time.perf_counter() - t_start
             summary["timing_s"] = {"wall": wall, "post_processing_rank0": time.perf_counter()

@@ -852,7 +852,8 @@ def most_unstable(rows: list[dict], results: list[KResult], k: np.ndarray,
 
 def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResult],
               fams: list[BranchResult], c_max_at_k: Sequence[float] | None = None,
-              check_exact: bool = True, layered: dict | None = None) -> dict:
+              check_exact: bool = True, layered: dict | None = None,
+              progress: Callable[[Iterable], Iterable] | None = None) -> dict:
     """The sweep's summary: region, certificate, accuracy, families, most unstable, per ``k``.
 
     Pure data (no files). The keys, in order: ``region``, ``certificate`` (``k`` values closed
@@ -861,7 +862,9 @@ def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResu
     (:func:`most_unstable`), ``per_k`` (counts, box, seconds, factorisations, and the
     certificate each row carries: ``fe`` and/or ``exact``). ``layered``
     (:func:`layered_summary`): a layered/graded slider, its keys join ``region``; its tail
-    bound is :func:`analytic.physics.tail_layers.layered_bound` where one is derived.
+    bound is :func:`analytic.physics.tail_layers.layered_bound` where one is derived, each
+    ``k``'s through ``progress`` (e.g. a progress bar's wrapper of an iterable: seconds a
+    ``k``).
     """
     rows = [r for res in results for r in res.rows]
     flagged = [r for r in rows if r["status"] != "ok"]
@@ -873,9 +876,12 @@ def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResu
     why_not = layered["why_not"] if layered is not None else why_no_tail_bound(params)
     layers = (_exact_layers(layered["tail_layers"]) if layered is not None and not why_not
               else None)
+    pairs = list(zip(results, cs, strict=True))
+    if layers is not None and progress is not None:
+        pairs = progress(pairs)
     tails = [tail_at_k(params, region, res, c, not why_not, layers)
              | ({"c_max": layered["c_max"]} if layered is not None else {})
-             for res, c in zip(results, cs, strict=True)]
+             for res, c in pairs]
     most = most_unstable(rows, results, k, open_k, tails, why_not, check_exact)
     if layered is not None:
         layered = layered | {"proven_to_hold_fastest_mode": bool(

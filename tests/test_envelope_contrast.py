@@ -49,16 +49,21 @@ def test_envelope_is_the_fastest_exact_root(tmp_path, nproc):
     assert "R proven to hold the fastest mode at all 3 k with a root" in proc.stdout
 
 
+def _envelope_at_1_and_3(tmp_path, args):
+    """envelope.py with ``args`` at k = 1, 3, no refinement: (process, summary, folder)."""
+    out = tmp_path / "env"
+    proc = run_workflow("envelope.py", [*args, "--k", "1,3", "--refine-rounds", "0", "--out",
+                                        str(out)])
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    return proc, json.loads((out / "summary.json").read_text()), out
+
+
 def test_envelope_says_in_r_only_where_the_bound_cannot_prove(tmp_path):
     """alpha_pc = 1, stress top: the tail bound (analytic.physics.tail) is far above the
     fastest roots (0.0066 and 0.0011 here; the bounds at k = 5 0.079 .. 0.014 from 4 to 32
     c_d), so the global maximum is the largest in R only, and the printed line and
     summary.json say so. (The velocity top proves there since session 32.)"""
-    out = tmp_path / "env"
-    proc = run_workflow("envelope.py", ["--bc", "stress", "--alpha-pc", "1", "--k", "1,3",
-                                        "--refine-rounds", "0", "--out", str(out)])
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    s = json.loads((out / "summary.json").read_text())
+    proc, s, _ = _envelope_at_1_and_3(tmp_path, ["--bc", "stress", "--alpha-pc", "1"])
     assert s["fastest_proven"] == {**s["fastest_proven"], "proven_k": 0, "k_with_root": 2}
     assert "in R only, R proven to hold the fastest mode at 0 of 2 k with a root" in proc.stdout
 
@@ -67,11 +72,7 @@ def test_envelope_proves_beyond_alpha_pc_delta_one(tmp_path):
     """alpha_pc |Delta - 1| = 1.2 (velocity top): no bound before session 32, now the
     multiplied-out one (tail.pc_velocity_bound) proves both samples, and each value is the
     fastest root of a region eight times as tall (32 c_d), searched on its own."""
-    out = tmp_path / "env"
-    proc = run_workflow("envelope.py", ["--alpha-pc", "0.6", "--Delta", "-1", "--k", "1,3",
-                                        "--refine-rounds", "0", "--out", str(out)])
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    s = json.loads((out / "summary.json").read_text())
+    proc, s, out = _envelope_at_1_and_3(tmp_path, ["--alpha-pc", "0.6", "--Delta", "-1"])
     assert s["fastest_proven"] == {**s["fastest_proven"], "proven_k": 2, "k_with_root": 2}
     assert "R proven to hold the fastest mode at all 2 k with a root" in proc.stdout
     p = Params(alpha_pc=0.6, Delta=-1.0)

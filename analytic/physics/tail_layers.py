@@ -36,7 +36,9 @@ import scipy.optimize
 
 from analytic.law import FrictionLaw
 from analytic.params import ParameterError, Params
+from analytic.physics import tail_stack_pc as tp
 from analytic.physics.layered_exact import ExactLayer
+from analytic.physics.tail_stack import TUBE_EPS, period_of_rates
 
 
 def _materials(layers: Sequence[ExactLayer]) -> list[tuple[float, float, float, float, float]]:
@@ -133,15 +135,8 @@ def first_order_slope(L0: complex, p: Params, layers: Sequence[ExactLayer]) -> c
 # ------------------------------------------------------------------------------------------
 # The bound (session 32): tail_stack_pc's exclusion by moduli, carried over to the layers
 # ------------------------------------------------------------------------------------------
-#: Grid points per ``pi`` of the summed phase rates (as :mod:`analytic.physics.tail_stack_pc`).
-STEPS_PER_PI = 40
-#: Largest number of grid points (exact phases and the orbit's, every offset) before the bound
-#: gives up (``inf``).
-MAX_POINTS = 1_000_000
-#: Offsets per phase beyond ``Omega`` (0 and the largest, as tail_stack_pc's).
-TUBE_POINTS = 2
-#: Offsets (in units of ``min(rho, h)/2``) of the points placed at each dip of the axis.
-_DIP = np.linspace(-3.0, 3.0, 13)
+# Its grid (STEPS_PER_PI), tube (TUBE_POINTS), size limit (MAX_POINTS), dips and test are
+# tail_stack_pc's (_OrbitExclusion).
 
 
 def layer_rates(layers: Sequence[ExactLayer]) -> tuple[np.ndarray, np.ndarray]:
@@ -154,8 +149,6 @@ def layer_rates(layers: Sequence[ExactLayer]) -> tuple[np.ndarray, np.ndarray]:
 
 def layered_period(layers: Sequence[ExactLayer]) -> float | None:
     """Period in ``omega`` of the ``k = 0`` phases ``h_j omega / c_j``, or ``None``."""
-    from analytic.physics.tail_stack import period_of_rates
-
     h, c = layer_rates(layers)
     return period_of_rates((h / c).ravel())
 
@@ -177,21 +170,19 @@ def why_no_layered_bound(layers: Sequence[ExactLayer]) -> str:
 
 def _grid(layers: Sequence[ExactLayer], k: float, W: float) -> tuple[float, float, float]:
     """``(Omega, step, period)``: where the orbit takes over, the grid step, its period."""
-    from analytic.physics.tail_stack import TUBE_EPS
-
     h, c = layer_rates(layers)
     omega = max(2.0 * W, float(np.max(h * c)) * k * k / TUBE_EPS)
-    return (omega, math.pi / (STEPS_PER_PI * float((h / c).sum())),
+    return (omega, math.pi / (tp.STEPS_PER_PI * float((h / c).sum())),
             float(layered_period(layers)))
 
 
 def _points(layers: Sequence[ExactLayer], k: float, W: float) -> float:
     """Grid points of :class:`_LayeredExclusion` (exact part, and the orbit at every offset)."""
     omega, step, T = _grid(layers, k, W)
-    return (omega - W) / step + T / step * TUBE_POINTS ** (2 * len(layers))
+    return (omega - W) / step + T / step * tp.TUBE_POINTS ** (2 * len(layers))
 
 
-class _LayeredExclusion:
+class _LayeredExclusion(tp._OrbitExclusion):
     """The samples of one ``(p, layers, k, W)`` and the exclusion test at a given ``rho``.
 
     A root ``L = rho + i omega`` of the layered slider solves, to first order in ``k/omega``,
@@ -202,15 +193,13 @@ class _LayeredExclusion:
     """
 
     def __init__(self, p: Params, layers: Sequence[ExactLayer], k: float, W: float) -> None:
-        from analytic.physics import tail_stack as ts
-
         self.p, self.layers, self.k, self.W = p, list(layers), float(k), float(W)
         self.law = FrictionLaw.from_params(p)
-        h, c = layer_rates(layers)
-        self.h, self.c, self.rates = h, c, h / c
+        heights, c = layer_rates(layers)
+        self.heights, self.c, self.rates = heights, c, heights / c
         self.margin = 1.0 + 2.0 * float(c.max()) * k / W
-        self.omega, self.step, self.T = _grid(layers, k, W)
-        n = int(math.ceil((self.omega - W) / self.step)) + 2
+        self.omega, self.h, T = _grid(layers, k, W)
+        n = int(math.ceil((self.omega - W) / self.h)) + 2
         self.w = np.linspace(W, self.omega, n)
         alpha, gamma = p.alpha_pc, p.gamma
 
@@ -220,36 +209,27 @@ class _LayeredExclusion:
                 return np.real((v, alpha * tau - u / gamma)[which])
             return fun
 
-        self.w_dips = np.concatenate([ts.roots_on_grid_rows(axis(q), self.w, 1, 32)[0]
-                                      for q in range(2)])
-        # beyond Omega: one period of the k = 0 orbit, the phases lowered by 0 .. h c k^2/Omega
-        eps = (h * c * k * k / self.omega).ravel()
-        grid = np.linspace(0.0, 1.0, TUBE_POINTS)
-        m = eps.size
-        self.offs = np.stack(np.meshgrid(*([grid] * m), indexing="ij"), -1).reshape(-1, m) * eps
-        x = np.linspace(0.0, self.T, int(math.ceil(self.T / self.step)) + 2)
+        self._axis_dips([axis(q) for q in range(2)])
 
+        # beyond Omega: one period of the k = 0 orbit, the phases lowered by 0 .. h c k^2/Omega
         def orbit(which: int):  # noqa: ANN202
             def fun(t: np.ndarray, row: np.ndarray) -> np.ndarray:
                 u, tau, v, _, _ = self._states(1j * self.omega, self._orbit(0.0, t, row))
                 return np.real((v, alpha * tau - u / gamma)[which])
             return fun
 
-        dips = [ts.roots_on_grid_rows(orbit(q), x, len(self.offs), 32) for q in range(2)]
-        self.x = np.tile(x, len(self.offs))
-        self.x_row = np.repeat(np.arange(len(self.offs)), len(x))
-        self.x_dips = np.concatenate([d[0] for d in dips])
-        self.x_dip_row = np.concatenate([d[1] for d in dips])
+        self._orbit_samples((heights * c * k * k / self.omega).ravel(), T,
+                            [orbit(q) for q in range(2)])
 
     def _exact(self, L: np.ndarray) -> np.ndarray:
         """The exact phases ``h sqrt(L^2/c^2 + k^2)`` at ``L``, shape ``(n_layers, 2, ...)``."""
         L = np.asarray(L, dtype=complex)
-        return self.h[:, :, None] * np.sqrt((L[None, None, :] / self.c[:, :, None]) ** 2
-                                            + self.k * self.k)
+        return self.heights[:, :, None] * np.sqrt((L[None, None, :] / self.c[:, :, None]) ** 2
+                                                  + self.k * self.k)
 
     def _orbit(self, rho: float, x: np.ndarray, row: np.ndarray) -> np.ndarray:
         """The ``k = 0`` phases ``rates (rho + i x)`` lowered by the offsets of ``row``."""
-        off = self.offs[row].T.reshape(self.h.shape + (-1,))
+        off = self.offs[row].T.reshape(self.heights.shape + (-1,))
         return self.rates[:, :, None] * (rho + 1j * x)[None, None, :] - 1j * off
 
     def _states(self, L: np.ndarray, phases: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -272,31 +252,16 @@ class _LayeredExclusion:
         and ``L u`` grow with ``|L|``, ``I`` falls as ``1/|L|`` or stays), ``|a tau - F_0 u| >=
         A |L0 u| dist(i tau/(L0 u), sector of i (1 + e)/(gamma a))``.
         """
-        from analytic.physics.tail_stack_pc import _sector, sector_distance
-
         p = self.p
         L0 = 1j * self.omega
         u, tau, v, _, total = self._states(L0, self._orbit(rho, x, row))
-        r, phi1, phi2, A = _sector(p, self.omega, rho)
+        r, phi1, phi2, A = tp._sector(p, self.omega, rho)
         lu = L0 * u
         with np.errstate(divide="ignore", invalid="ignore"):
-            y = np.where(lu != 0, np.abs(lu) * sector_distance(1j * tau / lu, r, phi1, phi2),
+            y = np.where(lu != 0, np.abs(lu) * tp.sector_distance(1j * tau / lu, r, phi1, phi2),
                          np.abs(tau))
         b = abs(p.f - p.alpha_ld) + p.alpha_ld / self.omega
         return np.abs(v) * A * y - self.margin * self.k * b * np.abs(total)
-
-    def excluded(self, rho: float, every: int = 1) -> bool:
-        """No root with this ``rho`` at any ``omega >= W`` (``every``: as tail_stack_pc's)."""
-        step = 0.5 * min(rho, self.step)
-        w = np.concatenate([self.w[::every], (self.w_dips[:, None] + step * _DIP).ravel()])
-        with np.errstate(over="ignore", invalid="ignore"):
-            if not np.min(self._direct(rho, w[w >= self.W])) > 0:
-                return False
-            x = np.concatenate([self.x[::every],
-                                (self.x_dips[:, None] + step * _DIP).ravel() % self.T])
-            row = np.concatenate([self.x_row[::every], np.repeat(self.x_dip_row, len(_DIP))])
-            return bool(np.min(self._tube(rho, x, row)) > 0)
-
 
 def layered_bound(p: Params, layers: Sequence[ExactLayer], k: float, W: float) -> float | None:
     """Bound on ``Re Lambda`` of every root with ``|Im Lambda| > W``: a layered slider.
@@ -309,26 +274,24 @@ def layered_bound(p: Params, layers: Sequence[ExactLayer], k: float, W: float) -
 
     Returns:
         The largest ``rho`` not excluded; ``inf`` when ``W <= 2 k c_d`` of a layer (or
-        ``max(1, |Delta - 1|)``), when the grids would exceed :data:`MAX_POINTS`, or when
-        ``rho = 4`` is not excluded; ``None`` as said.
+        ``max(1, |Delta - 1|)``), when the grids would exceed tail_stack_pc's ``MAX_POINTS``,
+        or when ``rho = 4`` is not excluded; ``None`` as said.
     """
-    from analytic.physics.tail_stack_pc import _SUBSET, _search
-
     if why_no_layered_bound(layers):
         return None
     k, W = float(k), float(W)
     _, c = layer_rates(layers)
     if not (W > max(2.0 * k * float(c.max()), 1.0, abs(p.Delta - 1.0))):
         return math.inf
-    if _points(layers, k, W) > MAX_POINTS:
+    if _points(layers, k, W) > tp.MAX_POINTS:
         return math.inf
     ex = _LayeredExclusion(p, layers, k, W)
     # the whole search on every _SUBSET-th point (its "not excluded" is final), then the whole
     # grid at the result only: one evaluation of the whole grid instead of about seven (a long
     # orbit, 160 000 points: 2.5-5 s a call before); where the whole grid disagrees there, the
     # search of tail_stack_pc (halving on the subset, bisection on the whole grid)
-    subset = functools.partial(ex.excluded, every=_SUBSET)
-    hi = _search(subset)
+    subset = functools.partial(ex.excluded, every=tp._SUBSET)
+    hi = tp._search(subset)
     if hi == 0.0 or not math.isfinite(hi) or ex.excluded(hi):
         return hi
-    return _search(ex.excluded, subset)
+    return tp._search(ex.excluded, subset)

@@ -187,7 +187,60 @@ def _points(p: Params, k: float, W: float) -> float:
     return (omega - W) / h + float(period(p)) / h * TUBE_POINTS**4
 
 
-class _Exclusion:
+class _OrbitExclusion:
+    """The samples and the test of an exclusion by moduli (two bodies, layered sliders).
+
+    Two bodies here (:class:`_Exclusion`), layered sliders in
+    :mod:`analytic.physics.tail_layers`. A subclass sets the exact-phase grid ``w`` (step
+    ``h``, from its lowest ``omega``) and calls :meth:`_axis_dips`, and, unless ``free`` (no
+    periodic orbit: its own test beyond), :meth:`_orbit_samples`; it defines ``_direct(rho,
+    w)`` (the exact phases) and ``_tube(rho, x, row)`` (the orbit), each positive where a root
+    is excluded.
+    """
+
+    free = False
+
+    def _axis_dips(self, funs: list[Callable]) -> None:
+        """``w_dips``: the zeros on ``w`` of the real functions ``fun(x, row)`` of ``funs``."""
+        self.w_dips = np.concatenate([ts.roots_on_grid_rows(f, self.w, 1, _ZERO_STEPS)[0]
+                                      for f in funs])
+
+    def _orbit_samples(self, eps: np.ndarray, T: float, funs: list[Callable]) -> None:
+        """One period ``T`` of the ``k = 0`` orbit and the zeros of ``funs`` on it (``x_dips``).
+
+        Each row a corner of the tube of phases lowered by ``0 .. eps`` (``offs``).
+        """
+        grid = np.linspace(0.0, 1.0, TUBE_POINTS)
+        m = eps.size
+        self.offs = np.stack(np.meshgrid(*([grid] * m), indexing="ij"), -1).reshape(-1, m) * eps
+        self.T = T
+        x = np.linspace(0.0, T, int(math.ceil(T / self.h)) + 2)
+        dips = [ts.roots_on_grid_rows(f, x, len(self.offs), _ZERO_STEPS) for f in funs]
+        self.x = np.tile(x, len(self.offs))
+        self.x_row = np.repeat(np.arange(len(self.offs)), len(x))
+        self.x_dips = np.concatenate([d[0] for d in dips])
+        self.x_dip_row = np.concatenate([d[1] for d in dips])
+
+    def excluded(self, rho: float, every: int = 1) -> bool:
+        """No root with this ``rho`` at any ``omega >= w[0]`` (module docstring).
+
+        ``every > 1`` takes only every ``every``-th grid point (the dips' points all): a
+        ``False`` is then final, a ``True`` is not.
+        """
+        step = 0.5 * min(rho, self.h)
+        w = np.concatenate([self.w[::every], (self.w_dips[:, None] + step * _DIP).ravel()])
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow: nan, not excluded
+            if not np.min(self._direct(rho, w[w >= self.w[0]])) > 0:
+                return False
+            if self.free:
+                return True
+            x = np.concatenate([self.x[::every],
+                                (self.x_dips[:, None] + step * _DIP).ravel() % self.T])
+            row = np.concatenate([self.x_row[::every], np.repeat(self.x_dip_row, len(_DIP))])
+            return bool(np.min(self._tube(rho, x, row)) > 0)
+
+
+class _Exclusion(_OrbitExclusion):
     """The samples of one ``(p, k, W)`` and the exclusion test at a given ``rho``.
 
     ``omega`` overrides where the exact phases stop and ``start`` where they begin (default
@@ -202,7 +255,7 @@ class _Exclusion:
         self.omega, self.h = _grid(p, k, W)
         if omega is not None:
             self.omega = omega
-        self.free = period(p) is None
+        self.free = period(p) is None  # not commensurate: the free torus beyond omega
         # the margin for the terms left out: relative O(k c_j / omega) in the layer of speed
         # c_j (its vertical wavenumber's k c_j / omega), with the coefficient 2 measured
         # (module docstring)
@@ -218,30 +271,21 @@ class _Exclusion:
                 return np.real((P[4], P[5], P[0], p.alpha_pc * x * P[2] + P[3] / p.gamma)[which])
             return fun
 
-        self.w_dips = np.concatenate([ts.roots_on_grid_rows(axis(q), self.w, 1, _ZERO_STEPS)[0]
-                                      for q in range(4)])
+        self._axis_dips([axis(q) for q in range(4)])
         if self.free:
             return
         # beyond Omega: one period of the k = 0 orbit, every offset at once (rows)
-        eps = s["H"] * s["c"] * k * k / self.omega
-        grid = np.linspace(0.0, 1.0, TUBE_POINTS)
-        self.offs = np.stack(np.meshgrid(*([grid] * 4), indexing="ij"), -1).reshape(-1, 4) * eps
-        self.T = float(period(p))
-        x = np.linspace(0.0, self.T, int(math.ceil(self.T / self.h)) + 2)
         r0 = self._sector(0.0)[0]
-        offs, rates = self.offs, s["rates"][:, None]
+        rates = s["rates"][:, None]
 
         def orbit(which: int):  # noqa: ANN202
             def fun(t: np.ndarray, row: np.ndarray) -> np.ndarray:
-                P = _parts(p, rates * t[None, :] - offs[row].T)
+                P = _parts(p, rates * t[None, :] - self.offs[row].T)
                 return np.real((P[4], P[5], P[0], P[2] + r0 * P[3])[which])
             return fun
 
-        dips = [ts.roots_on_grid_rows(orbit(q), x, len(offs), _ZERO_STEPS) for q in range(4)]
-        self.x = np.tile(x, len(offs))
-        self.x_row = np.repeat(np.arange(len(offs)), len(x))
-        self.x_dips = np.concatenate([d[0] for d in dips])
-        self.x_dip_row = np.concatenate([d[1] for d in dips])
+        self._orbit_samples(s["H"] * s["c"] * k * k / self.omega, float(period(p)),
+                            [orbit(q) for q in range(4)])
 
     def _sector(self, rho: float) -> tuple[float, float, float, float]:
         return _sector(self.p, self.omega, rho)
@@ -268,25 +312,6 @@ class _Exclusion:
         b = abs(p.f - p.alpha_ld) + p.alpha_ld / self.omega
         return (np.abs(R) * y
                 - self.margin * self.k * b * s["Z1"] * s["Z2"] * np.abs(X) / (self.omega * A))
-
-    def excluded(self, rho: float, every: int = 1) -> bool:
-        """No root with this ``rho`` at any ``omega >= W`` (module docstring).
-
-        ``every > 1`` takes only every ``every``-th grid point (the dips' points all): a
-        ``False`` is then final, a ``True`` is not.
-        """
-        step = 0.5 * min(rho, self.h)
-        w = np.concatenate([self.w[::every], (self.w_dips[:, None] + step * _DIP).ravel()])
-        with np.errstate(over="ignore", invalid="ignore"):  # overflow: nan, not excluded
-            if not np.min(self._direct(rho, w[w >= self.w[0]])) > 0:
-                return False
-            if self.free:
-                return True
-            x = np.concatenate([self.x[::every],
-                                (self.x_dips[:, None] + step * _DIP).ravel() % self.T])
-            row = np.concatenate([self.x_row[::every], np.repeat(self.x_dip_row, len(_DIP))])
-            return bool(np.min(self._tube(rho, x, row)) > 0)
-
 
 def _sector(p: Params, om: float, rho: float) -> tuple[float, float, float, float]:
     """``(r, phi1, phi2, A)``: the sector of ``c`` beyond ``om`` and ``|a| >= A``."""

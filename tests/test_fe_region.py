@@ -56,12 +56,12 @@ def test_climb_accepts_the_first_rung_whose_tail_bound_is_below_the_fe_value(bc,
     fast = 0.5 * (tb[C_LADDER[1]] + tb[C_LADDER[2]])
     assert tb[C_LADDER[2]] < fast < tb[C_LADDER[1]]
     calls: list = []
-    res, c = sweep.climb(p, region, k, [], _Fake({c: fast for c in C_LADDER}, calls, p))
+    res, c, _ = sweep.climb(p, region, k, [], _Fake({c: fast for c in C_LADDER}, calls, p))
     assert c == C_LADDER[2] and max(r["re_lambda"] for r in res.rows) == fast
     assert calls[-1] == C_LADDER[2] and calls[0] == C_LADDER[0]
     # nothing in any rung: the region's re_min decides
     calls.clear()
-    res, c = sweep.climb(p, region, k, [], _Fake({c: None for c in C_LADDER}, calls, p))
+    res, c, _ = sweep.climb(p, region, k, [], _Fake({c: None for c in C_LADDER}, calls, p))
     assert tail_bound(p, k, region.fixed(c).im_max(p, k)) < region.re_min or c == C_LADDER[-1]
     # a fixed region is solved once
     calls.clear()
@@ -89,10 +89,10 @@ def test_a_warm_climb_accepts_the_cold_climbs_rung(bc, k, start):
     fastest = {c: slower if c < C_LADDER[2] else fast if c < C_LADDER[4] else 2 * tb[C_LADDER[0]]
                for c in C_LADDER}
     cold: list = []
-    res0, c0 = sweep.climb(p, region, k, [], _Fake(fastest, cold, p))
+    res0, c0, _ = sweep.climb(p, region, k, [], _Fake(fastest, cold, p))
     assert c0 == C_LADDER[2] and cold == [C_LADDER[0], C_LADDER[2]]
     warm: list = []
-    res, c = sweep.climb(p, region, k, [], _Fake(fastest, warm, p), start=C_LADDER[start])
+    res, c, _ = sweep.climb(p, region, k, [], _Fake(fastest, warm, p), start=C_LADDER[start])
     assert c == c0 and res.rows == res0.rows
     assert warm[0] == C_LADDER[start] and warm[-1] == c0
     assert len(warm) == (1 if start == 2 else 2)
@@ -200,7 +200,10 @@ def test_largest_region_holds_every_box_used():
         assert big.im_max(p, x) >= region.fixed(cc).im_max(p, x) * (1.0 - 1e-12)
     assert big.im_max(p, 0.05) == pytest.approx(region.fixed(600.0).im_max(p, 0.05), rel=1e-12)
     assert sweep.largest_region(p, region, k[2:], c[2:]) == region.fixed(16.0)
-    assert sweep.largest_region(p, region.fixed(4.0), k, c) == region.fixed(4.0)
+    # a fixed region: itself; a layered slider's climb (a fixed first rung, the rungs used
+    # above it, no taller boxes): its largest rung used
+    assert sweep.largest_region(p, region.fixed(4.0), k[2:], [4.0, 4.0]) == region.fixed(4.0)
+    assert sweep.largest_region(p, region.fixed(4.0), k[2:], [4.0, 12.0]) == region.fixed(12.0)
     # the mesh summary.json describes: the largest ladder rung, or a fixed bound above the
     # ladder's top as it is (a fixed --c-max 40 was described by the 4 c_d mesh, 7 cells
     # against 21, before this was mended)

@@ -119,9 +119,10 @@ def test_layered_tail_bound_proves_and_a_taller_box_agrees(tmp_path):
     fun = np.vectorize(det, otypes=[complex])
     assert count_zeros(fun, (fastest * 1.0001, 2.0, -w, w)) == 0
     assert count_zeros(fun, (fastest * 0.9999, 2.0, -w, w)) >= 1
-    # the body's c_s sqrt(0.6/1.3) in the first layer: its rates are not commensurate, no bound
-    odd = tmp_path / "two.csv"
-    odd.write_text(TWO_LAYERS)
+    # three layers whose rates are not commensurate (c_s sqrt(0.6/1.3) in the first): no bound
+    # (two such layers have one since session 33: test_damage_zone_climbs_... below)
+    odd = tmp_path / "three.csv"
+    odd.write_text(TWO_LAYERS.replace("0.5,1,1,0.5", "0.3,1,1,0.5\n0.5,0.8,1,0.5"))
     proc = _scene(["--model", "layers", "--layers", str(odd), "--k", "1", "--layers-bound",
                    "yes", "--no-plot"], str(tmp_path / "odd"), preamble=NO_EXACT, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
@@ -129,6 +130,42 @@ def test_layered_tail_bound_proves_and_a_taller_box_agrees(tmp_path):
     assert summary["region"]["proven_to_hold_fastest_mode"] is False
     assert "not commensurate" in summary["region"]["why_not"]
     assert summary["per_k"][0]["tail_bound"] is None
+
+
+#: The README's damage zone: c_s = sqrt 0.6 under c_s = 1, rates not commensurate.
+DAMAGE_ZONE = "y_top,mu,rho,beta\n0.05,0.6,1,0.5\n0.5,1,1,0.5\n"
+EXACT_DAMAGE = [ExactLayer(0.0, 0.05, 0.6, 1.0, 0.5), ExactLayer(0.05, 0.5, 1.0, 1.0, 0.5)]
+
+
+@pytest.mark.slow  # measured about 20 s (the scene, two exact counts of a tall box)
+@pytest.mark.serial
+def test_damage_zone_climbs_until_its_tail_bound_proves_and_a_taller_box_agrees(tmp_path):
+    """Layers whose rates are not commensurate (the free torus, session 33), stress top, k =
+    1.7: the first rung's tail bound is not below the fastest FE value there, so the region
+    climbs (measured: to 6 c_d) until it is; the scene says R holds the fastest mode, and the
+    exact layered determinant in a box three times as tall as the rung accepted counts no root
+    above the fastest FE value and one at and above 0.9999 of it."""
+    layers = tmp_path / "dz.csv"
+    layers.write_text(DAMAGE_ZONE)
+    out = str(tmp_path / "out")
+    proc = _scene(["--model", "layers", "--layers", str(layers), "--k", "1.7", "--bc", "stress",
+                   "--layers-bound", "yes", "--no-plot"], out, preamble=NO_EXACT, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    rows, summary = _read(out)
+    region, per_k = summary["region"], summary["per_k"][0]
+    assert region["proven_to_hold_fastest_mode"] is True and region["c_max"] == "auto"
+    assert per_k["c_max"] > 4.0 and per_k["fastest_proven"]
+    fastest = max(float(r["re_lambda"]) for r in rows)
+    # measured: 6 c_d, the bound 0.147 against the fastest 0.2096
+    assert 0 < per_k["tail_bound"] < fastest
+    p, w = Params(bc="stress"), 3.0 * per_k["box"][3]
+
+    def det(z: complex) -> complex:
+        return det_layered(complex(z), 1.7, p, EXACT_DAMAGE)
+
+    fun = np.vectorize(det, otypes=[complex])
+    assert count_zeros(fun, (fastest * 1.0001, 2.0, -w, w)) == 0
+    assert count_zeros(fun, (fastest * 0.9999, 2.0, -w, w)) >= 1
 
 
 def _res(k: float, values: list[complex], nexts: list[complex]) -> KResult:
@@ -219,6 +256,25 @@ def test_damage_zone_readme_numbers_from_the_committed_sweeps(case):
             {"homogeneous": "homogeneous", "layer": "mu = 0.6", "smooth": "mu = 1 -"}[case])]
     assert len(picture) == 120 and max(float(r["re_lambda"]) for r in picture) == pytest.approx(
         got["peak"]["re_lambda"], rel=1e-15)
+
+
+@pytest.mark.slow  # measured about 6 s (an exact count of a tall box)
+@pytest.mark.serial
+def test_damage_zone_committed_run_is_proven_and_a_taller_box_agrees():
+    """The README's layer run (--layers-bound yes, session 33) says R holds the fastest mode:
+    its largest tail bound is below the peak (measured 0.247 against 0.3091), and at the peak
+    k the exact layered determinant in a box three times as tall as the one used counts no
+    root above the peak value and one at and above 0.9999 of it."""
+    with open(os.path.join(RESULTS, "damage_zone", "layer", "summary.json")) as fh:
+        summary = json.load(fh)
+    best = summary["most_unstable"]
+    assert summary["region"]["proven_to_hold_fastest_mode"] is True
+    assert best["certificate"]["largest_tail_bound"] < best["re_lambda"]
+    per_k = next(d for d in summary["per_k"] if d["k"] == best["k"])
+    p, w, k = Params(), 3.0 * per_k["box"][3], best["k"]
+    fun = np.vectorize(lambda z: det_layered(complex(z), k, p, EXACT_DAMAGE), otypes=[complex])
+    assert count_zeros(fun, (best["re_lambda"] * 1.0001, 2.0, -w, w)) == 0
+    assert count_zeros(fun, (best["re_lambda"] * 0.9999, 2.0, -w, w)) >= 1
 
 
 @pytest.mark.serial

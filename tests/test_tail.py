@@ -786,6 +786,19 @@ LAYER_CASES = {
                                  alpha_ld=0.0409),
                           ((0.0, 0.5, 8.0, 2.0, 2.0 / 3.0), (0.5, 1.0, 0.25, 1.0, 2.0 / 3.0)),
                           2.161, ((23.17, 46.34),)),
+    # phase rates not commensurate (session 33: the free torus beyond Omega): the README's
+    # damage zone (c_s = sqrt 0.6 under c_s = 1) at the 4 c_d rung's W, k = 1.7 (0.754 of the
+    # bound at W, 0.762 at a root's own frequency: the closest measured), and the random
+    # two-layer stack whose roots came closest to the bound at their own frequency (0.71)
+    "damage-zone-velocity": (Params(bc="velocity"), ((0.0, 0.05, 0.6, 1.0, 0.5),
+                                                     (0.05, 0.5, 1.0, 1.0, 0.5)), 1.7,
+                             ((38.73, 77.46),)),
+    "incommensurate-velocity": (
+        Params(bc="velocity", f=0.746951827554777, gamma=2.052025961628441,
+               Delta=0.928155947707805, H=0.6373588581456411),
+        ((0.0, 0.3573791700393314, 1.614023204242681, 1.3649016639293328, 0.3711559764936373),
+         (0.3573791700393314, 0.6373588581456411, 4.370419021395615, 1.295366501538436,
+          0.5947142981396221)), 3.6419972071817943, ((37.934943378267675, 75.86988675653535),)),
 }
 
 
@@ -808,7 +821,7 @@ def test_layered_bound_above_every_root_beyond_w(case):
         assert np.all(up.real < own)
         top = max(top, float(np.max(up.real / own)) if len(up) else 0.0)
     # not absurdly loose: measured max Re / bound at its own frequency 0.39 (0.29, 0.13 in the
-    # higher bands) and 0.46
+    # higher bands), 0.46, 0.76 and 0.71
     assert top > 0.2
 
 
@@ -830,19 +843,23 @@ def test_layered_bound_is_the_edge_of_an_interval():
 
 
 def test_layered_bound_where_derived():
-    """Graded layers and layers whose phase rates are not commensurate: no bound (None, with
-    the reason); one homogeneous layer: a bound of the size of the homogeneous slider's
-    (measured 0.339 against 0.499, stress top, and 0.154 against 0.156, velocity, k = 3,
-    W = 49), falling with W."""
+    """Graded layers and more than two layers whose phase rates are not commensurate: no bound
+    (None, with the reason); two such layers (session 33: the free torus) have one; one
+    homogeneous layer: a bound of the size of the homogeneous slider's (measured 0.339 against
+    0.499, stress top, and 0.154 against 0.156, velocity, k = 3, W = 49), falling with W."""
     from analytic.physics.layered_exact import ExactLayer
     from analytic.physics.tail_layers import layered_bound, why_no_layered_bound
 
     graded = [ExactLayer(0.0, 0.5, lambda y: 1.0 - 0.5 * np.exp(-y / 0.1))]
     odd = _layers((0.0, 0.1, 0.6, 1.3, 0.45), (0.1, 0.5, 1.0, 1.0, 0.5))
+    odd3 = _layers((0.0, 0.1, 0.6, 1.3, 0.45), (0.1, 0.3, 1.0, 1.0, 0.5),
+                   (0.3, 0.5, 0.8, 1.0, 0.5))
     assert layered_bound(Params(), graded, 3.0, 49.0) is None
     assert "graded" in why_no_layered_bound(graded)
-    assert layered_bound(Params(), odd, 3.0, 49.0) is None
-    assert "not commensurate" in why_no_layered_bound(odd)
+    assert layered_bound(Params(), odd3, 3.0, 49.0) is None
+    assert "not commensurate" in why_no_layered_bound(odd3)
+    assert why_no_layered_bound(odd) == ""
+    assert 0 < layered_bound(Params(), odd, 3.0, 49.0) < math.inf
     one = _layers((0.0, 0.5, 1.0, 1.0, 0.5))
     for bc in ("velocity", "stress"):
         p = Params(bc=bc)
@@ -850,6 +867,47 @@ def test_layered_bound_where_derived():
         assert 0 < tb[2] < tb[0] < math.inf
         assert 0.5 < tb[0] / tail_bound(p, 3.0, 49.0) < 1.2
     assert layered_bound(Params(), one, 3.0, 11.0) == math.inf  # W below 2 k c_d = 12
+
+
+#: The free torus alone (tail_layers.free_excluded) beyond a far frequency ``w1``, against the
+#: roots of det_layered in ``w1 .. w1 + 40``: (parameters, layers, k, W, w1). From 56 random
+#: stacks with rates that are not commensurate (one or two layers, w1 2-20 times W): the two
+#: whose roots came closest to it (0.36 and 0.17 of it; the free torus falls only as
+#: Omega^(-1/2), docs/design.md 8.1).
+FREE_LAYER_CASES = {
+    "one-layer-stress": (
+        Params(bc="stress", f=0.48250790421877, gamma=2.7160145968330323,
+               Delta=-1.3484109390651722, H=0.24488335130145833, alpha_pc=0.0143984336024904),
+        ((0.0, 0.24488335130145833, 1.5792822456725077, 1.2843137679765353,
+          0.6366836842393253),), 2.089006208076225, 11.548602081758494, 94.19061071760129),
+    "two-layer-stress": (
+        Params(bc="stress", f=0.773560600267192, gamma=1.0302370309074875,
+               Delta=1.6210789754725998, H=0.34254995654410636, alpha_pc=0.07101270355038544),
+        ((0.0, 0.2464413448802758, 2.2345910941363654, 2.5470263918374063, 0.6490922919632167),
+         (0.2464413448802758, 0.34254995654410636, 3.304094223865812, 2.697648366195786,
+          0.5900928222364838)), 0.5326358370907973, 2.1893833194317045, 31.46883744750717),
+}
+
+
+@pytest.mark.slow  # a few seconds each (det_layered point by point)
+@pytest.mark.parametrize("case", list(FREE_LAYER_CASES))
+def test_layered_free_torus_above_far_roots(case):
+    """Layers whose rates are not commensurate: beyond Omega every real part of the phases is
+    taken (the free torus); its bound alone, at w1, is above every exact root beyond w1
+    (measured 0.36 and 0.17 of it), and the whole bound falls as W grows."""
+    import functools
+
+    from analytic.physics import tail_layers
+    from analytic.physics import tail_stack_pc as tp
+
+    p, rows, k, W, w1 = FREE_LAYER_CASES[case]
+    layers = _layers(*rows)
+    assert tail_layers.layered_period(layers) is None
+    free = tp._search(functools.partial(tail_layers.free_excluded, p, layers, k, W, w1))
+    z = _layer_roots(p, layers, k, w1, w1 + 40.0)
+    assert len(z) and 0 < free < math.inf
+    assert np.all(z.real < free), (z.real.max(), free)
+    assert z.real.max() > 0.1 * free  # not absurdly loose
 
 
 def test_a_rung_whose_contour_fails_is_passed_over(monkeypatch):

@@ -22,10 +22,10 @@ than the fastest root in R; summary.json states the bound and the tail bound at 
   ``fe0, fe1, ...`` by increasing ``|Im Lambda|`` at each k (no tracking in k);
 - ``--solver newton``: the former path, FE Newton from each exact root (needs the check);
 - ``--model layers`` with several layers or profiles: FE only (``--check-exact no``), c_d the
-  stack's largest, R the first rung at every k (no climb), not proven to hold the fastest mode
-  unless ``--layers-bound yes`` (constant commensurate layers on a rigid substrate:
-  analytic.physics.tail_layers) finds the tail bound below the fastest value, labels
-  ``c0, c1, ...``
+  stack's largest; with ``--layers-bound yes`` (constant layers on a rigid substrate, at most
+  two if their phase rates are not commensurate: analytic.physics.tail_layers) R climbs at
+  every k until the layers' tail bound is below the fastest value, else R is the first rung,
+  not proven to hold the fastest mode; labels ``c0, c1, ...``
   by continuation of the FE eigenpairs in k (forms.studies.sweep.label_by_continuation).
 
 ``status = ok`` means: count closed, estimate (and, when checked, label and error) within
@@ -120,11 +120,11 @@ def build_parser() -> argparse.ArgumentParser:
                        help=f"{name}(y) as an expression of y, e.g. '{example}' "
                        "(--model layers)")
     m.add_argument("--layers-bound", default="no",
-                   help="yes: bound the tail of constant layers with commensurate phase rates "
-                   "on a rigid substrate at every k (analytic.physics.tail_layers), so that "
-                   "summary.json says whether R holds the fastest mode; measured 0.3 s a k "
-                   "for a two-layer stack of period 63 (5x the solve), more for longer periods "
-                   "(no: R is not proven to hold it)")
+                   help="yes: the region climbs at every k until the layers' tail bound "
+                   "(analytic.physics.tail_layers: constant layers on a rigid substrate, at "
+                   "most two if their phase rates are not commensurate) is below the fastest "
+                   "value, so that R provably holds the fastest mode; each rank bounds its own "
+                   "k, 0.1-3 s a bound (no: R is the first rung, not proven to hold it)")
     _sweep_strip.add_arguments(ap)
     ap.add_argument("--out", default=os.path.join("out", "sweep_k"), help="output directory")
     ap.add_argument("--resume", action="store_true",
@@ -178,8 +178,9 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
     if args.layers_bound not in ("no", "yes") or (args.layers_bound == "yes" and not layered):
         raise _cli.ParameterError(f"--layers-bound = {args.layers_bound} is outside its allowed "
                                   "values no | yes (yes: with several layers, --model layers)")
-    args.layered = (sweep.layered_summary(params, args.material, region,
-                                          args.layers_bound == "yes") if layered else None)
+    # a layered slider's summary keys, its climb's rungs and tail bound (None: not climbed)
+    args.layered, args.tail = (sweep.layered_setup(params, args.material, region, args.layers_bound
+                                                   == "yes") if layered else (None, None))
     if layered:  # phase velocities in units of the stack's largest c_d; the first rung
         region = sweep.layered_region(params, args.material, region)
     _cli.check_sweep_limits(params, k, region, args.degree, args.cells, args.rtol)
@@ -192,23 +193,19 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
 def write_outputs(out: str, params: Params, region: Region, k: np.ndarray,
                   results: list[KResult], fams: list, meta: dict, plot: bool,
                   c_max_at_k: list[float], layered: dict | None = None,
-                  quiet: bool = False) -> dict:
+                  tail_bounds: list[float | None] | None = None) -> dict:
     """Rank 0: spectrum.csv and dispersion.png; returns the summary.
 
     The caller adds the timings and writes ``summary.json`` once. ``layered``: the region's
     keys of a layered slider (:func:`forms.studies.sweep.layered_summary`); its tail bounds
-    (``--layers-bound yes``) with a progress bar unless ``quiet``.
+    (``--layers-bound yes``) as each ``k``'s climb saved them (``tail_bounds``).
     """
-    def bar(pairs: list) -> object:
-        return pairs if quiet else tqdm(pairs, desc="tail bounds of the layers (rank 0)",
-                                        unit=" k values", file=sys.stderr)
-
     with _cli.atomic_open(os.path.join(out, "spectrum.csv"), "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(ROW_FIELDS))
         w.writeheader()
         w.writerows(sweep.csv_rows(results, ROW_FIELDS))
     summary = meta | sweep.summarise(params, region, k, results, fams, c_max_at_k,
-                                     meta["check_exact"], layered, bar)
+                                     meta["check_exact"], layered, tail_bounds)
     if plot:
         plot_dispersion(os.path.join(out, "dispersion.png"), params,
                         sweep.largest_region(params, region, k, c_max_at_k), results, fams,
@@ -224,7 +221,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     params, k, merged, region = validate(args)  # every rank, before any collective or file
     check = args.check_exact == "yes"
     # the slider's material first: a changed profile is named, not the region it changes
-    config = {**({"material": args.material.as_dict()} if args.material is not None else {}),
+    config = {**({"material": args.material.as_dict(), "layers_bound": args.layers_bound}
+                 if args.material is not None else {}),
               "params": params.as_dict(), "k": [float(v) for v in k],
               "region": region.as_dict(params), "rtol": args.rtol,
               "degree": args.degree, "cells": args.cells,
@@ -264,7 +262,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                                   (args.degree, args.cells, 1.0), args.material,
                                   check_exact=check, solver=args.solver)
         share = sweep.solve_k_values(params, region, rungs, k, mine, fams, parts.save,
-                                     None, plan.given)
+                                     None, None if args.tail else plan.given, args.tail)
         share_end = time.time()  # epoch s, one host's clock (mpi.per_rank): serial tail below
         times = comm.gather({"rank": comm.rank, "families_s": t_fam, "solve_s": share.seconds,
                              "k_values": share.k_values, "unknowns": share.rungs,
@@ -273,12 +271,14 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         code = 0
         if comm.rank == 0:
             t2 = time.perf_counter()
-            results, used = sweep.results_from_json(parts.load(i) for i in range(len(k)))
+            results, used = sweep.results_from_json(saved := [parts.load(i)
+                                                              for i in range(len(k))])
             meta = sweep.sweep_meta(params, args.k, k, merged, rungs, used, share, args.solver,
                                     check, times, run.resumed, len(todo)) | {
                 "versions": _cli.versions(), "command": _cli.command()}
             summary = write_outputs(out, params, region, k, results, fams, meta,
-                                    not args.no_plot, used, args.layered, args.quiet)
+                                    not args.no_plot, used, args.layered,
+                                    sweep.saved_tail_bounds(saved) if args.tail else None)
             summary["region"] = plan.referee(k, used, check) | summary["region"]  # layered: "by"
             wall = time.perf_counter() - t_start
             summary["timing_s"] = {"wall": wall, "post_processing_rank0": time.perf_counter()

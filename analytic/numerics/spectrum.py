@@ -162,7 +162,9 @@ def taller_rungs(p: Params, k: float, region: Region) -> tuple[float, ...]:
 
 
 def provable_region(p: Params, k: float, region: Region,
-                    fastest_inside: Callable[[float], float | None]
+                    fastest_inside: Callable[[float], float | None], *,
+                    bound: Callable[[float, float], float | None] | None = None,
+                    ladder: Sequence[float] | None = None
                     ) -> tuple[float, float | None]:
     """The smallest phase-velocity bound that provably holds the fastest mode at ``k``.
 
@@ -192,8 +194,23 @@ def provable_region(p: Params, k: float, region: Region,
         (``sweep_k.py --alpha-pc 1``: 22 s without a bound, 498 s climbing to 32 ``c_d`` for
         no proof; ``mu2 = 0.1``, ``rho2 = 1``, ``H2 = 0.5``: 8-16 s a ``k`` instead of 34-48 s).
         The top rung's bound is asked first.
+
+    ``bound(W, target)`` (keyword; default :func:`analytic.physics.tail.tail_bound` at ``k``)
+    and ``ladder`` (the rungs in ``region``'s units; default :data:`C_LADDER`) are another
+    model's, e.g. a layered slider's (``forms.studies.sweep``): its bound may stop once it is
+    known to be below ``target`` or not to get there, and there are no boxes beyond its top
+    rung. It is not taken as loose: the top rung is solved where no rung below proves (its
+    fastest value may be larger than the lower rungs': a layered stress top's trapped waves).
     """
-    ladder = (region.c_max,) if region.c_max is not None else C_LADDER
+    own = bound is None
+    ladder = ((region.c_max,) if region.c_max is not None else
+              C_LADDER if ladder is None else tuple(ladder))
+
+    def tail_at(c: float, target: float) -> float | None:
+        w = region.fixed(c).im_max(p, k)
+        return tail_bound(p, k, w) if own else bound(w, target)
+
+    loose = loose_tail_bound(p) if own else False
     i = 0
     while True:
         c = ladder[i]
@@ -207,21 +224,19 @@ def provable_region(p: Params, k: float, region: Region,
             i += 1
             continue
         target = re if re is not None else region.re_min
-        tb = tail_bound(p, k, region.fixed(c).im_max(p, k))
+        tb = tail_at(c, target)
         if tb is None or tb < target:
             return c, tb
         if i == len(ladder) - 1:  # the top; a fixed region is never grown
-            return (c, tb) if region.c_max is not None else _taller(p, k, region,
-                                                                    fastest_inside, c, tb, target)
+            return (c, tb) if region.c_max is not None or not own else _taller(
+                p, k, region, fastest_inside, c, tb, target)
         # a loose bound: the rungs up to the top would be solved for nothing (not proven) if
         # even the top rung's bound is not below (asked first: each bound may cost seconds)
-        if loose_tail_bound(p) and not tail_bound(p, k, region.fixed(ladder[-1]).im_max(p, k)
-                                                  ) < target:
+        if loose and not tail_at(ladder[-1], target) < target:
             return c, tb
         # skip the rungs whose bound is not below the fastest value found so far
         i += 1
-        while (i < len(ladder) - 1
-               and not tail_bound(p, k, region.fixed(ladder[i]).im_max(p, k)) < target):
+        while i < len(ladder) - 1 and not tail_at(ladder[i], target) < target:
             i += 1
 
 

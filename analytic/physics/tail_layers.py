@@ -162,24 +162,33 @@ def why_no_layered_bound(layers: Sequence[ExactLayer]) -> str:
     """Why :func:`layered_bound` has no bound for ``layers`` ("" if it has one)."""
     if not all(lay.constant for lay in layers):
         return NO_BOUND_GRADED
-    if layered_period(layers) is None:
-        return ("no tail bound derived for layers whose phase rates h/c_s, h/c_d are not "
-                "commensurate; the region is not proven to hold the fastest mode")
+    if layered_period(layers) is None and len(layers) > FREE_MAX_LAYERS:
+        return (f"no tail bound derived for more than {FREE_MAX_LAYERS} layers whose phase "
+                "rates h/c_s, h/c_d are not commensurate; the region is not proven to hold "
+                "the fastest mode")
     return ""
 
 
-def _grid(layers: Sequence[ExactLayer], k: float, W: float) -> tuple[float, float, float]:
-    """``(Omega, step, period)``: where the orbit takes over, the grid step, its period."""
+def _grid(layers: Sequence[ExactLayer], k: float, W: float) -> tuple[float, float, float | None]:
+    """``(Omega, step, period)``: where the orbit takes over, the grid step, its period.
+
+    ``period`` is ``None`` for rates that are not commensurate (the free torus beyond
+    ``Omega``: :func:`free_excluded`).
+    """
     h, c = layer_rates(layers)
     omega = max(2.0 * W, float(np.max(h * c)) * k * k / TUBE_EPS)
-    return (omega, math.pi / (tp.STEPS_PER_PI * float((h / c).sum())),
-            float(layered_period(layers)))
+    return (omega, math.pi / (tp.STEPS_PER_PI * float((h / c).sum())), layered_period(layers))
 
 
 def _points(layers: Sequence[ExactLayer], k: float, W: float) -> float:
-    """Grid points of :class:`_LayeredExclusion` (exact part, and the orbit at every offset)."""
+    """Grid points of :class:`_LayeredExclusion` (exact part, and the orbit at every offset).
+
+    Rates that are not commensurate: the exact part to the first ``Omega`` only (the free
+    torus's grids do not grow with it).
+    """
     omega, step, T = _grid(layers, k, W)
-    return (omega - W) / step + T / step * tp.TUBE_POINTS ** (2 * len(layers))
+    orbit = 0.0 if T is None else T / step * tp.TUBE_POINTS ** (2 * len(layers))
+    return (omega - W) / step + orbit
 
 
 class _LayeredExclusion(tp._OrbitExclusion):
@@ -192,15 +201,20 @@ class _LayeredExclusion(tp._OrbitExclusion):
     is excluded where ``|v| |a tau - F_0 u| > (1 + 2 c_max k/W) k |b| |I|``.
     """
 
-    def __init__(self, p: Params, layers: Sequence[ExactLayer], k: float, W: float) -> None:
+    def __init__(self, p: Params, layers: Sequence[ExactLayer], k: float, W: float,
+                 omega: float | None = None, start: float | None = None) -> None:
         self.p, self.layers, self.k, self.W = p, list(layers), float(k), float(W)
         self.law = FrictionLaw.from_params(p)
         heights, c = layer_rates(layers)
         self.heights, self.c, self.rates = heights, c, heights / c
-        self.margin = 1.0 + 2.0 * float(c.max()) * k / W
+        self.margin = 1.0 + tp.MARGIN * float(c.max()) * k / W
         self.omega, self.h, T = _grid(layers, k, W)
-        n = int(math.ceil((self.omega - W) / self.h)) + 2
-        self.w = np.linspace(W, self.omega, n)
+        if omega is not None:
+            self.omega = omega
+        self.free = T is None  # not commensurate: the free torus beyond omega
+        start = W if start is None else start
+        n = int(math.ceil((self.omega - start) / self.h)) + 2
+        self.w = np.linspace(start, self.omega, n)
         alpha, gamma = p.alpha_pc, p.gamma
 
         def axis(which: int):  # noqa: ANN202
@@ -210,6 +224,8 @@ class _LayeredExclusion(tp._OrbitExclusion):
             return fun
 
         self._axis_dips([axis(q) for q in range(2)])
+        if self.free:
+            return
 
         # beyond Omega: one period of the k = 0 orbit, the phases lowered by 0 .. h c k^2/Omega
         def orbit(which: int):  # noqa: ANN202
@@ -263,14 +279,181 @@ class _LayeredExclusion(tp._OrbitExclusion):
         b = abs(p.f - p.alpha_ld) + p.alpha_ld / self.omega
         return np.abs(v) * A * y - self.margin * self.k * b * np.abs(total)
 
-def layered_bound(p: Params, layers: Sequence[ExactLayer], k: float, W: float) -> float | None:
+
+# ------------------------------------------------------------------------------------------
+# Rates that are not commensurate (session 33): the free torus beyond Omega
+# ------------------------------------------------------------------------------------------
+#: Most layers the free torus takes (its grids: the phases of every layer but the bottom one).
+FREE_MAX_LAYERS = 2
+
+
+def _waves(u: np.ndarray, s: np.ndarray, amp: complex) -> tuple[np.ndarray, np.ndarray]:
+    """The up- and down-going amplitudes ``(u + s/amp)/2``, ``(u - s/amp)/2`` of a state.
+
+    Down a layer of phase ``phi`` (:func:`_down`) they become ``c e^-phi`` and ``c_ e^phi``.
+    """
+    return 0.5 * (u + s / amp), 0.5 * (u - s / amp)
+
+
+def _lowest(P: np.ndarray, Q: np.ndarray, y: float) -> np.ndarray:
+    """``min over real t`` of ``|P e^(y + i t) + Q e^-(y + i t)|``: ``| |P| e^y - |Q| e^-y |``."""
+    return np.abs(np.abs(P) * math.exp(y) - np.abs(Q) * math.exp(-y))
+
+
+def _coefficient_moduli(mats: list[tuple[float, ...]], j: int) -> np.ndarray:
+    """``|C|`` (4 x 4) of layer ``j``'s reciprocity integral on its wave amplitudes.
+
+    :func:`_layer_integral` is ``sum C[al, be] S_al D_be`` with the shear amplitudes ``S =
+    (a, a_, a e^fs, a_ e^-fs)`` and the rod's ``D = (b, b_, b e^fd, b_ e^-fd)`` (at the layer's
+    bottom: ``E(s, phi) = (e^phi - 1)/s`` splits). The ratios ``(mu q -+ lambda p)/(q +- p)``
+    do not depend on ``Lambda`` (``q = Lambda/c_s``, ``p = Lambda/c_d``).
+    """
+    _, mu, cs, M, cd = mats[j]
+    lam = M - 2.0 * mu
+    plus = abs((mu / cs - lam / cd) / (1.0 / cs + 1.0 / cd))
+    minus = abs((mu / cs + lam / cd) / (1.0 / cs - 1.0 / cd))
+    C = np.zeros((4, 4))
+    C[0, 0] = C[1, 1] = C[2, 2] = C[3, 3] = plus
+    C[0, 1] = C[1, 0] = C[2, 3] = C[3, 2] = minus
+    return C
+
+
+def _top_states(amps: list[complex], top: tuple[complex, complex], y: np.ndarray, n: int
+                ) -> tuple[list[list[np.ndarray]], tuple[np.ndarray, np.ndarray]]:
+    """Over a grid of the phases' real parts of every layer but the bottom one.
+
+    For two layers the top layer's phase ``y[1] + i t``, ``t`` on ``n`` uniform points (one
+    layer: no grid). Returns each upper layer's amplitude moduli ``(|b|, |b_|, |b e^phi|,
+    |b_ e^-phi|)`` at its bottom, and the state at the bottom layer's top.
+    """
+    u = np.full(n if len(amps) > 1 else 1, top[0], dtype=complex)
+    s = np.full(u.shape, top[1], dtype=complex)
+    moduli = []
+    for j in range(len(amps) - 1, 0, -1):
+        ph = y[j] + 1j * np.linspace(0.0, 2.0 * math.pi, n, endpoint=False)
+        u, s = _down((u, s), amps[j], ph)
+        b, b_ = _waves(u, s, amps[j])
+        moduli.append([np.abs(b), np.abs(b_), np.abs(b * np.exp(ph)), np.abs(b_ * np.exp(-ph))])
+    return moduli, (u, s)
+
+
+def _bottom_moduli(u: np.ndarray, s: np.ndarray, amp: complex, y: float) -> list[np.ndarray]:
+    """The bottom layer's amplitude moduli at its bottom from its top's state (any ``Im``)."""
+    c, c_ = _waves(u, s, amp)
+    return [np.abs(c) * math.exp(-y), np.abs(c_) * math.exp(y), np.abs(c), np.abs(c_)]
+
+
+def _rod_part(mats: list[tuple[float, ...]], L0: complex, yd: np.ndarray
+              ) -> tuple[float, list[np.ndarray]]:
+    """``(min |v|, Dmax)`` of the rod over the free torus of its phases' real parts.
+
+    ``v`` (its displacement at the interface, free top) is ``P e^phi0 + Q e^-phi0`` in the
+    bottom phase: its smallest modulus over that phase in closed form (:func:`_lowest`), over
+    the upper one on a grid of :data:`tp._R_GRID` points refined around its 8 smallest.
+    ``Dmax``: per layer (bottom first) the largest amplitude moduli.
+    """
+    amps = [m[3] * L0 / m[4] for m in mats]
+    moduli, (u, s) = _top_states(amps, (1.0, 0.0), yd, tp._R_GRID)
+    c, c_ = _waves(u, s, amps[0])
+    vmin = _lowest(c_, c, yd[0])  # v = c e^-phi0 + c_ e^phi0
+    dmax = [np.array([float(np.max(m)) for m in _bottom_moduli(u, s, amps[0], yd[0])])]
+    dmax += [np.array([float(np.max(m)) for m in mod]) for mod in reversed(moduli)]
+    low = float(np.min(vmin))
+    if len(mats) > 1:  # refine the grid of the upper phase around its 8 smallest
+        dx = 2.0 * math.pi / tp._R_GRID
+        near = np.linspace(0.0, 2.0 * math.pi, tp._R_GRID, endpoint=False)[
+            np.argsort(vmin)[:8]]
+        t = (near[:, None] + np.linspace(-dx, dx, 65)[None, :]).ravel()
+        ph = yd[1] + 1j * t
+        uf, sf = _down((np.ones_like(ph), np.zeros_like(ph)), amps[1], ph)
+        cf, cf_ = _waves(uf, sf, amps[0])
+        low = min(low, float(np.min(_lowest(cf_, cf, yd[0]))))
+    return low, dmax
+
+
+def _shear_part(p: Params, mats: list[tuple[float, ...]], L0: complex, ys: np.ndarray,
+                weights: list[np.ndarray], r: float, phi1: float, phi2: float) -> float:
+    """``max over the shear phases of sum S w / Yhat`` (``Yhat``: ``|a tau - F_0 u| / A``).
+
+    ``weights[j] = |C_j| Dmax_j`` per layer. ``S`` (moduli of the shear amplitudes) does not
+    depend on the bottom phase's real part; ``Yhat = |L0 u| dist(i tau/(L0 u), sector)`` does,
+    and is minimised over it on :data:`tp._FREE_GRID` uniform points plus
+    :data:`tp._FREE_DENSE` within six decay lengths of each zero of ``tau`` (where ``Yhat``
+    dips to order ``rho``), for each point of the upper phase's grid.
+    """
+    amps = [m[1] * L0 / m[2] for m in mats]
+    top = (0.0, 1.0) if p.bc == "velocity" else (1.0, 0.0)
+    moduli, (u1, s1) = _top_states(amps, top, ys, tp._FREE_GRID)
+    g = sum(m * w for m, w in zip(_bottom_moduli(u1, s1, amps[0], ys[0]), weights[0],
+                                  strict=True))
+    for mod, w in zip(reversed(moduli), weights[1:], strict=True):
+        g = g + sum(m * x for m, x in zip(mod, w, strict=True))
+    # tau = P e^phi0 + Q e^-phi0 in the bottom phase: |tau| is smallest at t where the two
+    # terms are opposite, within about |y0 - log(|Q|/|P|)/2| of it
+    P, Q = 0.5 * (s1 - amps[0] * u1), 0.5 * (s1 + amps[0] * u1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tz = 0.5 * (np.angle(Q) - np.angle(P) + math.pi)
+        width = np.abs(ys[0] - 0.5 * np.log(np.abs(Q) / np.abs(P)))
+    width = np.where(np.isfinite(width), np.maximum(width, 1e-12), 0.0)
+    dense = tz[:, None] + np.linspace(-6.0, 6.0, tp._FREE_DENSE)[None, :] * width[:, None]
+    uni = np.broadcast_to(np.linspace(0.0, 2.0 * math.pi, tp._FREE_GRID, endpoint=False),
+                          (tz.size, tp._FREE_GRID))
+    t0 = np.concatenate([uni, dense, dense + math.pi], axis=1)
+    u, tau = _down((u1[:, None], s1[:, None]), amps[0], ys[0] + 1j * t0)
+    lu = L0 * u
+    with np.errstate(divide="ignore", invalid="ignore"):
+        yhat = np.where(lu != 0, np.abs(lu) * tp.sector_distance(1j * tau / lu, r, phi1, phi2),
+                        np.abs(tau))
+        return float(np.max(g / np.min(yhat, axis=1)))
+
+
+def free_excluded(p: Params, layers: Sequence[ExactLayer], k: float, W: float, omega: float,
+                  rho: float) -> bool:
+    """No root with this ``rho`` beyond ``omega`` wherever the phases' real parts are.
+
+    For phase rates that are not commensurate the ``k = 0`` orbit is dense on the torus, so
+    every real part is taken (the decays ``rates rho`` times 1 .. ``1/sqrt(1 - (k c/omega)^2)``,
+    both ends tested). With the reciprocity sum split into products of a shear and a rod
+    factor (:func:`_coefficient_moduli`), ``|I| <= sum |C| |S| |D|``, and excluded where
+    ``min |v| > margin k |b| / A * max sum_j S_j |C_j| Dmax_j / Yhat`` (the margin of ``W``,
+    :class:`_LayeredExclusion`'s; ``A``, ``b``, ``Yhat`` as in its tube). At most
+    :data:`FREE_MAX_LAYERS` layers.
+    """
+    mats = _materials(layers)
+    h, c = layer_rates(layers)
+    stretch = 1.0 / np.sqrt(1.0 - np.minimum((k * c / omega) ** 2, 0.25))
+    return all(_free_test(p, mats, float(c.max()), k, W, omega, rho, (h / c) * rho * f)
+               for f in (np.ones_like(c), stretch))
+
+
+def _free_test(p: Params, mats: list[tuple[float, ...]], cmax: float, k: float, W: float,
+               omega: float, rho: float, y: np.ndarray) -> bool:
+    """:func:`free_excluded` at the decays ``y`` (``(n_layers, 2)``: shear, dilatational)."""
+    L0 = 1j * omega
+    r, phi1, phi2, A = tp._sector(p, omega, rho)
+    with np.errstate(all="ignore"):  # overflow: not excluded (below)
+        vmin, dmax = _rod_part(mats, L0, y[:, 1])
+        weights = [_coefficient_moduli(mats, j) @ d for j, d in enumerate(dmax)]
+        gmax = _shear_part(p, mats, L0, y[:, 0], weights, r, phi1, phi2)
+        b = abs(p.f - p.alpha_ld) + p.alpha_ld / omega
+        rhs = (1.0 + tp.MARGIN * cmax * k / W) * k * b / A * gmax
+        return bool(np.isfinite(rhs) and vmin > rhs)
+
+
+def layered_bound(p: Params, layers: Sequence[ExactLayer], k: float, W: float,
+                  target: float | None = None) -> float | None:
     """Bound on ``Re Lambda`` of every root with ``|Im Lambda| > W``: a layered slider.
 
-    Constant layers on a rigid substrate whose phase rates are commensurate
-    (:func:`why_no_layered_bound` otherwise: ``None``). The exclusion of
-    :class:`_LayeredExclusion` on the exact phases from ``W`` to ``Omega`` and on one period
-    of the ``k = 0`` orbit beyond (docs/design.md 8.1); asymptotic, made safe by measurement
-    (tests/test_tail.py against :func:`analytic.physics.layered_exact.det_layered`'s roots).
+    Constant layers on a rigid substrate (:func:`why_no_layered_bound` otherwise: ``None``).
+    Commensurate phase rates: the exclusion of :class:`_LayeredExclusion` on the exact phases
+    from ``W`` to ``Omega`` and on one period of the ``k = 0`` orbit beyond (docs/design.md
+    8.1); asymptotic, made safe by measurement (tests/test_tail.py against
+    :func:`analytic.physics.layered_exact.det_layered`'s roots).
+
+    Rates that are not commensurate (session 33; at most :data:`FREE_MAX_LAYERS` layers): the
+    exact phases to ``Omega`` and the free torus beyond (:func:`free_excluded`,
+    :func:`analytic.physics.tail_stack_pc.free_bound_of`; ``target``: stop once the bound is
+    known to be below it or not to get there).
 
     Returns:
         The largest ``rho`` not excluded; ``inf`` when ``W <= 2 k c_d`` of a layer (or
@@ -283,6 +466,11 @@ def layered_bound(p: Params, layers: Sequence[ExactLayer], k: float, W: float) -
     _, c = layer_rates(layers)
     if not (W > max(2.0 * k * float(c.max()), 1.0, abs(p.Delta - 1.0))):
         return math.inf
+    if layered_period(layers) is None:  # the free torus beyond Omega
+        return tp.free_bound_of(
+            _grid(layers, k, W)[1], W,
+            lambda omega, start=None: _LayeredExclusion(p, layers, k, W, omega, start),
+            functools.partial(free_excluded, p, layers, k, W), target)
     if _points(layers, k, W) > tp.MAX_POINTS:
         return math.inf
     ex = _LayeredExclusion(p, layers, k, W)

@@ -469,7 +469,7 @@ def _search(full: Callable[[float], bool], subset: Callable[[float], bool] | Non
     return hi
 
 
-def _search_grid(ex: _Exclusion) -> float:
+def _search_grid(ex: _OrbitExclusion) -> float:
     """:func:`_search` with ``ex``'s test (every :data:`_SUBSET`-th point while halving)."""
     return _search(ex.excluded, lambda rho: ex.excluded(rho, _SUBSET))
 
@@ -510,34 +510,67 @@ def stack_pc_bound(p: Params, k: float, W: float) -> float:
     return _search_grid(_Exclusion(p, k, W))
 
 
-def _both(ex: _Exclusion, omega: float, rho: float) -> bool:
-    """``ex``'s exact phases and the free torus beyond ``omega`` both exclude ``rho``."""
-    return ex.excluded(rho) and free_excluded(ex.p, ex.k, ex.W, omega, rho)
-
-
 def _free_bound(p: Params, k: float, W: float) -> float:
     """:func:`stack_pc_bound` for phase rates that are not commensurate.
 
-    Exact phases from ``W`` to ``Omega``, the free torus beyond (:func:`free_excluded`),
-    whose bound falls as ``Omega^(-1/2)``: the exact phases' bound ``rho_d`` on the first
-    ``Omega = 2 W``, then ``Omega`` grown until the free torus's bound is at most ``rho_d``
-    (or the grid would exceed :data:`FREE_MAX_POINTS`), and the exact phases from ``2 W`` to
-    the last ``Omega`` checked at the larger of the two bounds (and its doublings up to
-    :data:`RHO_MAX`); if a ``rho`` there is not excluded, the whole search on ``W .. Omega``.
+    Exact phases from ``W`` to ``Omega`` (:class:`_Exclusion`), the free torus beyond
+    (:func:`free_excluded`): :func:`free_bound_of`.
     """
-    h = _grid(p, k, W)[1]
+    return free_bound_of(_grid(p, k, W)[1], W,
+                         lambda omega, start=None: _Exclusion(p, k, W, omega, start=start),
+                         functools.partial(free_excluded, p, k, W))
+
+
+def free_bound_of(h: float, W: float, exact: Callable[..., _OrbitExclusion],
+                  free: Callable[[float, float], bool], target: float | None = None) -> float:
+    """The bound of phase rates that are not commensurate (two bodies, layered sliders).
+
+    Exact phases from ``W`` to ``Omega``, the free torus beyond, whose bound falls as
+    ``Omega^(-1/2)``: the exact phases' bound ``rho_d`` on the first ``Omega = 2 W``, then
+    ``Omega`` grown until the free torus's bound is at most ``rho_d`` (or the grid would
+    exceed :data:`FREE_MAX_POINTS`), and the exact phases from ``2 W`` to the last ``Omega``
+    checked at the larger of the two bounds (and its doublings up to :data:`RHO_MAX`); if a
+    ``rho`` there is not excluded, the whole search on ``W .. Omega``.
+
+    With a ``target`` (an adaptive region asks only whether a rung proves) the free torus
+    is not searched to its smallest bound: where ``rho_d`` is below ``target``, ``rho =
+    max(rho_d, FREE_TARGET target)`` and its doublings are tested beyond ``Omega = 2 W, 8 W,
+    ...`` until the free torus excludes them, then on the exact phases from ``2 W`` to that
+    ``Omega``: ``rho`` is returned, a bound below ``target`` though not the smallest (where a
+    test fails at the largest ``Omega``, the search above). Where ``rho_d`` is not below
+    ``target``, ``inf``: no bound below it exists, and none is sought (a climb asks several
+    rungs whose bounds it does not keep).
+
+    Args:
+        h: The exact phases' grid step.
+        W: Frequency beyond which the bound holds.
+        exact: ``exact(omega, start=None)``: the exclusion on the exact phases from ``start``
+            (default ``W``) to ``omega``.
+        free: ``free(omega, rho)``: the free torus beyond ``omega`` excludes ``rho``.
+        target: See above (``None``: the smallest bound).
+    """
     # the free torus takes every real part, so the k-offsets of the commensurate tube do not
     # set Omega here
     omega0 = 2.0 * W
     if (omega0 - W) / h > FREE_MAX_POINTS:
         return math.inf
-    rho_d = _search_grid(_Exclusion(p, k, W, omega0))
+    rho_d = _search_grid(exact(omega0))
     if not math.isfinite(rho_d):
         return math.inf
     omega_max = W + FREE_MAX_POINTS * h
+    if target is not None and rho_d >= target:  # no bound below target: none sought
+        return math.inf
+    if target is not None:
+        rho = max(rho_d, FREE_TARGET * target)
+        omega = omega0
+        while omega < omega_max and not _excluded_up(functools.partial(free, omega), rho):
+            omega = min(omega_max, 4.0 * omega)  # the free torus's bound halves
+        if _excluded_up(functools.partial(free, omega), rho) and (
+                omega == omega0 or _excluded_up(exact(omega, start=omega0).excluded, rho)):
+            return rho
     omega = omega0
     while True:
-        rho_f = _search(functools.partial(free_excluded, p, k, W, omega))
+        rho_f = _search(functools.partial(free, omega))
         if rho_f <= rho_d or omega >= omega_max:
             break
         # the free torus's bound falls as omega^(-1/2): jump to where it would be rho_d (a
@@ -547,10 +580,26 @@ def _free_bound(p: Params, k: float, W: float) -> float:
     rho = max(rho_d, rho_f)
     if not math.isfinite(rho) or omega == omega0:
         return rho
-    ext = _Exclusion(p, k, W, omega, start=omega0)
+    if _excluded_up(exact(omega, start=omega0).excluded, rho):
+        return rho
+    return _search(functools.partial(_both, exact(omega), free, omega))
+
+
+#: :func:`free_bound_of` with a target: the ``rho`` tested, as a fraction of the target.
+FREE_TARGET = 0.8
+
+
+def _excluded_up(test: Callable[[float], bool], rho: float) -> bool:
+    """``test`` excludes ``rho`` and its doublings below :data:`RHO_MAX`."""
     r = rho
     while r < RHO_MAX:
-        if not ext.excluded(r):
-            return _search(functools.partial(_both, _Exclusion(p, k, W, omega), omega))
+        if not test(r):
+            return False
         r *= 2.0
-    return rho
+    return True
+
+
+def _both(ex: _OrbitExclusion, free: Callable[[float, float], bool], omega: float,
+          rho: float) -> bool:
+    """``ex``'s exact phases and the free torus beyond ``omega`` both exclude ``rho``."""
+    return ex.excluded(rho) and free(omega, rho)

@@ -99,15 +99,15 @@ TRACK_STATEMENT = (
     "without such a link starts a new label (numbered by first appearance, then |Im Lambda|)")
 #: Why a layered sweep's region is not proven without ``--layers-bound yes``.
 LAYERED_NOT_ASKED = (
-    "the layers' tail bound was not asked for (sweep_k.py --layers-bound yes: "
-    "analytic.physics.tail_layers, constant layers with commensurate phase rates on a rigid "
-    "substrate; it costs more than the solve): the region R is the box used at each k, not "
-    "proven to hold the fastest mode")
+    "the layers' tail bound was not asked for (sweep_k.py --layers-bound yes asks for it: "
+    "analytic.physics.tail_layers, constant layers on a rigid substrate, two at most when "
+    "their phase rates are not commensurate; the region then climbs): the region R is its "
+    "first rung at each k, not proven to hold the fastest mode")
 #: The scene's one-line note for a layered/graded slider (stderr).
 LAYERED_NOTE = ("note: several layers or profiles: FE only (--check-exact no), certificate 'fe'; "
-                "the region is its first rung at every k (no climb), proven to hold the fastest "
-                "mode only with --layers-bound yes, where the layers' tail bound is below the "
-                "fastest value (summary.json)")
+                "the region climbs at each k until the layers' tail bound is below the fastest "
+                "value (--layers-bound yes, where a bound is derived; else its first rung, not "
+                "proven to hold the fastest mode: summary.json)")
 #: Sub-steps of the continuation from one swept ``k`` to the next (``track=True``).
 TRACK_SUBSTEPS = 4
 #: Largest relative gap between a continued value and the row it is linked to.
@@ -139,9 +139,9 @@ def layered_region(params: Params, material: SliderMaterial, region: Region) -> 
 
     :class:`analytic.numerics.spectrum.Region` scales ``c_max`` by the homogeneous slider's
     :func:`analytic.physics.tail.velocity_scale` of ``params``; the copy returned has ``c_max``
-    (``None``, adaptive, is its first rung :data:`analytic.numerics.spectrum.C_LADDER` ``[0]``:
-    the layered sweep does not climb, its tail bound only says whether that rung proves)
-    rescaled so that ``im_max = c_max k c_d,max + omega0``, ``c_d,max`` of
+    (``None``, adaptive, is its first rung :data:`analytic.numerics.spectrum.C_LADDER` ``[0]``,
+    from which the climb of :func:`climb` with :func:`layered_tail` starts, where a bound is
+    derived and asked for) rescaled so that ``im_max = c_max k c_d,max + omega0``, ``c_d,max`` of
     :func:`slider_velocity_scale`, and
     ``omega0`` (unless given) ``2 pi c_d,max / H`` with ``H`` the slider's height.
     """
@@ -150,6 +150,58 @@ def layered_region(params: Params, material: SliderMaterial, region: Region) -> 
     height = material.layer_rows(params.H, params.beta)[-1].y_top
     omega0 = region.omega0 if region.omega0 is not None else 2.0 * math.pi * c / height
     return Region(region.re_min, region.re_max, c_max * c / velocity_scale(params), omega0)
+
+
+@dataclass(frozen=True)
+class LayeredTail:
+    """A layered slider's adaptive region: its rungs and its tail bound (:func:`climb`).
+
+    Attributes:
+        params: The slider's parameters (``H``: its height).
+        layers: Its constant layers (:func:`analytic.physics.tail_layers.layered_bound`).
+        scale: The stack's largest ``c_d`` over ``velocity_scale(params)``: a rung of ``c``
+            times the stack's ``c_d`` is ``c * scale`` in the region's units
+            (:func:`layered_region`).
+        ladder: The rungs in the region's units (:data:`C_LADDER` times ``scale``; one rung
+            for a fixed ``--c-max``).
+    """
+
+    params: Params
+    layers: tuple[ExactLayer, ...]
+    scale: float
+    ladder: tuple[float, ...]
+
+    def bound(self, k: float) -> Callable[[float, float], float | None]:
+        """The bound at ``k`` as :func:`analytic.numerics.spectrum.provable_region` asks it."""
+        def at(w: float, target: float) -> float | None:
+            return layered_bound(self.params, self.layers, k, w, target)
+        return at
+
+
+def layered_tail(params: Params, material: SliderMaterial, region: Region) -> LayeredTail | None:
+    """The :class:`LayeredTail` of a layered slider (``region`` as the user gave it).
+
+    ``None`` where no bound is derived (profiles, a deformable substrate, more than two
+    layers whose phase rates are not commensurate).
+    """
+    layers, why_not = layered_tail_layers(params, material)
+    if why_not:
+        return None
+    scale = slider_velocity_scale(params, material) / velocity_scale(params)
+    rungs = C_LADDER if region.c_max is None else (region.c_max,)
+    return LayeredTail(params, tuple(_exact_layers(layers)), scale,
+                       tuple(c * scale for c in rungs))
+
+
+def layered_setup(params: Params, material: SliderMaterial, region: Region, bound: bool
+                  ) -> tuple[dict, LayeredTail | None]:
+    """:func:`layered_summary` and, with ``bound`` (``--layers-bound yes``), :func:`layered_tail`.
+
+    ``region`` as the user gave it; the tail is ``None`` without ``bound`` or where no bound is
+    derived (the region is then its first rung, not climbed).
+    """
+    return (layered_summary(params, material, region, bound),
+            layered_tail(params, material, region) if bound else None)
 
 
 def layered_params(params: Params, material: SliderMaterial, check_exact: str,
@@ -198,21 +250,29 @@ def layered_summary(params: Params, material: SliderMaterial, region: Region,
     """``summary.json`` keys of a layered slider's region (``region`` as given by the user).
 
     ``tail_layers``, ``why_not``: :func:`layered_tail_layers` (with ``bound``, the scene's
-    ``--layers-bound yes``, :func:`summarise` bounds the tail with them and sets
-    ``proven_to_hold_fastest_mode``; without, ``why_not`` is :data:`LAYERED_NOT_ASKED`).
+    ``--layers-bound yes``, the region climbs at each ``k`` (:func:`climb` with
+    :func:`layered_tail`) and :func:`summarise` sets ``proven_to_hold_fastest_mode`` from the
+    bounds it saved; without, ``why_not`` is :data:`LAYERED_NOT_ASKED`).
     """
-    c_max = C_LADDER[0] if region.c_max is None else region.c_max
     layers, why_not = layered_tail_layers(params, material)
     why_not = why_not if bound else LAYERED_NOT_ASKED
+    climbs = not why_not and region.c_max is None
+    c_max = "auto" if climbs else (C_LADDER[0] if region.c_max is None else region.c_max)
+    how = (f"c_max = auto: chosen per k from {list(C_LADDER)} until the layers' tail bound, "
+           "analytic.physics.tail_layers, is below the fastest FE eigenvalue inside (the top "
+           "rung if none is)" if climbs else
+           "c_max = auto is the first rung, 4: without the layers' tail bound the region does "
+           "not climb")
     return {"velocity_scale": slider_velocity_scale(params, material),
             "c_max": c_max,
             "definition": ("re_min <= Re Lambda <= re_max and |Im Lambda| <= c_max * k * "
                            "velocity_scale + omega0 (velocity_scale: the largest c_d of the "
-                           "layered/graded stack, units of mu = rho = 1; c_max = auto is the "
-                           "first rung, 4: the layered sweep does not climb)"),
+                           f"layered/graded stack, units of mu = rho = 1; {how})"),
             "proven_to_hold_fastest_mode": False, "why_not": why_not, "tail_layers": layers,
-            "by": ("fixed (the first rung; its tail bound, analytic.physics.tail_layers, "
-                   "says whether it holds the fastest mode)")}
+            "by": ("fe (the FE climbed its own region with the layers' tail bound; per_k: the "
+                   "rung and the bound at each k)" if climbs else
+                   "fixed (its tail bound, analytic.physics.tail_layers, where asked for, says "
+                   "whether it holds the fastest mode)")}
 
 
 def _float_back(v: object) -> object:
@@ -235,6 +295,11 @@ def results_from_json(saved: Iterable[dict]) -> tuple[list[KResult], list[float]
     if any("re_next" in r for res in results for r in res.rows):
         label_by_continuation(results)
     return results, [float(d["c_max"]) for d in saved]
+
+
+def saved_tail_bounds(saved: Iterable[dict]) -> list[float | None]:
+    """The tail bound each saved ``k``'s climb kept (:func:`solve_k_values` with a ``tail``)."""
+    return [None if d["tail_bound"] is None else float(d["tail_bound"]) for d in saved]
 
 
 def k_result_from_json(d: dict) -> KResult:
@@ -421,10 +486,11 @@ def largest_region(params: Params, region: Region, k: Sequence[float],
     (:data:`analytic.numerics.spectrum.C_LADDER`); a taller box beyond the ladder's top
     (:func:`analytic.numerics.spectrum.taller_rungs`, small ``k``) raises its ``omega0``
     instead: its ``c_max`` (e.g. 190 ``c_d`` at ``kH = 0.05``) at the sweep's largest ``k`` would
-    be a region many times too tall to plan families in.
+    be a region many times too tall to plan families in. A fixed region: the largest bound
+    used (itself, or a layered slider's climb from its first rung, :func:`climb`).
     """
-    if region.c_max is not None:
-        return region
+    if region.c_max is not None:  # a fixed region, or a layered slider's climb (no taller box)
+        return region.fixed(max(c_max_at_k, default=region.c_max))
     big = region.fixed(largest_rung(c_max_at_k))
     lift = max(region.fixed(c).im_max(params, float(x)) - big.im_max(params, float(x))
                for c, x in zip(c_max_at_k, k, strict=True))
@@ -590,8 +656,8 @@ class RungSolvers:
 
 
 def climb(params: Params, region: Region, k: float, fams: list[BranchResult],
-          rungs: Callable[[float, float], CertifiedSolver], start: float | None = None
-          ) -> tuple[KResult, float]:
+          rungs: Callable[[float, float], CertifiedSolver], start: float | None = None,
+          tail: LayeredTail | None = None) -> tuple[KResult, float, float | None]:
     """The FE's own provable region at ``k``: the certified spectrum of the rung it accepts.
 
     :func:`analytic.numerics.spectrum.provable_region` with the fastest FE eigenvalue of each
@@ -606,8 +672,12 @@ def climb(params: Params, region: Region, k: float, fams: list[BranchResult],
     that accept the same rung one solve per ``k`` instead of two (stress top, defaults: the
     4 ``c_d`` rung, then 12 or 16).
 
+    ``tail`` (a layered slider): its rungs and bound instead of the homogeneous slider's
+    (``region`` is then any of its rungs: the climb takes ``tail.ladder``).
+
     Returns:
-        ``(result, c)``: the result at the accepted rung ``c``.
+        ``(result, c, tail_bound)``: the result at the accepted rung ``c`` and the tail bound
+        there (``None``: none derived).
     """
     got: dict[float, KResult] = {}
 
@@ -624,17 +694,22 @@ def climb(params: Params, region: Region, k: float, fams: list[BranchResult],
                         if abs(r["im_lambda"]) <= w), default=None)
         return max((r["re_lambda"] for r in solve(c).rows), default=None)
 
+    more = {}
+    if tail is not None:
+        region = replace(region, c_max=None if len(tail.ladder) > 1 else tail.ladder[0])
+        more = {"bound": tail.bound(k), "ladder": tail.ladder}
     if start is not None and region.c_max is None:
         solve(start)
-    c, _ = provable_region(params, k, region, fastest_inside)
-    return solve(c), c
+    c, tb = provable_region(params, k, region, fastest_inside, **more)
+    return solve(c), c, tb
 
 
 def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.ndarray,
                    mine: Iterable[int], fams: list[BranchResult],
                    save: Callable[[int, dict], object],
                    progress: Callable[[], object] | None = None,
-                   c_max_at_k: Sequence[float] | None = None) -> ShareRun:
+                   c_max_at_k: Sequence[float] | None = None,
+                   tail: LayeredTail | None = None) -> ShareRun:
     """The certified spectrum at ``k[i]`` for each ``i`` of ``mine``, each handed to ``save``.
 
     Each :class:`forms.solvers.certified.KResult` goes to ``save(i, result.as_dict() |
@@ -654,6 +729,8 @@ def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.nda
         progress: Called after every finished ``k`` (e.g. a progress bar's update).
         c_max_at_k: The bound to use at each ``k`` (indexed like ``k``; the exact-seeded
             sweep's :func:`region_at_k`); ``None``: the FE climbs its own (:func:`climb`).
+        tail: A layered slider's rungs and tail bound (:func:`layered_tail`): its climb, and
+            the bound saved with each ``k`` (``tail_bound``).
 
     With a ``material`` and no exact check (``rungs``), every row is also continued to the next
     swept ``k`` (:func:`continue_rows`), for the labels of :func:`label_by_continuation`.
@@ -666,16 +743,19 @@ def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.nda
     try:
         for i in mine:  # each climb starts at the rung of the k solved before it
             done += 1
+            extra: dict = {}
             if c_max_at_k is not None:
                 c = c_max_at_k[i]
                 res = rungs(c, float(k[i])).solve(float(k[i]), fams, region.fixed(c),
                                                   follow=True)
             else:
-                res, c = climb(params, region, float(k[i]), fams, rungs, start)
+                res, c, tb = climb(params, region, float(k[i]), fams, rungs, start, tail)
                 start = c
+                if tail is not None:
+                    extra = {"tail_bound": tb}
             if track and i + 1 < len(k):
                 continue_rows(rungs(c, float(k[i + 1])), res, float(k[i + 1]))
-            save(i, res.as_dict() | {"c_max": c})
+            save(i, res.as_dict() | {"c_max": c} | extra)
             if progress is not None:
                 progress()
         sizes = {c: n for c, (_, n) in rungs.largest.items()}
@@ -806,6 +886,11 @@ def tail_at_k(params: Params, region: Region, res: KResult, c_max: float,
     w = region.fixed(c_max).im_max(params, res.k)
     tb = ((layered_bound(params, layers, res.k, w) if layers is not None
            else tail_bound(params, res.k, w)) if derived else None)
+    return tail_entry(region, res, c_max, tb)
+
+
+def tail_entry(region: Region, res: KResult, c_max: float, tb: float | None) -> dict:
+    """``per_k`` keys of the region proof at one ``k`` from its bound ``c_max`` and tail bound."""
     fastest = max((r["re_lambda"] for r in res.rows), default=None)
     target = fastest if fastest is not None else region.re_min
     return {"c_max": c_max, "tail_bound": tb,
@@ -853,7 +938,7 @@ def most_unstable(rows: list[dict], results: list[KResult], k: np.ndarray,
 def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResult],
               fams: list[BranchResult], c_max_at_k: Sequence[float] | None = None,
               check_exact: bool = True, layered: dict | None = None,
-              progress: Callable[[Iterable], Iterable] | None = None) -> dict:
+              tail_bounds: Sequence[float | None] | None = None) -> dict:
     """The sweep's summary: region, certificate, accuracy, families, most unstable, per ``k``.
 
     Pure data (no files). The keys, in order: ``region``, ``certificate`` (``k`` values closed
@@ -862,9 +947,9 @@ def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResu
     (:func:`most_unstable`), ``per_k`` (counts, box, seconds, factorisations, and the
     certificate each row carries: ``fe`` and/or ``exact``). ``layered``
     (:func:`layered_summary`): a layered/graded slider, its keys join ``region``; its tail
-    bound is :func:`analytic.physics.tail_layers.layered_bound` where one is derived, each
-    ``k``'s through ``progress`` (e.g. a progress bar's wrapper of an iterable: seconds a
-    ``k``).
+    bound is :func:`analytic.physics.tail_layers.layered_bound` where one is derived:
+    ``tail_bounds``, the bound each ``k`` saved when it climbed (:func:`solve_k_values`; its
+    ``c_max`` then in units of the stack's ``c_d``), else computed here (seconds a ``k``).
     """
     rows = [r for res in results for r in res.rows]
     flagged = [r for r in rows if r["status"] != "ok"]
@@ -877,11 +962,14 @@ def summarise(params: Params, region: Region, k: np.ndarray, results: list[KResu
     layers = (_exact_layers(layered["tail_layers"]) if layered is not None and not why_not
               else None)
     pairs = list(zip(results, cs, strict=True))
-    if layers is not None and progress is not None:
-        pairs = progress(pairs)
-    tails = [tail_at_k(params, region, res, c, not why_not, layers)
-             | ({"c_max": layered["c_max"]} if layered is not None else {})
-             for res, c in pairs]
+    if layers is not None and tail_bounds is not None:  # saved by the climb
+        scale = layered["velocity_scale"] / velocity_scale(params)
+        tails = [tail_entry(region, res, c / scale, tb)
+                 for (res, c), tb in zip(pairs, tail_bounds, strict=True)]
+    else:
+        tails = [tail_at_k(params, region, res, c, not why_not, layers)
+                 | ({"c_max": layered["c_max"]} if layered is not None else {})
+                 for res, c in pairs]
     most = most_unstable(rows, results, k, open_k, tails, why_not, check_exact)
     if layered is not None:
         layered = layered | {"proven_to_hold_fastest_mode": bool(

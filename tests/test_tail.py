@@ -530,8 +530,11 @@ def test_stack_tail_bound_where_derived():
     assert not why_no_tail_bound(pc) and tail_bound(pc, 5.0, 39.0) == math.inf
     tb = [tail_bound(pc, 5.0, w) for w in (105.0, 210.0, 420.0)]
     assert tb[0] > tb[1] > tb[2] > 0
-    # its grids grow as k^2 (Omega): beyond MAX_POINTS no bound (inf), at once
-    assert tail_bound(pc, 40.0, 640.0) == math.inf
+    # its grids grow as k^2 (Omega): beyond MAX_POINTS the free torus (session 33; inf before)
+    from analytic.physics import tail_stack_pc as tp
+
+    assert tp._points(pc, 40.0, 640.0) > tp.MAX_POINTS
+    assert 0 < tail_bound(pc, 40.0, 640.0) < math.inf
 
 
 #: Band checks of the two-body bound: stiff (mu2 = 4, 9) and soft (mu2 = 1/4) substrates, both
@@ -867,6 +870,24 @@ def test_layered_bound_where_derived():
         assert 0 < tb[2] < tb[0] < math.inf
         assert 0.5 < tb[0] / tail_bound(p, 3.0, 49.0) < 1.2
     assert layered_bound(Params(), one, 3.0, 11.0) == math.inf  # W below 2 k c_d = 12
+
+
+@pytest.mark.slow  # about 6 s (166 roots in the band)
+def test_two_body_bound_at_large_k_takes_the_free_torus():
+    """A commensurate two-body stack with alpha_pc > 0 at large k: its orbit's grids exceed
+    MAX_POINTS (Omega grows as k^2), so the free torus takes over beyond Omega (session 33;
+    inf before): finite, above every exact root of W .. 1.5 W (measured 0.16 of it) and each
+    root of positive Re below the bound at its own frequency (measured 0.47)."""
+    from analytic.physics import tail_stack_pc as tp
+
+    p, k = Params(bc="stress", mu2=4.0, rho2=1.0, H2=0.5, alpha_pc=0.02), 27.0
+    w = Region(c_max=4.0).im_max(p, k)
+    assert tp.period(p) is not None and tp._points(p, k, w) > tp.MAX_POINTS
+    tb = tail_bound(p, k, w)
+    z = _band_roots(p, k, w, 1.5 * w, re_min=-0.5)
+    assert len(z) > 10 and 0 < tb < math.inf and np.all(z.real < tb), (z.real.max(), tb)
+    up = sorted(z[z.real > 0], key=lambda v: -v.real)[:3]
+    assert up and all(v.real < tail_bound(p, k, abs(v.imag)) for v in up)
 
 
 #: The free torus alone (tail_layers.free_excluded) beyond a far frequency ``w1``, against the

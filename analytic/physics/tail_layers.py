@@ -457,8 +457,9 @@ def layered_bound(p: Params, layers: Sequence[ExactLayer], k: float, W: float,
 
     Returns:
         The largest ``rho`` not excluded; ``inf`` when ``W <= 2 k c_d`` of a layer (or
-        ``max(1, |Delta - 1|)``), when the grids would exceed tail_stack_pc's ``MAX_POINTS``,
-        or when ``rho = 4`` is not excluded; ``None`` as said.
+        ``max(1, |Delta - 1|)``), when the orbit's grids would exceed tail_stack_pc's
+        ``MAX_POINTS`` for more than two layers (two at most: the free torus instead), or
+        when ``rho = 4`` is not excluded; ``None`` as said.
     """
     if why_no_layered_bound(layers):
         return None
@@ -466,12 +467,14 @@ def layered_bound(p: Params, layers: Sequence[ExactLayer], k: float, W: float,
     _, c = layer_rates(layers)
     if not (W > max(2.0 * k * float(c.max()), 1.0, abs(p.Delta - 1.0))):
         return math.inf
-    if layered_period(layers) is None:  # the free torus beyond Omega
+    too_long = _points(layers, k, W) > tp.MAX_POINTS  # the orbit's grids (Omega grows as k^2)
+    if layered_period(layers) is None or (too_long and len(layers) <= FREE_MAX_LAYERS):
+        # the free torus beyond Omega: it holds every orbit, a long commensurate one too
         return tp.free_bound_of(
             _grid(layers, k, W)[1], W,
             lambda omega, start=None: _LayeredExclusion(p, layers, k, W, omega, start),
             functools.partial(free_excluded, p, layers, k, W), target)
-    if _points(layers, k, W) > tp.MAX_POINTS:
+    if too_long:
         return math.inf
     ex = _LayeredExclusion(p, layers, k, W)
     # the whole search on every _SUBSET-th point (its "not excluded" is final), then the whole

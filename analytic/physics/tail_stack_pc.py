@@ -492,21 +492,23 @@ def stack_pc_bound(p: Params, k: float, W: float) -> float:
 
     Returns:
         The largest ``rho`` not excluded (module docstring); ``inf`` when ``W <= 2 k c_d`` of
-        either layer (or ``max(1, |Delta - 1|)``), when the grids would exceed
-        :data:`MAX_POINTS` (large ``k``: ``Omega`` grows as ``k^2``) or when :data:`RHO_MAX` is
-        not excluded. 0.3-0.5 s a call for ``Omega`` up to 800, 9 s for 5 500 (measured);
-        not commensurate: 0.8-1.8 s (``mu2 = 0.1, 3``, ``rho2 = 1``, ``H2 = 0.5``); cached.
-        The stress top, ``mu2 = 4, rho2 = 1, H2 = 0.5``, ``W`` of 4 ``c_d2``: ``inf`` from
-        ``k = 27`` on (the grids' size).
+        either layer (or ``max(1, |Delta - 1|)``) or when :data:`RHO_MAX` is not excluded.
+        Where the grids would exceed :data:`MAX_POINTS` (large ``k``: ``Omega`` grows as
+        ``k^2``; session 33, ``inf`` before) the free torus beyond ``Omega``, as for rates
+        that are not commensurate (it holds every orbit). 0.3-0.5 s a call for ``Omega`` up
+        to 800, 9 s for 5 500 (measured); not commensurate: 0.8-1.8 s (``mu2 = 0.1, 3``,
+        ``rho2 = 1``, ``H2 = 0.5``); cached. The stress top, ``mu2 = 4, rho2 = 1, H2 = 0.5``,
+        ``alpha_pc = 0.02``, ``W`` of 4 ``c_d2``: from ``k = 27`` on the free torus (0.17 at
+        ``k = 27``, 0.075 at 50, 0.080 at 100).
     """
     k, W = float(k), float(W)
     cmax = float(np.max(stack_constants(p)["c"]))
     if not (W > max(2.0 * k * cmax, 1.0, abs(p.Delta - 1.0))):
         return math.inf
-    if period(p) is None:
+    if period(p) is None or _points(p, k, W) > MAX_POINTS:
+        # the free torus holds every orbit: also a commensurate one too long to sample (large
+        # k, Omega growing as k^2; session 33: inf before)
         return _free_bound(p, k, W)
-    if _points(p, k, W) > MAX_POINTS:
-        return math.inf
     return _search_grid(_Exclusion(p, k, W))
 
 

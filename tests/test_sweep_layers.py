@@ -258,6 +258,31 @@ def test_damage_zone_readme_numbers_from_the_committed_sweeps(case):
         got["peak"]["re_lambda"], rel=1e-15)
 
 
+@pytest.mark.slow  # measured about 20 s (the scene twice, climbs to 12-32 c_d)
+@pytest.mark.serial
+def test_layered_climb_is_the_same_on_one_and_two_ranks(tmp_path):
+    """The layered climb (--layers-bound yes) decides each k's rung from that k alone: the
+    damage zone's stress top at three k where it climbs to 12-32 c_d (measured) gives the same
+    rungs, counts, proofs and values (to 1e-9) on one rank and on two."""
+    layers = tmp_path / "dz.csv"
+    layers.write_text(DAMAGE_ZONE)
+    got = {}
+    for nproc in (1, 2):
+        out = str(tmp_path / f"np{nproc}")
+        proc = _scene(["--model", "layers", "--layers", str(layers), "--k", "2.3,2.5,2.7",
+                       "--bc", "stress", "--layers-bound", "yes"], out, nproc=nproc,
+                      preamble=NO_EXACT, timeout=600)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        rows, summary = _read(out)
+        got[nproc] = ([(d["k"], d["c_max"], d["n_fe"], d["fastest_proven"])
+                       for d in summary["per_k"]], sorted((_value(r) for r in rows),
+                                                          key=lambda z: (z.imag, z.real)))
+    # measured: 12, 32 and 24 c_d, every k proven but 2.5 (the top rung's bound above its
+    # fastest value there)
+    assert got[1][0] == got[2][0] and max(c for _, c, _, _ in got[1][0]) == 32.0
+    assert np.allclose(got[1][1], got[2][1], rtol=1e-9, atol=0)
+
+
 @pytest.mark.slow  # measured about 6 s (an exact count of a tall box)
 @pytest.mark.serial
 def test_damage_zone_committed_run_is_proven_and_a_taller_box_agrees():

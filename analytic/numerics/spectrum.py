@@ -198,19 +198,20 @@ def provable_region(p: Params, k: float, region: Region,
     ``bound(W, target)`` (keyword; default :func:`analytic.physics.tail.tail_bound` at ``k``)
     and ``ladder`` (the rungs in ``region``'s units; default :data:`C_LADDER`) are another
     model's, e.g. a layered slider's (``forms.studies.sweep``): its bound may stop once it is
-    known to be below ``target`` or not to get there, and there are no boxes beyond its top
-    rung. It is not taken as loose: the top rung is solved where no rung below proves (its
-    fastest value may be larger than the lower rungs': a layered stress top's trapped waves).
+    known to be below ``target`` or not to get there (``bound(W, None)``: the smallest, asked
+    at the top rung when it does not prove, so that the value returned is a bound the sweep's
+    overall statement can use), and there are no boxes beyond its top rung. It is not taken
+    as loose: the top rung is solved where no rung below proves (its fastest value may be
+    larger than the lower rungs': a layered stress top's trapped waves).
     """
     own = bound is None
     ladder = ((region.c_max,) if region.c_max is not None else
               C_LADDER if ladder is None else tuple(ladder))
 
-    def tail_at(c: float, target: float) -> float | None:
+    def tail_at(c: float, target: float | None) -> float | None:
         w = region.fixed(c).im_max(p, k)
         return tail_bound(p, k, w) if own else bound(w, target)
 
-    loose = loose_tail_bound(p) if own else False
     i = 0
     while True:
         c = ladder[i]
@@ -228,11 +229,13 @@ def provable_region(p: Params, k: float, region: Region,
         if tb is None or tb < target:
             return c, tb
         if i == len(ladder) - 1:  # the top; a fixed region is never grown
-            return (c, tb) if region.c_max is not None or not own else _taller(
-                p, k, region, fastest_inside, c, tb, target)
+            if not own:  # another model's bound: its smallest value there
+                return c, tail_at(c, None)
+            return (c, tb) if region.c_max is not None else _taller(p, k, region,
+                                                                    fastest_inside, c, tb, target)
         # a loose bound: the rungs up to the top would be solved for nothing (not proven) if
         # even the top rung's bound is not below (asked first: each bound may cost seconds)
-        if loose and not tail_at(ladder[-1], target) < target:
+        if own and loose_tail_bound(p) and not tail_at(ladder[-1], target) < target:
             return c, tb
         # skip the rungs whose bound is not below the fastest value found so far
         i += 1

@@ -535,13 +535,10 @@ def free_bound_of(h: float, W: float, exact: Callable[..., _OrbitExclusion],
     ``rho`` there is not excluded, the whole search on ``W .. Omega``.
 
     With a ``target`` (an adaptive region asks only whether a rung proves) the free torus
-    is not searched to its smallest bound: where ``rho_d`` is below ``target``, ``rho =
-    max(rho_d, FREE_TARGET target)`` and its doublings are tested beyond ``Omega = 2 W, 8 W,
-    ...`` until the free torus excludes them, then on the exact phases from ``2 W`` to that
-    ``Omega``: ``rho`` is returned, a bound below ``target`` though not the smallest (where a
-    test fails at the largest ``Omega``, the search above). Where ``rho_d`` is not below
-    ``target``, ``inf``: no bound below it exists, and none is sought (a climb asks several
-    rungs whose bounds it does not keep).
+    is not searched to its smallest bound: where ``rho_d`` is below ``target``,
+    :func:`_below_target` (a bound below ``target``, not the smallest, or ``inf``); where it
+    is not, ``inf``: no bound below it exists, and none is sought (a climb asks several rungs
+    whose bounds it does not keep).
 
     Args:
         h: The exact phases' grid step.
@@ -563,13 +560,7 @@ def free_bound_of(h: float, W: float, exact: Callable[..., _OrbitExclusion],
     if target is not None and rho_d >= target:  # no bound below target: none sought
         return math.inf
     if target is not None:
-        rho = max(rho_d, FREE_TARGET * target)
-        omega = omega0
-        while omega < omega_max and not _excluded_up(functools.partial(free, omega), rho):
-            omega = min(omega_max, 4.0 * omega)  # the free torus's bound halves
-        if _excluded_up(functools.partial(free, omega), rho) and (
-                omega == omega0 or _excluded_up(exact(omega, start=omega0).excluded, rho)):
-            return rho
+        return _below_target(exact, free, W, omega_max, rho_d, target)
     omega = omega0
     while True:
         rho_f = _search(functools.partial(free, omega))
@@ -587,15 +578,49 @@ def free_bound_of(h: float, W: float, exact: Callable[..., _OrbitExclusion],
     return _search(functools.partial(_both, exact(omega), free, omega))
 
 
-#: :func:`free_bound_of` with a target: the ``rho`` tested, as a fraction of the target.
-FREE_TARGET = 0.8
+#: :func:`free_bound_of` with a target: the ``rho`` tested first and last, as fractions of it.
+FREE_TARGET = (0.8, 0.99)
 
 
-def _excluded_up(test: Callable[[float], bool], rho: float) -> bool:
-    """``test`` excludes ``rho`` and its doublings below :data:`RHO_MAX`."""
-    r = rho
+def _below_target(exact: Callable[..., _OrbitExclusion], free: Callable[[float, float], bool],
+                  W: float, omega_max: float, rho_d: float, target: float) -> float:
+    """:func:`free_bound_of` with a ``target`` above ``rho_d``: a bound below it, or ``inf``.
+
+    ``rho = max(rho_d, 0.8 target)`` and its doublings on the free torus beyond ``Omega = 2 W,
+    4 W, ...`` until excluded (at the largest ``Omega``, ``0.99 target`` instead), then on the
+    exact phases from ``2 W`` to that ``Omega`` (where they do not exclude it, their own bound,
+    if below the target and excluded beyond). ``inf``: no bound below the target found.
+    """
+    omega0 = 2.0 * W
+    rho, omega = max(rho_d, FREE_TARGET[0] * target), omega0
+    while omega < omega_max and not _excluded_up(functools.partial(free, omega), rho):
+        omega = min(omega_max, 2.0 * omega)  # its bound falls by sqrt 2
+    if not _excluded_up(functools.partial(free, omega), rho):
+        rho = max(rho_d, FREE_TARGET[1] * target)
+        if not _excluded_up(functools.partial(free, omega), rho):
+            return math.inf
+    if omega == omega0:
+        return rho
+    ext = exact(omega, start=omega0)
+    # the doublings (the excluded rho form an interval up to RHO_MAX: a check) on every
+    # _SUBSET-th point and all the dips' points, where the dips are wider than at rho
+    if _excluded_up(ext.excluded, rho, functools.partial(ext.excluded, every=_SUBSET)):
+        return rho
+    rho = max(rho, _search_grid(ext))
+    return rho if rho < target and _excluded_up(functools.partial(free, omega), rho) else math.inf
+
+
+def _excluded_up(test: Callable[[float], bool], rho: float,
+                 doublings: Callable[[float], bool] | None = None) -> bool:
+    """``test`` excludes ``rho``, and ``doublings`` (default ``test``) its doublings.
+
+    Up to :data:`RHO_MAX`.
+    """
+    if not test(rho):
+        return False
+    r = 2.0 * rho
     while r < RHO_MAX:
-        if not test(r):
+        if not (doublings or test)(r):
             return False
         r *= 2.0
     return True

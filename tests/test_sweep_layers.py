@@ -156,7 +156,7 @@ def test_damage_zone_climbs_until_its_tail_bound_proves_and_a_taller_box_agrees(
     assert region["proven_to_hold_fastest_mode"] is True and region["c_max"] == "auto"
     assert per_k["c_max"] > 4.0 and per_k["fastest_proven"]
     fastest = max(float(r["re_lambda"]) for r in rows)
-    # measured: 6 c_d, the bound 0.147 against the fastest 0.2096
+    # measured: 6 c_d, the bound 0.168 (0.8 of the target) against the fastest 0.2096
     assert 0 < per_k["tail_bound"] < fastest
     p, w = Params(bc="stress"), 3.0 * per_k["box"][3]
 

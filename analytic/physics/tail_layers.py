@@ -358,17 +358,18 @@ def _rod_part(mats: list[tuple[float, ...]], L0: complex, yd: np.ndarray
     vmin = _lowest(c_, c, yd[0])  # v = c e^-phi0 + c_ e^phi0
     dmax = [np.array([float(np.max(m)) for m in _bottom_moduli(u, s, amps[0], yd[0])])]
     dmax += [np.array([float(np.max(m)) for m in mod]) for mod in reversed(moduli)]
-    low = float(np.min(vmin))
-    if len(mats) > 1:  # refine the grid of the upper phase around its 8 smallest
-        dx = 2.0 * math.pi / tp._R_GRID
-        near = np.linspace(0.0, 2.0 * math.pi, tp._R_GRID, endpoint=False)[
-            np.argsort(vmin)[:8]]
-        t = (near[:, None] + np.linspace(-dx, dx, 65)[None, :]).ravel()
+    if len(mats) == 1:
+        return float(np.min(vmin)), dmax
+
+    def lowest(t: np.ndarray) -> np.ndarray:  # over the bottom phase, at the upper one's t
         ph = yd[1] + 1j * t
         uf, sf = _down((np.ones_like(ph), np.zeros_like(ph)), amps[1], ph)
         cf, cf_ = _waves(uf, sf, amps[0])
-        low = min(low, float(np.min(_lowest(cf_, cf, yd[0]))))
-    return low, dmax
+        return _lowest(cf_, cf, yd[0])
+
+    # refined around the upper phase grid's 8 smallest (_top_states' grid)
+    return tp.refined_min(lowest, np.linspace(0.0, 2.0 * math.pi, tp._R_GRID, endpoint=False),
+                          vmin), dmax
 
 
 def _shear_part(p: Params, mats: list[tuple[float, ...]], L0: complex, ys: np.ndarray,

@@ -429,7 +429,14 @@ def _min_resonance(p: Params, y: np.ndarray) -> float:
         return np.abs(A / np.cos(phi)) * np.abs(np.sinh(phi.imag - y[3]))
 
     x = np.linspace(0.0, 2.0 * math.pi, _R_GRID, endpoint=False)
-    v = f(x)
+    return refined_min(f, x, f(x))
+
+
+def refined_min(f: Callable[[np.ndarray], np.ndarray], x: np.ndarray, v: np.ndarray) -> float:
+    """Smallest of ``v = f(x)`` on a uniform grid ``x``, refined around its 8 smallest.
+
+    65 points of ``f`` over the two neighbouring steps of each.
+    """
     dx = x[1] - x[0]
     near = x[np.argsort(v)[:8]]
     fine = (near[:, None] + np.linspace(-dx, dx, 65)[None, :]).ravel()
@@ -557,10 +564,9 @@ def free_bound_of(h: float, W: float, exact: Callable[..., _OrbitExclusion],
     if not math.isfinite(rho_d):
         return math.inf
     omega_max = W + FREE_MAX_POINTS * h
-    if target is not None and rho_d >= target:  # no bound below target: none sought
-        return math.inf
-    if target is not None:
-        return _below_target(exact, free, W, omega_max, rho_d, target)
+    if target is not None:  # rho_d not below it: no bound below target, none sought
+        return (math.inf if rho_d >= target
+                else _below_target(exact, free, W, omega_max, rho_d, target))
     omega = omega0
     while True:
         rho_f = _search(functools.partial(free, omega))
@@ -593,12 +599,13 @@ def _below_target(exact: Callable[..., _OrbitExclusion], free: Callable[[float, 
     """
     omega0 = 2.0 * W
     rho, omega = max(rho_d, FREE_TARGET[0] * target), omega0
-    while omega < omega_max and not _excluded_up(functools.partial(free, omega), rho):
+    while not _excluded_up(functools.partial(free, omega), rho):
+        if omega >= omega_max:
+            rho = max(rho_d, FREE_TARGET[1] * target)
+            if not _excluded_up(functools.partial(free, omega), rho):
+                return math.inf
+            break
         omega = min(omega_max, 2.0 * omega)  # its bound falls by sqrt 2
-    if not _excluded_up(functools.partial(free, omega), rho):
-        rho = max(rho_d, FREE_TARGET[1] * target)
-        if not _excluded_up(functools.partial(free, omega), rho):
-            return math.inf
     if omega == omega0:
         return rho
     ext = exact(omega, start=omega0)

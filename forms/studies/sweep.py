@@ -159,16 +159,13 @@ class LayeredTail:
     Attributes:
         params: The slider's parameters (``H``: its height).
         layers: Its constant layers (:func:`analytic.physics.tail_layers.layered_bound`).
-        scale: The stack's largest ``c_d`` over ``velocity_scale(params)``: a rung of ``c``
-            times the stack's ``c_d`` is ``c * scale`` in the region's units
-            (:func:`layered_region`).
-        ladder: The rungs in the region's units (:data:`C_LADDER` times ``scale``; one rung
-            for a fixed ``--c-max``).
+        ladder: The rungs in the region's units (:func:`layered_region`: :data:`C_LADDER`
+            times the stack's largest ``c_d`` over ``velocity_scale(params)``; one rung for a
+            fixed ``--c-max``).
     """
 
     params: Params
     layers: tuple[ExactLayer, ...]
-    scale: float
     ladder: tuple[float, ...]
 
     def bound(self, k: float) -> Callable[[float, float], float | None]:
@@ -189,8 +186,7 @@ def layered_tail(params: Params, material: SliderMaterial, region: Region) -> La
         return None
     scale = slider_velocity_scale(params, material) / velocity_scale(params)
     rungs = C_LADDER if region.c_max is None else (region.c_max,)
-    return LayeredTail(params, tuple(_exact_layers(layers)), scale,
-                       tuple(c * scale for c in rungs))
+    return LayeredTail(params, tuple(_exact_layers(layers)), tuple(c * scale for c in rungs))
 
 
 def layered_setup(params: Params, material: SliderMaterial, region: Region, bound: bool

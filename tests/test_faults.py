@@ -293,6 +293,12 @@ def _start(script, args, tmp_path, nproc=1):
                             process_group=0)
 
 
+#: A sweep whose first k is written seconds before its last (stress top to k = 30: the region
+#: climbs to 12-32 c_d); session 34's speed-ups let the former --k 0.5:2:64 (velocity) end
+#: before the signal reached it.
+LONG_SWEEP = ["--k", "0.5:30:120", "--bc", "stress", "--check-exact", "no"]
+
+
 def _wait_for_first_result(proc, out, timeout=120) -> None:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline and proc.poll() is None:
@@ -304,12 +310,12 @@ def _wait_for_first_result(proc, out, timeout=120) -> None:
 
 
 @pytest.mark.serial
-@pytest.mark.slow  # about 15 s each
+@pytest.mark.slow  # 1.0-1.2 s each (session 34)
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_signal_says_what_and_resume(tmp_path, sig):
     """SIGINT -> 'stopped by SIGINT (Ctrl-C)', exit 130; SIGTERM -> exit 143; --resume hint."""
     out = tmp_path / "out"
-    proc = _start("sweep_k.py", ["--k", "0.5:2:4", "--out", str(out)], tmp_path)
+    proc = _start("sweep_k.py", [*LONG_SWEEP, "--out", str(out)], tmp_path)
     try:
         _wait_for_first_result(proc, out)
         proc.send_signal(sig)
@@ -324,7 +330,7 @@ def test_signal_says_what_and_resume(tmp_path, sig):
 
 
 @pytest.mark.serial
-@pytest.mark.slow  # about 20 s
+@pytest.mark.slow  # 2.0 s (session 34)
 def test_ctrl_c_under_mpirun(tmp_path):
     """Ctrl-C (SIGINT to mpirun's process group) is said as Ctrl-C, with the --resume hint.
 
@@ -333,7 +339,7 @@ def test_ctrl_c_under_mpirun(tmp_path):
     1 whatever the ranks return (measured with ranks exiting 0, 130 and 143).
     """
     out = tmp_path / "out"
-    proc = _start("sweep_k.py", ["--k", "0.5:2:64", "--out", str(out)], tmp_path, nproc=2)
+    proc = _start("sweep_k.py", [*LONG_SWEEP, "--out", str(out)], tmp_path, nproc=2)
     try:
         _wait_for_first_result(proc, out)
         os.killpg(proc.pid, signal.SIGINT)

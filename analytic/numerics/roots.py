@@ -306,7 +306,7 @@ def winding_numbers(fun: Callable[[np.ndarray], np.ndarray], box: Sequence[float
                     n_initial: int = 32, max_dphase: float = math.pi / 3,
                     max_rel: float = 0.8, max_points: int = 50000,
                     zero_tol: float = 1e-12, log: bool = False,
-                    samples: bool = False) -> list[int] | tuple[list[int], np.ndarray]:
+                    samples: bool = False, values: bool = False) -> list[int] | tuple:
     """:func:`winding_number` of ``m`` functions on one contour, sampled together.
 
     ``fun(z)`` returns an array of shape ``(m, len(z))`` (e.g. one determinant at ``m``
@@ -315,7 +315,8 @@ def winding_numbers(fun: Callable[[np.ndarray], np.ndarray], box: Sequence[float
     ``m = 1``), so each row's count is as reliable; the point is one call of ``fun`` per
     refinement instead of ``m``. With ``samples=True`` the final contour parameters ``t``
     (sorted, in ``[0, 4)``; ``t = 0, 1, 2, 3`` are the corners, the points of odd index are
-    those of the verification pass) are returned too, as ``(counts, t)``.
+    those of the verification pass) are returned too, as ``(counts, t)``; with ``values=True``
+    also the samples ``fun(z(t))`` (``m x len(t)``), as ``(counts, t, f)``.
 
     Raises:
         ContourError: As :func:`winding_number`, if any row's contour is unusable.
@@ -357,7 +358,7 @@ def winding_numbers(fun: Callable[[np.ndarray], np.ndarray], box: Sequence[float
                 for v, c in zip(totals, counts, strict=True):
                     if abs(v - c) > 1e-6:  # cannot happen for a closed sampled loop; a guard
                         raise ContourError(f"winding number {v} is not an integer")
-                return (counts, t) if samples else counts
+                return (counts, t, f) if values else (counts, t) if samples else counts
             # Verification pass: bisect every interval once more. A function that turned by
             # about 2 pi between two samples (aliasing) shows up as a bad interval here.
             bad = dt > 2 * min_dt

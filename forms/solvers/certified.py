@@ -90,6 +90,10 @@ FOLLOW_MAXIT = 5
 #: one or two of 6-39 predictors lost) cost 1.17x the CPU of no continuation before this rule;
 #: on the default stress sweep one attempt of 123 went astray (session 17).
 FOLLOW_PAUSE = 4
+#: Most eigenvalues :meth:`CertifiedSolver._continuation` finds beyond its predictors, from the
+#: count's power sums (:func:`missing_roots`): ``u``'s first three sums carried 1.5e-6
+#: (:meth:`forms.solvers.condensed.CondensedOperator.power_sums`), well within Newton's reach.
+FILL_MAX = 3
 #: Largest count of one box of contour moments (:func:`split_box`): the moments' cost per contour
 #: point grows with the block width (about ``3/4`` of the count), the count's does not.
 MAX_PER_BOX = 16
@@ -141,7 +145,8 @@ def split_box(counter: Callable[[Box], tuple[int, np.ndarray]], box: Box, count:
 
 def _find(fe: BandedOperator, counter: Callable, box: Box, count: int, t: np.ndarray,
           most: int, sums: Callable | None, lin: Callable | None = None,
-          cont: Callable[[Box, int], list[Eigen]] | None = None
+          cont: Callable[[Box, int], list[Eigen]] | None = None,
+          polish: Callable[..., list[Eigen]] | None = None
           ) -> tuple[list[Eigen], bool, str, str]:
     """The eigenpairs in ``box``: continued or linearised predictors, else moments per part.
 
@@ -151,7 +156,8 @@ def _find(fe: BandedOperator, counter: Callable, box: Box, count: int, t: np.nda
     vectors for the whole box. A set is kept when as many distinct values as
     ``count`` lie inside (the count comes from neither: a missed eigenvalue sends the search
     on). Otherwise (too large a pencil, or a value missing) the moments run per part of
-    :func:`split_box` and the note says why.
+    :func:`split_box` and the note says why. ``polish`` polishes the linearised predictors
+    (default ``fe.polish``; :func:`_polisher`).
 
     Returns:
         ``(found, the parts' counts add up to count, note, found_by)``: ``found_by`` is
@@ -165,7 +171,7 @@ def _find(fe: BandedOperator, counter: Callable, box: Box, count: int, t: np.nda
             return found, True, "", "continuation"
     if lin is not None and count > 0:
         try:
-            found = fe.polish(*lin(box), bx, exact_start=True)
+            found = (polish or fe.polish)(*lin(box), bx, exact_start=True)
             if len(found) == count:
                 return found, True, "", "linearised"
             note = f"linearised predictors gave {len(found)} of {count}: moments"
@@ -209,6 +215,103 @@ def _distinct(values: list[complex]) -> bool:
     """No two of ``values`` within ``1e-9`` relative (the count's distinct eigenvalues)."""
     return all(abs(values[a] - values[b]) > 1e-9 * max(1.0, abs(values[a]))
                for a in range(len(values)) for b in range(a))
+
+
+def _polisher(fe: BandedOperator, cond: CondensedOperator | None
+              ) -> Callable[..., list[Eigen]]:
+    """``fe.polish`` with every predictor first polished by Newton on the condensed form.
+
+    All predictors near the box at once (:meth:`forms.solvers.condensed.CondensedOperator.
+    newton_many`, one vectorised step for all), each with its null vector
+    (:meth:`~forms.solvers.condensed.CondensedOperator.null_vectors`); a pair is kept by the
+    banded Newton's own test (converged and residual on ``T`` below ``1e-10``), the others
+    go to ``fe.polish``. The count that closes the solve is unchanged; a value lost here (two
+    predictors on one eigenvalue) leaves it open, as a failed banded Newton does.
+    """
+    if cond is None or not cond.has_left:
+        return fe.polish
+
+    def polish(lam: np.ndarray, vecs: np.ndarray, bx: Box, *, exact_start: bool = False,
+               maxit: int = 12) -> list[Eigen]:
+        a0, b0, c0, d0 = bx
+        near = np.flatnonzero(predicted_near(lam, bx))
+        near = near[np.argsort(lam[near].real, kind="stable")]
+        z, conv, its, steps = cond.newton_many(lam[near], maxit=maxit)
+        x, y = cond.null_vectors(z[conv]), cond.left_null_vectors(z[conv])
+        kept, rest = [], []
+        for j, col in zip(np.flatnonzero(conv), range(x.shape[1]), strict=True):
+            zj = _rayleigh_step(fe, complex(z[j]), x[:, col], y[:, col])
+            res = fe._residual(zj, x[:, col])
+            if res < 1e-10:
+                out = np.empty(fe.n, dtype=complex)
+                out[fe.perm] = x[:, col]
+                kept.append(Eigen(zj, out / out[np.argmax(np.abs(out))], res,
+                                  int(its[j]), True, abs(zj - z[j])))
+            else:
+                rest.append(near[j])
+        rest = np.array(sorted([*rest, *near[~conv]]), dtype=int)
+        if rest.size:
+            kept += fe.polish(lam[rest], vecs[:, rest], bx, exact_start=exact_start,
+                              maxit=maxit)
+        found: list[Eigen] = []
+        for e in kept:
+            if a0 < e.value.real < b0 and c0 < e.value.imag < d0 and all(
+                    abs(e.value - f.value) > 1e-9 * max(1.0, abs(e.value)) for f in found):
+                found.append(e)
+        return found
+
+    return polish
+
+
+def _rayleigh_step(fe: BandedOperator, z: complex, x: np.ndarray, y: np.ndarray) -> complex:
+    """``z - y^H T(z) x / y^H T'(z) x`` (two-sided Rayleigh functional, band order vectors).
+
+    From the condensed Newton's value and its right and left null vectors: the value of the
+    banded ``T_h`` itself (its error the product of the vectors' errors), reproducible from
+    any start to rounding as the banded Newton is (the condensed value alone differed by up to
+    1.6e-12 relative between a sparse and a dense list of ``k``); two sparse products, no
+    factorisation.
+    """
+    phi, dphi = fe._phi_and_derivative(z)
+    den = np.vdot(y, fe._apply(dphi, x))
+    if den == 0 or not np.isfinite(den):
+        return z
+    return complex(z - np.vdot(y, fe._apply(phi, x)) / den)
+
+
+def missing_roots(cond: CondensedOperator, box: Box, count: int, known: np.ndarray,
+                  missing: int) -> np.ndarray | None:
+    """Predictors of the ``missing`` eigenvalues in ``box`` that ``known`` lacks.
+
+    The count's power sums of all ``count`` eigenvalues (:meth:`forms.solvers.condensed.
+    CondensedOperator.power_sums`) less those of ``known`` are the power sums of the missing
+    ones; Newton's identities give their elementary symmetric functions, the roots of that
+    polynomial the predictors. ``None``: the box's samples are not held.
+    """
+    got = cond.power_sums(box, count, missing)
+    if got is None:
+        return None
+    sums, c, r = got
+    u = (np.asarray(known, dtype=complex) - c) / r
+    q = sums - np.array([np.sum(u ** p) for p in range(1, missing + 1)])
+    e = [1.0 + 0j]
+    for j in range(1, missing + 1):  # j e_j = sum_i (-1)^(i-1) e_(j-i) q_i
+        e.append(sum((-1) ** (i - 1) * e[j - i] * q[i - 1] for i in range(1, j + 1)) / j)
+    return c + r * np.roots([(-1) ** j * e[j] for j in range(missing + 1)])
+
+
+def _fill(cond: CondensedOperator, polish: Callable[..., list[Eigen]], bx: Box, count: int,
+          found: list[Eigen]) -> list[Eigen]:
+    """``found`` and what Newton finds from :func:`missing_roots` (distinct, inside)."""
+    guess = missing_roots(cond, bx, count, np.array([e.value for e in found]),
+                          count - len(found))
+    if guess is None:
+        return found
+    out = list(found)
+    for e in polish(guess, np.full((cond.bop.n, guess.size), np.nan, dtype=complex), bx):
+        if all(abs(e.value - f.value) > 1e-9 * max(1.0, abs(e.value)) for f in out):
+            out.append(e)
+    return out
 
 
 def _condensed(fe: BandedOperator, model: CondensedModel | None = None, k: float = 0.0
@@ -443,15 +546,20 @@ class CertifiedSolver:
                           for ka, z in pts)
         return pred, self._history[-1][2]
 
-    def _continuation(self, fe: BandedOperator, k: float
+    def _continuation(self, fe: BandedOperator, k: float,
+                      polish: Callable[..., list[Eigen]] | None = None,
+                      cond: CondensedOperator | None = None
                       ) -> Callable[[Box, int], list[Eigen]] | None:
         """``(box, count) -> eigenpairs`` from :meth:`predictors` at ``k``, or ``None``.
 
-        ``None``: no predictors, or paused. Fewer predictors near the box (those polish
-        starts from, :func:`forms.solvers.banded.predicted_near`) than ``count`` (eigenvalues
-        have entered it: the linearisation must run anyway) are not polished. Otherwise each gets
-        :data:`FOLLOW_MAXIT` Newton steps on ``fe``; when they do not give ``count`` distinct
-        eigenvalues in the box, the next :data:`FOLLOW_PAUSE` solves try none.
+        ``None``: no predictors, or paused. Each predictor near the box (those polish starts
+        from, :func:`forms.solvers.banded.predicted_near`) gets :data:`FOLLOW_MAXIT` Newton
+        steps on ``fe`` (by ``polish``, default ``fe.polish``). With the condensed form
+        ``cond``, up to :data:`FILL_MAX` eigenvalues they do not reach (entered the box since
+        the last ``k``) are found from the count's power sums (:func:`missing_roots`); more
+        than that many predictors short of ``count``, none is polished (the linearisation
+        runs). When enough predictors do not give ``count`` distinct eigenvalues in the box,
+        the next :data:`FOLLOW_PAUSE` solves try none.
         """
         if self._pause > 0:
             self._pause -= 1
@@ -460,11 +568,16 @@ class CertifiedSolver:
         if pred is None or not pred[0].size:
             return None
 
+        fill = FILL_MAX if cond is not None else 0
+
         def attempt(bx: Box, count: int) -> list[Eigen]:
-            if int(np.sum(predicted_near(pred[0], bx))) < count:
+            short = count - int(np.sum(predicted_near(pred[0], bx)))
+            if short > fill:
                 return []
-            found = fe.polish(pred[0], pred[1], bx, maxit=FOLLOW_MAXIT)
-            if len(found) < count:  # enough predictors, but they did not give the count
+            found = (polish or fe.polish)(pred[0], pred[1], bx, maxit=FOLLOW_MAXIT)
+            if 0 < count - len(found) <= fill:
+                found = _fill(cond, polish or fe.polish, bx, count, found)
+            if len(found) < count and short <= 0:  # enough predictors, not the count
                 self._pause = FOLLOW_PAUSE
             return found
 
@@ -531,9 +644,10 @@ class CertifiedSolver:
         found, parts_ok = [], True
         if t is not None:
             lin = cond.linear_eigs if cond is not None and self.solver == "linear" else None
-            cont = self._continuation(fe, k) if follow and lin is not None else None
-            found, parts_ok, why, out.found_by = _find(fe, counter, used, out.n_fe, t,
-                                                       self.max_per_box, sums, lin, cont)
+            polish = _polisher(fe, cond)
+            cont = self._continuation(fe, k, polish, cond) if follow and lin else None
+            found, parts_ok, why, out.found_by = _find(
+                fe, counter, used, out.n_fe, t, self.max_per_box, sums, lin, cont, polish)
             out.note = "; ".join(x for x in (out.note, why) if x)
         rows = [self._row(k, e, fine) for e in found]
         matched = (self._match_exact(rows, labelled, exact_box, used) if self.check_exact

@@ -87,17 +87,11 @@ class BandedOperator:
         if mats is None or functions is None:
             raise ValueError("give a FrictionOperator, or mats and functions")
         self.functions = list(functions)
-        self.n = n = mats[0].shape[0]
+        self.n = mats[0].shape[0]
         if perm is not None:
             self._setup(mats, np.asarray(perm, dtype=np.int64))
             return
-        pattern = sp.csr_matrix((n, n))
-        for m in mats:
-            c = m.tocoo()
-            pattern = pattern + sp.csr_matrix((np.ones(c.nnz), (c.row, c.col)), shape=(n, n))
-        pattern = (pattern + pattern.T).tocsr()
-        self._setup(mats, np.asarray(reverse_cuthill_mckee(pattern, symmetric_mode=True),
-                                     dtype=np.int64))
+        self._setup(mats, band_order(mats))
 
     def _setup(self, mats: list[sp.csr_matrix], perm: np.ndarray) -> None:
         n = self.n
@@ -414,6 +408,39 @@ class BandedOperator:
         csr_matvec(rows, self.n, indptr, indices, data, np.ascontiguousarray(x, dtype=complex), y)
         return np.asarray(coeffs, dtype=complex) @ y.reshape(-1, self.n)
 
+    def rayleigh_step(self, z: np.ndarray, x: np.ndarray, y: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+        """One two-sided Rayleigh step from each ``(z_j, x_j, y_j)`` and its residual.
+
+        ``z_j - y_j^H T(z_j) x_j / y_j^H T'(z_j) x_j`` (``x_j``, ``y_j`` right and left
+        near-null vectors, band order, columns): its error is the product of the two vectors'
+        errors, so from vectors accurate to rounding the value is ``T``'s to rounding. Every
+        ``A_i x_j`` by one sparse product (:meth:`_stacked`), reused for ``T'(z_j) x_j`` and
+        for the residual (:meth:`residual`'s) of ``x_j`` at the new value.
+
+        Returns:
+            ``(values, residuals)``.
+        """
+        z = np.asarray(z, dtype=complex)
+        if not z.size:
+            return z.copy(), np.zeros(0)
+        indptr, indices, data = self._stacked()
+        ax = sp.csr_matrix((data, indices, indptr), shape=(indptr.size - 1, self.n)) @ x
+        ax = ax.reshape(len(self.functions), self.n, z.size)  # (f, n, points)
+        phi, dphi = (np.array(c) for c in zip(*(self._phi_and_derivative(v) for v in z),
+                                                strict=True))  # (points, f) each
+        den = np.einsum("np,fnp,pf->p", y.conj(), ax, dphi)
+        num = np.einsum("np,fnp,pf->p", y.conj(), ax, phi)
+        with np.errstate(all="ignore"):
+            step = num / den
+        new = np.where(np.isfinite(step), z - step, z)
+        phi_new = np.array([self._phi_and_derivative(v)[0] for v in new])
+        tx = np.einsum("fnp,pf->np", ax, phi_new)
+        scale = (np.abs(phi_new) @ self.norms) * np.linalg.norm(x, axis=0)
+        with np.errstate(all="ignore"):
+            res = np.where(scale > 0, np.linalg.norm(tx, axis=0) / scale, np.inf)
+        return new, res
+
     def residual(self, z: complex, x: np.ndarray) -> float:
         """Relative residual of ``(z, x)`` (``x`` in the operator's original order)."""
         return self._residual(z, np.asarray(x, dtype=complex)[self.perm])
@@ -490,6 +517,17 @@ class BandedOperator:
         # backward error at rounding level also counts as converged.
         converged = (converged and res < 1e-10) or res < 1e-13
         return Eigen(z, out, res, it, converged, step)
+
+
+def band_order(mats: list[sp.csr_matrix]) -> np.ndarray:
+    """The reverse Cuthill-McKee order of the union of the matrices' patterns (symmetrised)."""
+    n = mats[0].shape[0]
+    pattern = sp.csr_matrix((n, n))
+    for m in mats:
+        c = m.tocoo()
+        pattern = pattern + sp.csr_matrix((np.ones(c.nnz), (c.row, c.col)), shape=(n, n))
+    pattern = (pattern + pattern.T).tocsr()
+    return np.asarray(reverse_cuthill_mckee(pattern, symmetric_mode=True), dtype=np.int64)
 
 
 def stacked_structure(nonzero: tuple[np.ndarray, np.ndarray], n: int, rows: int, diag: int,
@@ -581,21 +619,24 @@ class BandedModel:
         parts = model.k_blocks()
         self.functions = list(parts[0].functions)
         self.parts = [[_csr(a) for a in part.matrices] for part in parts]
-        first = BandedOperator(mats=self.parts[0], functions=self.functions)
-        self.perm = perm = first.perm
+        self.perm = perm = band_order(self.parts[0])
         n = self.n = perm.size
+        iperm = np.empty(n, dtype=np.int64)
+        iperm[perm] = np.arange(n)
         # per function: the union of the parts' stored entries (band order, row-major sorted,
         # i.e. canonical CSR order) and each part's values on it
         self._pattern: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         lins = []
         for f in range(len(self.functions)):
-            coo = [part[f][perm][:, perm].tocoo() for part in self.parts]
-            lin = np.unique(np.concatenate([c.row.astype(np.int64) * n + c.col for c in coo]))
+            # each part's stored entries (explicit zeros too) at their band-order positions
+            coo = [part[f].tocoo() for part in self.parts]
+            at_lin = [iperm[c.row] * n + iperm[c.col] for c in coo]
+            lin = np.unique(np.concatenate(at_lin))
             vals = np.zeros((len(coo), lin.size), dtype=complex)
             for j, c in enumerate(coo):
-                # np.add.at's sums in the same order (each part of a complex sum on its own),
-                # by bincount: 38 -> 3 ms over a sweep's 14 models
-                at = np.searchsorted(lin, c.row.astype(np.int64) * n + c.col)
+                # np.add.at's sums (each part of a complex sum on its own) by bincount: 38 -> 3
+                # ms over a sweep's 14 models
+                at = np.searchsorted(lin, at_lin[j])
                 vals[j] = (np.bincount(at, c.data.real, lin.size)
                            + 1j * np.bincount(at, c.data.imag, lin.size))
             self._pattern.append((lin, vals, _indptr(lin // n, n)))

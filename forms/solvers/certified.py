@@ -225,7 +225,9 @@ def _polisher(fe: BandedOperator, cond: CondensedOperator | None
     newton_many`, one vectorised step for all), each with its null vector
     (:meth:`~forms.solvers.condensed.CondensedOperator.null_vectors`); a pair is kept by the
     banded Newton's own test (converged and residual on ``T`` below ``1e-10``), the others
-    go to ``fe.polish``. The count that closes the solve is unchanged; a value lost here (two
+    go to ``fe.polish``. Each kept value has had one two-sided Rayleigh step on ``T_h``
+    (:meth:`forms.solvers.banded.BandedOperator.rayleigh_step`). The count that closes the
+    solve is unchanged; a value lost here (two
     predictors on one eigenvalue) leaves it open, as a failed banded Newton does.
     """
     if cond is None or not cond.has_left:
@@ -237,16 +239,17 @@ def _polisher(fe: BandedOperator, cond: CondensedOperator | None
         near = np.flatnonzero(predicted_near(lam, bx))
         near = near[np.argsort(lam[near].real, kind="stable")]
         z, conv, its, steps = cond.newton_many(lam[near], maxit=maxit)
-        x, y = cond.null_vectors(z[conv]), cond.left_null_vectors(z[conv])
+        x = cond.null_vectors(z[conv])
+        # one two-sided Rayleigh step on T_h itself: the value of T_h to rounding (the condensed
+        # values alone differed by up to 1.6e-12 between a sparse and a dense list of k)
+        zr, res = fe.rayleigh_step(z[conv], x, cond.left_null_vectors(z[conv]))
         kept, rest = [], []
         for j, col in zip(np.flatnonzero(conv), range(x.shape[1]), strict=True):
-            zj = _rayleigh_step(fe, complex(z[j]), x[:, col], y[:, col])
-            res = fe._residual(zj, x[:, col])
-            if res < 1e-10:
+            if res[col] < 1e-10:
                 out = np.empty(fe.n, dtype=complex)
                 out[fe.perm] = x[:, col]
-                kept.append(Eigen(zj, out / out[np.argmax(np.abs(out))], res,
-                                  int(its[j]), True, abs(zj - z[j])))
+                kept.append(Eigen(complex(zr[col]), out / out[np.argmax(np.abs(out))],
+                                  float(res[col]), int(its[j]), True, abs(zr[col] - z[j])))
             else:
                 rest.append(near[j])
         rest = np.array(sorted([*rest, *near[~conv]]), dtype=int)
@@ -261,22 +264,6 @@ def _polisher(fe: BandedOperator, cond: CondensedOperator | None
         return found
 
     return polish
-
-
-def _rayleigh_step(fe: BandedOperator, z: complex, x: np.ndarray, y: np.ndarray) -> complex:
-    """``z - y^H T(z) x / y^H T'(z) x`` (two-sided Rayleigh functional, band order vectors).
-
-    From the condensed Newton's value and its right and left null vectors: the value of the
-    banded ``T_h`` itself (its error the product of the vectors' errors), reproducible from
-    any start to rounding as the banded Newton is (the condensed value alone differed by up to
-    1.6e-12 relative between a sparse and a dense list of ``k``); two sparse products, no
-    factorisation.
-    """
-    phi, dphi = fe._phi_and_derivative(z)
-    den = np.vdot(y, fe._apply(dphi, x))
-    if den == 0 or not np.isfinite(den):
-        return z
-    return complex(z - np.vdot(y, fe._apply(phi, x)) / den)
 
 
 def missing_roots(cond: CondensedOperator, box: Box, count: int, known: np.ndarray,

@@ -132,7 +132,7 @@ def test_condensed_newton_and_its_rayleigh_step_give_the_banded_values(bc: str, 
         ref.size)))
     z, conv, its, _ = cond.newton_many(start)
     assert conv.all() and its.max() <= 8
-    x, y = cond.null_vectors(z), cond.left_null_vectors(z)
+    x, y = cond.null_vector_pairs(z)
     left = []
     for j in range(z.size):  # y is T(z)^H's null vector: ||T^H y|| / (||T|| ||y||)
         phi = op._phi_and_derivative(z[j])[0]

@@ -109,12 +109,13 @@ class BandedOperator:
         self._mats = mats
 
     def _init_bands(self, stack: np.ndarray, kl: int, ku: int, norms: np.ndarray,
-                    pattern: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> None:
+                    pattern: tuple[np.ndarray, ...] | None = None) -> None:
         """Band storage of every matrix, one row of ``stack`` each (see :attr:`_stack`).
 
-        ``pattern``: ``(f, pos, filled)``, the entries of ``stack`` that may be nonzero and
-        the distinct ``pos`` (default: those that are), e.g. one pattern for every ``k``
-        (:class:`BandedModel`).
+        ``pattern``: ``(f, pos, filled)`` or ``(f, pos, filled, structure)``: the entries of
+        ``stack`` that may be nonzero, the distinct ``pos`` and :func:`stacked_structure` of
+        them (default: those that are, the structure when first needed), e.g. one pattern for
+        every ``k`` (:class:`BandedModel`).
         """
         self.kl, self.ku = kl, ku
         self.rows = 2 * kl + ku + 1
@@ -141,7 +142,7 @@ class BandedOperator:
     @classmethod
     def from_bands(cls, functions: list[ScalarFunction], perm: np.ndarray, stack: np.ndarray,
                    kl: int, ku: int, mats: Callable[[], list[sp.csr_matrix]],
-                   pattern: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                   pattern: tuple[np.ndarray, ...] | None = None,
                    norms: np.ndarray | None = None) -> BandedOperator:
         """An operator from its band storage (:class:`BandedModel`): no sparse work.
 
@@ -152,8 +153,7 @@ class BandedOperator:
             kl: Lower half-bandwidth.
             ku: Upper half-bandwidth.
             mats: Builds the permuted CSR matrices ``A_i`` when :attr:`mats` is first read.
-            pattern: ``(f, pos, filled)``: the entries of ``stack`` that may be nonzero and
-                the distinct ``pos`` (default: those that are).
+            pattern: As :meth:`_init_bands`'s.
             norms: The Frobenius norms of the ``A_i`` (default: from ``stack``).
         """
         self = cls.__new__(cls)
@@ -390,8 +390,7 @@ class BandedOperator:
                 # hardly moves the interface, Re Lambda ~ 0): start by inverse iteration
                 e = self.newton(z0)
             inside = a0 < e.value.real < b0 and c0 < e.value.imag < d0
-            if e.converged and inside and all(
-                    abs(e.value - f.value) > 1e-9 * max(1.0, abs(e.value)) for f in found):
+            if e.converged and inside and is_new(e.value, found):
                 found.append(e)
         return found
 
@@ -557,6 +556,11 @@ def _fixed_start(n: int) -> np.ndarray:
 def _start_vector(n: int) -> np.ndarray:
     """A copy of :func:`_fixed_start` (a generator per call cost 50 us)."""
     return _fixed_start(n).copy()
+
+
+def is_new(value: complex, found: list[Eigen]) -> bool:
+    """``value`` farther than ``1e-9`` (relative) from every eigenvalue of ``found``."""
+    return all(abs(value - f.value) > 1e-9 * max(1.0, abs(value)) for f in found)
 
 
 def predicted_near(lam: np.ndarray, bx: Box) -> np.ndarray:

@@ -56,7 +56,7 @@ from analytic.numerics.spectrum import Region, certified_roots, on_usable_box
 from analytic.params import Params
 from forms.models.profiles import SliderMaterial
 from forms.models.section import SectionModel, contour_samples, section_stack
-from forms.solvers.banded import BandedModel, BandedOperator, Eigen, predicted_near
+from forms.solvers.banded import BandedModel, BandedOperator, Eigen, is_new, predicted_near
 from forms.solvers.condensed import CondensedModel, CondensedOperator
 from forms.solvers.partial import NearModel
 
@@ -199,7 +199,7 @@ def _moments_in(fe: BandedOperator, box: Box, count: int, t: np.ndarray,
     if len(found) != count:
         # one retry with a larger subspace and another random block; merged, distinct
         for e in fe.moment_eigs(box, count, t, moments=4, extra=count + 8, seed=7, sums=sums):
-            if all(abs(e.value - f.value) > 1e-9 * max(1.0, abs(e.value)) for f in found):
+            if is_new(e.value, found):
                 found.append(e)
     return found
 
@@ -223,8 +223,8 @@ def _polisher(fe: BandedOperator, cond: CondensedOperator | None
 
     All predictors near the box at once (:meth:`forms.solvers.condensed.CondensedOperator.
     newton_many`, one vectorised step for all), each with its null vector
-    (:meth:`~forms.solvers.condensed.CondensedOperator.null_vectors`); a pair is kept by the
-    banded Newton's own test (converged and residual on ``T`` below ``1e-10``), the others
+    (:meth:`~forms.solvers.condensed.CondensedOperator.null_vector_pairs`); a pair is kept by
+    the banded Newton's own test (converged and residual on ``T`` below ``1e-10``), the others
     go to ``fe.polish``. Each kept value has had one two-sided Rayleigh step on ``T_h``
     (:meth:`forms.solvers.banded.BandedOperator.rayleigh_step`). The count that closes the
     solve is unchanged; a value lost here (two
@@ -239,10 +239,10 @@ def _polisher(fe: BandedOperator, cond: CondensedOperator | None
         near = np.flatnonzero(predicted_near(lam, bx))
         near = near[np.argsort(lam[near].real, kind="stable")]
         z, conv, its, steps = cond.newton_many(lam[near], maxit=maxit)
-        x = cond.null_vectors(z[conv])
+        x, y = cond.null_vector_pairs(z[conv])
         # one two-sided Rayleigh step on T_h itself: the value of T_h to rounding (the condensed
         # values alone differed by up to 1.6e-12 between a sparse and a dense list of k)
-        zr, res = fe.rayleigh_step(z[conv], x, cond.left_null_vectors(z[conv]))
+        zr, res = fe.rayleigh_step(z[conv], x, y)
         kept, rest = [], []
         for j, col in zip(np.flatnonzero(conv), range(x.shape[1]), strict=True):
             if res[col] < 1e-10:
@@ -258,8 +258,7 @@ def _polisher(fe: BandedOperator, cond: CondensedOperator | None
                               maxit=maxit)
         found: list[Eigen] = []
         for e in kept:
-            if a0 < e.value.real < b0 and c0 < e.value.imag < d0 and all(
-                    abs(e.value - f.value) > 1e-9 * max(1.0, abs(e.value)) for f in found):
+            if a0 < e.value.real < b0 and c0 < e.value.imag < d0 and is_new(e.value, found):
                 found.append(e)
         return found
 
@@ -296,7 +295,7 @@ def _fill(cond: CondensedOperator, polish: Callable[..., list[Eigen]], bx: Box, 
         return found
     out = list(found)
     for e in polish(guess, np.full((cond.bop.n, guess.size), np.nan, dtype=complex), bx):
-        if all(abs(e.value - f.value) > 1e-9 * max(1.0, abs(e.value)) for f in out):
+        if is_new(e.value, out):
             out.append(e)
     return out
 

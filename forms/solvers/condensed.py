@@ -89,14 +89,13 @@ class _Far:
         terms: Series terms.
         scale: The bound on ``|z|^2`` (a power of 2).
         weights: ``(terms, modes - j0)``.
-        s_coef: ``weights @ R`` (the far part of ``S(z)``), ``(terms, powers b b)``.
         log_const: ``sum_j log w_j``.
         log_coef: ``(-1)^(l+1)/l sum_j (scale/w_j)^l``, ``l = 1 .. terms``.
         cols: The columns ``(e, b b)`` of ``S``'s mode terms that any mode fills (the
             interface rows' couplings: 6 of 28 on a section), set by
             :meth:`CondensedOperator._far`.
         near_r: ``R[:j0, cols]``.
-        coef_cols: ``s_coef[:, cols]``.
+        coef_cols: ``(weights @ R[j0:])[:, cols]``: the far part of ``S(z)``, per term.
         col_power: The exponent ``e`` of each of ``cols``.
         scatter: ``(cols, b b)``: where each of ``cols`` adds.
     """
@@ -105,14 +104,13 @@ class _Far:
     terms: int
     scale: float
     weights: np.ndarray
-    s_coef: np.ndarray
     log_const: complex
     log_coef: np.ndarray
-    cols: np.ndarray | None = None
-    near_r: np.ndarray | None = None
-    coef_cols: np.ndarray | None = None
-    col_power: np.ndarray | None = None
-    scatter: np.ndarray | None = None
+    cols: np.ndarray
+    near_r: np.ndarray
+    coef_cols: np.ndarray
+    col_power: np.ndarray
+    scatter: np.ndarray
 
     def zeta_powers(self, z: np.ndarray) -> np.ndarray:
         """``zeta^l`` for ``l = 0 .. terms`` (points x terms + 1)."""
@@ -233,7 +231,7 @@ class CondensedOperator:
             scatter = np.zeros((cols.size, nbb))
             scatter[np.arange(cols.size), cols % nbb] = 1.0
             self._fars[scale] = _Far(
-                j0, terms, scale, weights, coef, complex(np.sum(np.log(wf.astype(complex)))),
+                j0, terms, scale, weights, complex(np.sum(np.log(wf.astype(complex)))),
                 signs / np.arange(1, terms + 1) * powers[1:].sum(axis=1), cols,
                 np.ascontiguousarray(near_r[:, cols]), np.ascontiguousarray(coef[:, cols]),
                 self._s_exp[cols // nbb], scatter)
@@ -262,20 +260,28 @@ class CondensedOperator:
         self._s_a = a.reshape(len(es), nb * nb)
         self._s_r = r.transpose(1, 0, 2, 3).reshape(nm, len(es) * nb * nb)
 
+    def _mode_sums(self, z: np.ndarray, far: _Far
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(d, zeta powers, x)``: near ``d = 1/(z^2 + w)``, the far series' powers, sums.
+
+        ``x``: the mode sums of ``S`` on ``far.cols`` (near modes plus the far series).
+        """
+        d = 1.0 / (z[:, None] ** 2 + self.w[None, :far.j0])
+        x = d @ far.near_r  # only the columns any mode fills (far.cols)
+        zpow = far.zeta_powers(z)
+        if far.terms:
+            x += far.series(zpow) @ far.coef_cols
+        return d, zpow, x
+
     def _d_and_s(self, z: np.ndarray, far: _Far) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Near ``d = 1/(z^2 + w)`` (points x j0), ``S(z)``, the far modes' ``zeta`` powers.
 
         ``S(z)``: points x b x b; the powers: :meth:`_Far.zeta_powers`.
         """
-        nb, j0 = self.b_idx.size, far.j0
-        d = 1.0 / (z[:, None] ** 2 + self.w[None, :j0])
-        x = d @ far.near_r  # only the columns any mode fills (far.cols)
-        zpow = far.zeta_powers(z)
-        if far.terms:
-            x += far.series(zpow) @ far.coef_cols
+        d, zpow, x = self._mode_sums(z, far)
         s = (z[:, None] ** self._s_exp[None, :]) @ self._s_a - (
             z[:, None] ** far.col_power[None, :] * x) @ far.scatter
-        return d, s.reshape(z.size, nb, nb), zpow
+        return d, s.reshape(z.size, self.b_idx.size, self.b_idx.size), zpow
 
     def _s_and_derivative(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``S(z)`` and ``S'(z)`` at every point (points x b x b each), as :meth:`_d_and_s`.
@@ -284,12 +290,10 @@ class CondensedOperator:
         ``zeta = z^2/scale``, has ``l (-1)^l zeta^(l-1) 2 z/scale``.
         """
         far = self._far(z)
-        nb, j0, nt = self.b_idx.size, far.j0, far.terms
-        d = 1.0 / (z[:, None] ** 2 + self.w[None, :j0])
-        x, dx = d @ far.near_r, (-2.0 * z[:, None] * d * d) @ far.near_r
+        nb, nt = self.b_idx.size, far.terms
+        d, zpow, x = self._mode_sums(z, far)
+        dx = (-2.0 * z[:, None] * d * d) @ far.near_r
         if nt:
-            zpow = far.zeta_powers(z)
-            x += far.series(zpow) @ far.coef_cols
             ls = np.arange(1, nt)
             dx += np.concatenate([np.zeros((z.size, 1)), ls * (-1.0) ** ls * zpow[:, :nt - 1]
                                   * (2.0 * z[:, None] / far.scale)], axis=1) @ far.coef_cols
@@ -340,34 +344,33 @@ class CondensedOperator:
             live[idx[done | bad]] = False
         return z, conv, its, step
 
-    def null_vectors(self, lam: np.ndarray) -> np.ndarray:
-        """``T(z)``'s near-null vector at each ``z`` (banded order, one column each)."""
-        return self._vectors(np.asarray(lam, dtype=complex))
-
     @property
     def has_left(self) -> bool:
-        """:meth:`left_null_vectors` is available (a full decomposition with ``Psi``)."""
+        """:meth:`null_vector_pairs` is available (a full decomposition with ``Psi``)."""
         return not self.partial and self._left_from_modes is not None
 
-    def left_null_vectors(self, lam: np.ndarray) -> np.ndarray:
-        """``T(z)^H``'s near-null vector at each ``z`` (banded order, one column each).
+    def null_vector_pairs(self, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``T(z)``'s and ``T(z)^H``'s near-null vectors at each ``z`` (banded order, columns).
 
-        ``y_B`` the left singular vector of ``S(z)`` of its smallest singular value, ``y_I =
+        Both from one SVD of ``S(z)``: the right one as :meth:`_vectors`; the left one ``y_B``,
+        the left singular vector of the smallest singular value, extended by ``y_I =
         -T_II(z)^-H T_BI(z)^H y_B = -Psi (conj(d) * conj(G(z))^T y_B)`` with ``G(z) = T_BI(z)
         Phi`` and ``d = 1/(z^2 + w)`` (every mode). Needs :attr:`has_left`.
         """
         lam = np.asarray(lam, dtype=complex)
-        out = np.zeros((self.bop.n, lam.size), dtype=complex)
+        x, y = (np.zeros((self.bop.n, lam.size), dtype=complex) for _ in range(2))
         if not lam.size:
-            return out
+            return x, y
         _, s, _ = self._d_and_s(lam, self._far(lam))
-        yb = np.linalg.svd(s)[0][:, :, -1]  # (points, b)
-        out[self.b_idx] = yb.T
+        u, _, vh = np.linalg.svd(s)
+        x = self._vectors(lam, vh[:, -1, :].conj())
+        yb = u[:, :, -1]  # (points, b)
+        y[self.b_idx] = yb.T
         zp = lam[:, None] ** self.powers[None, :]  # (points, f)
         gy = np.einsum("pf,fbj,pb->jp", zp.conj(), self.g.conj(), yb)  # conj(G)^T y_B
-        out[self.i_idx] = self._left_from_modes(
+        y[self.i_idx] = self._left_from_modes(
             -gy / (lam.conj()[None, :] ** 2 + self.w.conj()[:, None]))
-        return out
+        return x, y
 
     def log_det_many(self, z: np.ndarray) -> np.ndarray:
         """``log det T(z)`` at every point (some branch of the argument), vectorised."""
@@ -639,17 +642,19 @@ class CondensedOperator:
             out.append((-om * ca, -om * cc, nx))
         return out[:top + 1]
 
-    def _vectors(self, lam: np.ndarray) -> np.ndarray:
+    def _vectors(self, lam: np.ndarray, xb: np.ndarray | None = None) -> np.ndarray:
         """``T(z)``'s near-null vector at each ``z`` (banded order, columns): ``S``'s, extended.
 
-        ``x_B`` the right singular vector of ``S(z)`` of its smallest singular value,
-        ``x_I = -T_II(z)^{-1} T_IB(z) x_B`` in the eigenbasis (every mode, exactly).
+        ``x_B`` the right singular vector of ``S(z)`` of its smallest singular value (or
+        ``xb``, points x b, if given), ``x_I = -T_II(z)^{-1} T_IB(z) x_B`` in the eigenbasis
+        (every mode, exactly).
         """
         out = np.zeros((self.bop.n, lam.size), dtype=complex)
         if not lam.size:
             return out
-        _, s, _ = self._d_and_s(lam, self._far(lam))
-        xb = np.linalg.svd(s)[2][:, -1, :].conj()  # (points, b)
+        if xb is None:
+            _, s, _ = self._d_and_s(lam, self._far(lam))
+            xb = np.linalg.svd(s)[2][:, -1, :].conj()  # (points, b)
         out[self.b_idx] = xb.T
         if self.partial:  # one banded solve each
             for c, z in enumerate(lam):

@@ -167,6 +167,41 @@ def test_distributed_solve_equals_the_serial_solve_and_resumes(tmp_path):
     assert pending(resumed=False) == [0, 1, 2]
 
 
+@pytest.mark.serial
+@pytest.mark.parametrize("bc", ["stress", "velocity"])
+def test_families_followed_per_k_region_give_the_tall_regions_roots(bc):
+    """sweep.follow_all follows each family only where it may lie in the region of that k (the
+    adaptive region's bound per k, plan.c_at_k): at every k its values inside that k's box are
+    the values of the families followed in the tallest box at every k (the old plan), as many
+    as the exact count in the box, every root labelled as the old plan labels it."""
+    p, region = Params(bc=bc), Region(c_max=None)
+    k = np.linspace(0.05, 6.0, 9)
+    plan = sweep.plan_regions(p, region, k, True, "linear",
+                              lambda costs, fn: [fn(i) for i in range(len(costs))])
+    comm = MPI.COMM_SELF
+    per_k = sweep.follow_all(comm, p, plan, region, k, range)
+    fplan, items = sweep.family_plan(comm, p, plan.big, float(k[-1]))
+    tall = sweep.follow_families(comm, p, plan.big, fplan, items, k, range(len(items)))
+    assert [f.label for f in per_k] == [f.label for f in tall]
+    for i, kk in enumerate(k):
+        box = region.fixed(plan.c_at_k[i]).box(p, float(kk))
+
+        def inside(fams, i=i, box=box):
+            return sorted((f.label, complex(f.Lambda[i])) for f in fams
+                          if np.isfinite(f.Lambda[i]) and box[0] <= f.Lambda[i].real <= box[1]
+                          and box[2] <= f.Lambda[i].imag <= box[3])
+
+        a, b = inside(per_k), inside(tall)
+        assert [x[0] for x in a] == [x[0] for x in b]
+        # the same roots by other continuation paths: measured 2.2e-16 relative at most
+        assert all(abs(x[1] - y[1]) <= 1e-12 * abs(y[1]) for x, y in zip(a, b, strict=True))
+        reg = region.fixed(plan.c_at_k[i])
+        got, _, n = certified_roots(p, float(kk), reg, per_k)
+        want, _, _ = certified_roots(p, float(kk), reg, tall)
+        assert n == len(got) and all(not r.label.startswith("?") for r in got)
+        assert [(r.label, r.certified) for r in got] == [(r.label, r.certified) for r in want]
+
+
 def _row(k, re, status="ok", err=1e-10, est=2e-10):
     return {"k": k, "label": f"L{re}", "re_lambda": re, "im_lambda": -1.0,
             "re_lambda_exact": re, "im_lambda_exact": -1.0, "rel_error": err,

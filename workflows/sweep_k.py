@@ -251,7 +251,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                 return mine if comm.rank or args.quiet else tqdm(
                     mine, desc=f"root families (taken by rank 0 of {comm.size})",
                     unit=" families", file=sys.stderr)
-            fams = sweep.follow_all(comm, params, plan.big, k, fam_share)
+            fams = sweep.follow_all(comm, params, plan, region, k, fam_share)
         t_fam = time.perf_counter() - t_fam
         # rank 0 imports the picture's matplotlib first: meanwhile the other ranks take more k
         t_pre = preload() if comm.rank == 0 and not args.no_plot else 0.0

@@ -28,7 +28,7 @@ its finite-element eigenvalues:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
 from typing import TypeVar
 
@@ -367,16 +367,18 @@ def plan_families(p: Params, region: Region, k_max: float, re_floor: float = -3.
     return FamilyPlan(waveguide, seeds, k_seed, box)
 
 
-def region_skip(p: Params, region: Region, margin: float = 0.3):  # noqa: ANN201
+def region_skip(p: Params, region: Region, margin: float = 0.3,
+                c_at: Mapping[float, float] | None = None):  # noqa: ANN201
     """A ``skip`` rule for the continuation: the predicted root is far outside the region.
 
     Far means farther than ``margin`` plus three times the predictor's own uncertainty; a root
     skipped wrongly would show up as an unlabelled root in the region (flagged), never as a
-    silent gap.
+    silent gap. ``c_at`` (requested ``k`` -> bound): the region's box at each ``k`` with its
+    own bound (an adaptive region resolved per ``k``) instead of ``region``'s.
     """
 
     def skip(k: float, lam: complex, unc: float) -> bool:
-        a, b, c, d = region.box(p, k)
+        a, b, c, d = (region if c_at is None else region.fixed(c_at[float(k)])).box(p, k)
         dist = max(a - lam.real, lam.real - b, c - lam.imag, lam.imag - d, 0.0)
         return dist > margin + 3.0 * unc
 
@@ -384,13 +386,14 @@ def region_skip(p: Params, region: Region, margin: float = 0.3):  # noqa: ANN201
 
 
 def follow_family(p: Params, plan: FamilyPlan, item: tuple, ks: np.ndarray,
-                  region: Region | None = None) -> BranchResult:
+                  region: Region | None = None, c_at: Mapping[float, float] | None = None
+                  ) -> BranchResult:
     """Follow one item of a plan (``("w", n, sign)`` or ``("s", label, Lambda)``) to ``ks``.
 
     With a ``region``, requested ``k`` where the family is predicted far outside it are skipped
-    (see :func:`region_skip`).
+    (see :func:`region_skip`; ``c_at``: the region's bound per requested ``k``).
     """
-    skip = region_skip(p, region) if region is not None else None
+    skip = region_skip(p, region, c_at=c_at) if region is not None else None
     if item[0] == "w":
         return follow_branch(p, int(item[1]), int(item[2]), ks, skip=skip)
     return follow_root(p, str(item[1]), plan.k_seed, complex(item[2]), ks, skip=skip)

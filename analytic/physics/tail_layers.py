@@ -61,24 +61,46 @@ def _down(state: tuple[np.ndarray, np.ndarray], amp: np.ndarray, phase: np.ndarr
     ``k``-dependent phase with the ``k = 0`` amplitude).
     """
     u, s = state
-    ch, sh = np.cosh(phase), np.sinh(phase)
+    ch, sh = _cosh_sinh(phase)
     return u * ch - s * sh / amp, s * ch - amp * u * sh
 
 
-def _layer_integral(shear: tuple, rod: tuple, q: np.ndarray, p: np.ndarray, ph: tuple,
-                    mu: float, M: float) -> np.ndarray:
-    """``integral (s_xy v - lambda v' u_x) dy`` over one layer from the states at its bottom."""
+def _cosh_sinh(phase: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``cosh`` and ``sinh`` of complex phases from four real functions of their parts.
+
+    ``cosh(x + i y) = cosh x cos y + i sinh x sin y``, ``sinh(x + i y) = sinh x cos y + i cosh
+    x sin y``: the bound's hot spot (session 35: numpy's complex ``cosh`` and ``sinh`` were 1.6
+    of the damage zone's 4.9 s of bounds at 24 ``k``).
+    """
+    z = np.asarray(phase, dtype=complex)
+    x, y = z.real, z.imag
+    chx, shx, c, s = np.cosh(x), np.sinh(x), np.cos(y), np.sin(y)
+    return chx * c + 1j * (shx * s), shx * c + 1j * (chx * s)
+
+
+def _layer_integral(shear: tuple, rod: tuple, amps: tuple, ph: tuple, ratios: tuple[float, float]
+                    ) -> np.ndarray:
+    """``integral (s_xy v - lambda v' u_x) dy`` over one layer from the states at its bottom.
+
+    ``amps = (mu q, M p)`` (:func:`_down`'s), ``ph`` the shear and dilatational phases,
+    ``ratios`` the layer's :func:`_ratios`. In the up- and down-going amplitudes ``a, a_`` (shear)
+    and ``b, b_`` (rod) it is ``(mu q - lam p) [a b E(q + p, fs + fd) - a_ b_ E(-q - p, -fs -
+    fd)] + (mu q + lam p) [a b_ E(q - p, fs - fd) - a_ b E(p - q, fd - fs)]`` with ``E(s, f) =
+    expm1(f)/s``; ``expm1(-f) = -expm1(f)/(1 + expm1(f))`` gives the four from two.
+    """
+    ts, td = shear[1] / amps[0], rod[1] / amps[1]
+    a, a_ = 0.5 * (shear[0] + ts), 0.5 * (shear[0] - ts)
+    b, b_ = 0.5 * (rod[0] + td), 0.5 * (rod[0] - td)
+    e_sum, e_diff = np.expm1(ph[0] + ph[1]), np.expm1(ph[0] - ph[1])
+    return (ratios[0] * e_sum * (a * b - a_ * b_ / (1.0 + e_sum))
+            + ratios[1] * e_diff * (a * b_ - a_ * b / (1.0 + e_diff)))
+
+
+def _ratios(mu: float, cs: float, M: float, cd: float) -> tuple[float, float]:
+    """``(mu q - lam p)/(q + p)`` and ``(mu q + lam p)/(q - p)`` (``q = L/c_s``, ``p = L/c_d``)."""
     lam = M - 2.0 * mu
-    a, a_ = 0.5 * (shear[0] + shear[1] / (mu * q)), 0.5 * (shear[0] - shear[1] / (mu * q))
-    b, b_ = 0.5 * (rod[0] + rod[1] / (M * p)), 0.5 * (rod[0] - rod[1] / (M * p))
-    fs, fd = ph
-
-    def E(s: np.ndarray, phase: np.ndarray) -> np.ndarray:  # noqa: N802
-        return np.expm1(phase) / s
-
-    plus, minus = mu * q - lam * p, mu * q + lam * p
-    return (a * b * plus * E(q + p, fs + fd) + a * b_ * minus * E(q - p, fs - fd)
-            - a_ * b * minus * E(p - q, fd - fs) - a_ * b_ * plus * E(-q - p, -fs - fd))
+    return ((mu / cs - lam / cd) / (1.0 / cs + 1.0 / cd),
+            (mu / cs + lam / cd) / (1.0 / cs - 1.0 / cd))
 
 
 def _response(L: np.ndarray, p: Params, layers: Sequence[ExactLayer],
@@ -98,9 +120,10 @@ def _response(L: np.ndarray, p: Params, layers: Sequence[ExactLayer],
         h, mu, cs, M, cd = mats[j]
         q, pd = L / cs, L / cd
         ph = (q * h, pd * h) if phases is None else (phases[j, 0], phases[j, 1])
-        shear = _down(shear, mu * q, ph[0])
-        rod = _down(rod, M * pd, ph[1])
-        total = total + _layer_integral(shear, rod, q, pd, ph, mu, M)
+        amps = (mu * q, M * pd)
+        shear = _down(shear, amps[0], ph[0])
+        rod = _down(rod, amps[1], ph[1])
+        total = total + _layer_integral(shear, rod, amps, ph, _ratios(mu, cs, M, cd))
     return shear[0], shear[1], rod[0], rod[1], total
 
 
@@ -306,12 +329,10 @@ def _coefficient_moduli(mats: list[tuple[float, ...]], j: int) -> np.ndarray:
     :func:`_layer_integral` is ``sum C[al, be] S_al D_be`` with the shear amplitudes ``S =
     (a, a_, a e^fs, a_ e^-fs)`` and the rod's ``D = (b, b_, b e^fd, b_ e^-fd)`` (at the layer's
     bottom: ``E(s, phi) = (e^phi - 1)/s`` splits). The ratios ``(mu q -+ lambda p)/(q +- p)``
-    do not depend on ``Lambda`` (``q = Lambda/c_s``, ``p = Lambda/c_d``).
+    do not depend on ``Lambda`` (:func:`_ratios`).
     """
     _, mu, cs, M, cd = mats[j]
-    lam = M - 2.0 * mu
-    plus = abs((mu / cs - lam / cd) / (1.0 / cs + 1.0 / cd))
-    minus = abs((mu / cs + lam / cd) / (1.0 / cs - 1.0 / cd))
+    plus, minus = (abs(x) for x in _ratios(mu, cs, M, cd))
     C = np.zeros((4, 4))
     C[0, 0] = C[1, 1] = C[2, 2] = C[3, 3] = plus
     C[0, 1] = C[1, 0] = C[2, 3] = C[3, 2] = minus

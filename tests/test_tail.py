@@ -1286,3 +1286,29 @@ def test_contrast_points_beyond_the_old_region(case):
         assert abs(z.imag) > Region(1e-4, 2.0, 4.0).im_max(p, k)
         m = fastest_mode(p, k, Region(1e-4, 2.0, None))
         assert m.proven and abs(m.root - z) < 1e-8 * abs(z)
+
+
+@pytest.mark.parametrize("rows", [1, 3])
+@pytest.mark.parametrize("shift", [0.0, 0.3])
+def test_illinois_zeros_equal_the_bisections(rows, shift):
+    """tail_stack.zeros_on_grid_rows (the layered bound's dips, session 35) finds the zeros
+    roots_on_grid_rows's bisection finds, on the same rows, to the bisection's final width
+    (grid step 2^-32), in fewer evaluations; a zero on a grid point is returned exactly."""
+    from analytic.physics import tail_stack as ts
+
+    t = np.linspace(0.0, 50.0, 4001)
+    calls = {"bisect": 0, "illinois": 0}
+
+    def fun(name):
+        def f(x, row):
+            calls[name] += 1
+            return np.sin(x * (1.0 + 0.1 * row)) * np.exp(0.01 * x) - shift
+        return f
+
+    a, ia = ts.roots_on_grid_rows(fun("bisect"), t, rows, 32)
+    b, ib = ts.zeros_on_grid_rows(fun("illinois"), t, rows, 32)
+    assert len(a) > 10 * rows and np.array_equal(ia, ib)
+    assert np.max(np.abs(a - b)) <= (t[1] - t[0]) * 2.0**-32  # measured 2.3e-12 of 2.9e-12
+    assert calls["illinois"] < calls["bisect"] / 2  # measured 11 against 33
+    if shift == 0.0:
+        assert 0.0 in b  # sin(0) = 0 on the grid's first point

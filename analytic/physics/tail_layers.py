@@ -104,11 +104,11 @@ def _ratios(mu: float, cs: float, M: float, cd: float) -> tuple[float, float]:
 
 
 def _response(L: np.ndarray, p: Params, layers: Sequence[ExactLayer],
-              phases: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+              phases: np.ndarray | None = None, integral: bool = True) -> tuple[np.ndarray, ...]:
     """``(u_x(0), s_xy(0), v(0), s_v(0), I)`` of the shear and rod solutions (module docstring).
 
     ``phases``: shape ``(n_layers, 2, ...)`` shear and dilatational phases ``q h`` per layer
-    (bottom layer first); default ``L h / c``.
+    (bottom layer first); default ``L h / c``. ``integral=False``: ``I`` is not computed (0).
     """
     mats = _materials(layers)
     L = np.asarray(L, dtype=complex)
@@ -123,7 +123,8 @@ def _response(L: np.ndarray, p: Params, layers: Sequence[ExactLayer],
         amps = (mu * q, M * pd)
         shear = _down(shear, amps[0], ph[0])
         rod = _down(rod, amps[1], ph[1])
-        total = total + _layer_integral(shear, rod, amps, ph, _ratios(mu, cs, M, cd))
+        if integral:
+            total = total + _layer_integral(shear, rod, amps, ph, _ratios(mu, cs, M, cd))
     return shear[0], shear[1], rod[0], rod[1], total
 
 
@@ -242,7 +243,7 @@ class _LayeredExclusion(tp._OrbitExclusion):
 
         def axis(which: int):  # noqa: ANN202
             def fun(x: np.ndarray, row: np.ndarray) -> np.ndarray:
-                u, tau, v, _, _ = self._states(1j * x, self._exact(1j * x))
+                u, tau, v, _, _ = self._states(1j * x, self._exact(1j * x), integral=False)
                 return np.real((v, alpha * tau - u / gamma)[which])
             return fun
 
@@ -253,7 +254,8 @@ class _LayeredExclusion(tp._OrbitExclusion):
         # beyond Omega: one period of the k = 0 orbit, the phases lowered by 0 .. h c k^2/Omega
         def orbit(which: int):  # noqa: ANN202
             def fun(t: np.ndarray, row: np.ndarray) -> np.ndarray:
-                u, tau, v, _, _ = self._states(1j * self.omega, self._orbit(0.0, t, row))
+                u, tau, v, _, _ = self._states(1j * self.omega, self._orbit(0.0, t, row),
+                                               integral=False)
                 return np.real((v, alpha * tau - u / gamma)[which])
             return fun
 
@@ -271,10 +273,15 @@ class _LayeredExclusion(tp._OrbitExclusion):
         off = self.offs[row].T.reshape(self.heights.shape + (-1,))
         return self.rates[:, :, None] * (rho + 1j * x)[None, None, :] - 1j * off
 
-    def _states(self, L: np.ndarray, phases: np.ndarray) -> tuple[np.ndarray, ...]:
-        """:func:`_response` at amplitude ``L`` (broadcast) and the given phases."""
+    def _states(self, L: np.ndarray, phases: np.ndarray, integral: bool = True
+                ) -> tuple[np.ndarray, ...]:
+        """:func:`_response` at amplitude ``L`` (broadcast) and the given phases.
+
+        ``integral=False`` (the zeros of ``v`` and of the shear part: about half the bound's
+        time went into reciprocity integrals those never read, session 35).
+        """
         L = np.broadcast_to(np.asarray(L, dtype=complex), phases.shape[2:])
-        return _response(L, self.p, self.layers, phases)
+        return _response(L, self.p, self.layers, phases, integral)
 
     def _direct(self, rho: float, w: np.ndarray) -> np.ndarray:
         L = rho + 1j * w

@@ -223,6 +223,42 @@ def roots_on_grid_rows(fun, t: np.ndarray, rows: int, steps: int  # noqa: ANN001
     return 0.5 * (lo + hi), i
 
 
+def zeros_on_grid_rows(fun, t: np.ndarray, rows: int, steps: int  # noqa: ANN001
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`roots_on_grid_rows` by the Illinois method instead of bisection.
+
+    Each bracket of a sign change on the grid ``t`` is narrowed by regula falsi with the
+    Illinois halving (both ends move; superlinear) until every bracket is at most ``steps``
+    bisections' width, ``(t[1] - t[0]) 2^-steps``, or after ``steps`` iterations (then the
+    bracket's midpoint). The same zeros as the bisection to that width, in fewer evaluations
+    (the layered tail bound's dips: 8-12 instead of 32, session 35).
+    """
+    X = np.broadcast_to(t[None, :], (rows, len(t)))
+    v = fun(X.ravel(), np.broadcast_to(np.arange(rows)[:, None], X.shape).ravel())
+    v = v.reshape(X.shape)
+    i, j = np.nonzero(np.sign(v[:, :-1]) * np.sign(v[:, 1:]) <= 0)
+    a, b, fa, fb = t[j], t[j + 1], v[i, j], v[i, j + 1]
+    tol = (float(t[1] - t[0]) if len(t) > 1 else 0.0) * 2.0 ** -steps
+    done = (fa == 0) | (fb == 0)
+    root = np.where(fa == 0, a, b)
+    for _ in range(steps):
+        todo = ~done & (np.abs(b - a) > tol)
+        if not todo.any():
+            break
+        den = np.where(todo, fb - fa, 1.0)
+        c = np.where(todo & (den != 0), b - fb * (b - a) / np.where(den != 0, den, 1.0),
+                     0.5 * (a + b))
+        fc = np.zeros_like(fb)
+        fc[todo] = fun(c[todo], i[todo])
+        hit = todo & (fc == 0)
+        root = np.where(hit, c, root)
+        done = done | hit
+        flip = todo & ~hit & (np.sign(fc) != np.sign(fb))  # the zero between c and b
+        a, fa = np.where(flip, b, a), np.where(flip, fb, np.where(todo & ~hit, 0.5 * fa, fa))
+        b, fb = np.where(todo & ~hit, c, b), np.where(todo & ~hit, fc, fb)
+    return np.where(done, root, 0.5 * (a + b)), i
+
+
 def exact_resonances(p: Params, k: float, w1: float, w2: float) -> np.ndarray:
     """Frequencies ``w1 <= omega <= w2`` where the exact phases at ``k`` make ``R = 0``."""
     rates = stack_constants(p)["rates"]

@@ -202,7 +202,7 @@ class _OrbitExclusion:
 
     def _axis_dips(self, funs: list[Callable]) -> None:
         """``w_dips``: the zeros on ``w`` of the real functions ``fun(x, row)`` of ``funs``."""
-        self.w_dips = np.concatenate([ts.roots_on_grid_rows(f, self.w, 1, _ZERO_STEPS)[0]
+        self.w_dips = np.concatenate([ts.zeros_on_grid_rows(f, self.w, 1, _ZERO_STEPS)[0]
                                       for f in funs])
 
     def _orbit_samples(self, eps: np.ndarray, T: float, funs: list[Callable]) -> None:
@@ -215,7 +215,7 @@ class _OrbitExclusion:
         self.offs = np.stack(np.meshgrid(*([grid] * m), indexing="ij"), -1).reshape(-1, m) * eps
         self.T = T
         x = np.linspace(0.0, T, int(math.ceil(T / self.h)) + 2)
-        dips = [ts.roots_on_grid_rows(f, x, len(self.offs), _ZERO_STEPS) for f in funs]
+        dips = [ts.zeros_on_grid_rows(f, x, len(self.offs), _ZERO_STEPS) for f in funs]
         self.x = np.tile(x, len(self.offs))
         self.x_row = np.repeat(np.arange(len(self.offs)), len(x))
         self.x_dips = np.concatenate([d[0] for d in dips])

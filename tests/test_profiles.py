@@ -212,6 +212,8 @@ def test_sweep_one_layer_file_gives_todays_numbers(tmp_path):
     (["--model", "layers", "--layers", "TWO", "--solver", "newton"], "--solver = newton", 2),
     (["--model", "layers", "--layers", "TWO", "--check-exact", "maybe"], "--check-exact", 1),
     (["--model", "layers", "--layers", "missing.csv"], "cannot be read", 1),
+    (["--layers-bound", "yes"], "--layers-bound = yes is outside", 1),  # no layers
+    (["--model", "layers", "--layers", "TWO", "--layers-bound", "maybe"], "auto | no | yes", 1),
     # a profile out of its range on the slider: refused before the run folder (it was refused
     # only when the first k built its model, after raw/ was made: session 28)
     (["--model", "layers", "--beta-profile", "1 - 0.6*exp(-y/0.05)"], "0.7079 at y = 0.036", 2),

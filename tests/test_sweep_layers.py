@@ -52,14 +52,14 @@ def test_two_layers_every_fe_value_is_an_exact_root_and_counts_agree(tmp_path, b
     layers = tmp_path / "two.csv"
     layers.write_text(TWO_LAYERS)
     out = str(tmp_path / "out")
-    proc = _scene(["--model", "layers", "--layers", str(layers), "--bc", bc, "--k", "1,2.5"],
-                  out, nproc=nproc, preamble=NO_EXACT, timeout=300)
+    proc = _scene(["--model", "layers", "--layers", str(layers), "--bc", bc, "--k", "1,2.5",
+                   "--layers-bound", "no"], out, nproc=nproc, preamble=NO_EXACT, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
     rows, summary = _read(out)
     assert summary["check_exact"] is False and summary["families"]["count"] == 0
-    # no --layers-bound yes: not proven, and the summary says how to ask
+    # --layers-bound no: not proven, and the summary says why
     assert summary["region"]["proven_to_hold_fastest_mode"] is False
-    assert "--layers-bound yes" in summary["region"]["why_not"]
+    assert "--layers-bound no" in summary["region"]["why_not"]
     assert summary["most_unstable"]["certificate"]["fastest_mode"] is False
     # the largest c_d of the stack: the second layer's 1/beta = 2 (the first: sqrt(0.6/1.3)/0.45)
     assert summary["region"]["velocity_scale"] == pytest.approx(2.0, rel=1e-12)
@@ -149,9 +149,9 @@ def test_damage_zone_climbs_until_its_tail_bound_proves_and_a_taller_box_agrees(
     layers = tmp_path / "dz.csv"
     layers.write_text(DAMAGE_ZONE)
     out = str(tmp_path / "out")
+    # the default --layers-bound (auto: yes with --model layers) asks for the bound
     proc = _scene(["--model", "layers", "--layers", str(layers), "--k", str(k), "--bc",
-                   "stress", "--layers-bound", "yes", "--no-plot"], out, preamble=NO_EXACT,
-                  timeout=300)
+                   "stress", "--no-plot"], out, preamble=NO_EXACT, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
     rows, summary = _read(out)
     region, per_k = summary["region"], summary["per_k"][0]

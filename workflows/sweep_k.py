@@ -22,10 +22,11 @@ than the fastest root in R; summary.json states the bound and the tail bound at 
   ``fe0, fe1, ...`` by increasing ``|Im Lambda|`` at each k (no tracking in k);
 - ``--solver newton``: the former path, FE Newton from each exact root (needs the check);
 - ``--model layers`` with several layers or profiles: FE only (``--check-exact no``), c_d the
-  stack's largest; with ``--layers-bound yes`` (constant layers on a rigid substrate, at most
-  two if their phase rates are not commensurate: analytic.physics.tail_layers) R climbs at
-  every k until the layers' tail bound is below the fastest value, else R is the first rung,
-  not proven to hold the fastest mode; labels ``c0, c1, ...``
+  stack's largest; where the layers' tail bound is derived (constant layers on a rigid
+  substrate, at most two if their phase rates are not commensurate: analytic.physics.
+  tail_layers) R climbs at every k until it is below the fastest value (``--layers-bound
+  no``: not asked for), else R is the first rung, not proven to hold the fastest mode; labels
+  ``c0, c1, ...``
   by continuation of the FE eigenpairs in k (forms.studies.sweep.label_by_continuation).
 
 ``status = ok`` means: count closed, estimate (and, when checked, label and error) within
@@ -119,12 +120,13 @@ def build_parser() -> argparse.ArgumentParser:
         m.add_argument(f"--{name}-profile", default=None, metavar="EXPR",
                        help=f"{name}(y) as an expression of y, e.g. '{example}' "
                        "(--model layers)")
-    m.add_argument("--layers-bound", default="no",
-                   help="yes: the region climbs at every k until the layers' tail bound "
-                   "(analytic.physics.tail_layers: constant layers on a rigid substrate, at "
-                   "most two if their phase rates are not commensurate) is below the fastest "
-                   "value, so that R provably holds the fastest mode; each rank bounds its own "
-                   "k, 0.1-3 s a bound (no: R is the first rung, not proven to hold it)")
+    m.add_argument("--layers-bound", default="auto",
+                   help="auto (yes with --model layers) | yes | no: the region climbs at every "
+                   "k until the layers' tail bound (analytic.physics.tail_layers: constant "
+                   "layers on a rigid substrate, at most two if their phase rates are not "
+                   "commensurate) is below the fastest value, so that R provably holds the "
+                   "fastest mode; each rank bounds its own k, 0.05-1 s a bound (no: R is the "
+                   "first rung, not proven to hold it)")
     _sweep_strip.add_arguments(ap)
     ap.add_argument("--out", default=os.path.join("out", "sweep_k"), help="output directory")
     ap.add_argument("--resume", action="store_true",
@@ -175,9 +177,12 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
         raise _cli.ParameterError("--check-exact = no is outside its allowed values with "
                                   "--solver newton (it starts from the exact roots): yes")
     region = _cli.region_from_args(args.c_max, args.re_min, args.re_max, args.omega0 or None)
-    if args.layers_bound not in ("no", "yes") or (args.layers_bound == "yes" and not layered):
+    if args.layers_bound not in ("auto", "no", "yes") or (args.layers_bound == "yes"
+                                                          and not layered):
         raise _cli.ParameterError(f"--layers-bound = {args.layers_bound} is outside its allowed "
-                                  "values no | yes (yes: with several layers, --model layers)")
+                                  "values auto | no | yes (yes: with several layers, --model "
+                                  "layers)")
+    args.layers_bound = "yes" if layered and args.layers_bound != "no" else "no"  # auto: yes
     # a layered slider's summary keys, its climb's rungs and tail bound (None: not climbed)
     args.layered, args.tail = (sweep.layered_setup(params, args.material, region, args.layers_bound
                                                    == "yes") if layered else (None, None))

@@ -97,17 +97,17 @@ TRACK_STATEMENT = (
     "on the discrete NEP (eigenvector kept, secant predictor, 4 sub-steps) to k_(i+1) and "
     "linked to the row there that is the mutually nearest one and within 1e-6 relative; a row "
     "without such a link starts a new label (numbered by first appearance, then |Im Lambda|)")
-#: Why a layered sweep's region is not proven without ``--layers-bound yes``.
+#: Why a layered sweep's region is not proven with ``--layers-bound no``.
 LAYERED_NOT_ASKED = (
-    "the layers' tail bound was not asked for (sweep_k.py --layers-bound yes asks for it: "
-    "analytic.physics.tail_layers, constant layers on a rigid substrate, two at most when "
+    "the layers' tail bound was turned off (sweep_k.py --layers-bound no; the default asks for "
+    "it: analytic.physics.tail_layers, constant layers on a rigid substrate, two at most when "
     "their phase rates are not commensurate; the region then climbs): the region R is its "
     "first rung at each k, not proven to hold the fastest mode")
 #: The scene's one-line note for a layered/graded slider (stderr).
 LAYERED_NOTE = ("note: several layers or profiles: FE only (--check-exact no), certificate 'fe'; "
                 "the region climbs at each k until the layers' tail bound is below the fastest "
-                "value (--layers-bound yes, where a bound is derived; else its first rung, not "
-                "proven to hold the fastest mode: summary.json)")
+                "value (where a bound is derived, unless --layers-bound no; else its first "
+                "rung, not proven to hold the fastest mode: summary.json)")
 #: Sub-steps of the continuation from one swept ``k`` to the next (``track=True``).
 TRACK_SUBSTEPS = 4
 #: Largest relative gap between a continued value and the row it is linked to.

@@ -47,15 +47,21 @@ def plot_dispersion(path: str, params: Params, region: Region, results: list[KRe
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 8), sharex=True)
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     kmin, kmax = results[0].k, results[-1].k
+    w0, w1 = region.im_max(params, 0.0), region.im_max(params, 1.0)  # |Im| bound: linear in k
+    by_colour: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
     for f in fams:  # exact continuation paths, inside the region only
-        kp, lp = np.asarray(f.k_path), np.asarray(f.Lambda_path)
+        kp, lp = np.asarray(f.k_path, dtype=float), np.asarray(f.Lambda_path, dtype=complex)
         if kp.size == 0:
             continue
-        inside = np.array([region.re_min <= z.real <= region.re_max
-                           and abs(z.imag) <= region.im_max(params, kk) and kmin <= kk <= kmax
-                           for kk, z in zip(kp, lp, strict=True)])
-        lp = np.where(inside, lp, complex(np.nan, np.nan))
+        inside = ((region.re_min <= lp.real) & (lp.real <= region.re_max)
+                  & (np.abs(lp.imag) <= w0 + (w1 - w0) * kp) & (kmin <= kp) & (kp <= kmax))
         c = colors[f.n % len(colors)] if f.n >= 0 else "0.55"
+        by_colour.setdefault(c, []).append((kp, np.where(inside, lp, complex(np.nan, np.nan))))
+    # one line per colour, its families apart by a NaN (session 35: a line per family, 450 on
+    # the stress top's checked sweep, made the picture's lines most of its time)
+    for c, paths in by_colour.items():
+        kp = np.concatenate([np.append(x, np.nan) for x, _ in paths])
+        lp = np.concatenate([np.append(z, complex(np.nan, np.nan)) for _, z in paths])
         ax1.plot(kp, lp.real, "-", color=c, lw=0.9, alpha=0.8, zorder=1)
         ax2.plot(kp, lp.imag, "-", color=c, lw=0.9, alpha=0.8, zorder=1)
     ok = [(r["k"], r["re_lambda"], r["im_lambda"]) for res in results for r in res.rows

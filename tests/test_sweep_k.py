@@ -17,7 +17,13 @@ from _workflows import run_workflow
 from mpi4py import MPI
 
 from analytic import Params, roots_in_box
-from analytic.numerics.spectrum import Region, certified_roots, families, fastest_in_box
+from analytic.numerics.spectrum import (
+    Region,
+    certified_roots,
+    families,
+    fastest_in_box,
+    fastest_mode,
+)
 from analytic.physics.tail import tail_bound, velocity_scale
 from forms.solvers.certified import CertifiedSolver, KResult, default_discretisation
 from forms.studies import sweep
@@ -165,6 +171,23 @@ def test_distributed_solve_equals_the_serial_solve_and_resumes(tmp_path):
         os.remove(os.path.join(folder, "raw", "k00001.json"))
     assert pending(resumed=True) == [1]
     assert pending(resumed=False) == [0, 1, 2]
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("bc", ["stress", "velocity"])
+def test_exact_rungs_warm_started_equal_the_cold_climbs(bc):
+    """sweep.regions_at_k (the exact referee's rung per k) starts each k's search from the
+    last k's fastest root and located roots and does not count the whole region: the same rung
+    at every k as fastest_mode from scratch (its default, every root counted), and as the
+    whole-region count says (the fastest root's rung: the tail bound below it)."""
+    p, region = Params(bc=bc), Region(c_max=None)
+    k = np.linspace(0.05, 6.0, 25)
+    warm, _ = sweep.regions_at_k(p, region, k, True,
+                                 lambda costs, fn: [fn(i) for i in range(len(costs))])
+    cold = [fastest_mode(p, float(x), region) for x in k]
+    assert warm == [m.c_max for m in cold]
+    assert all(m.proven for m in cold if m.root is not None)
+    assert len(set(warm)) >= (3 if bc == "stress" else 1)  # the stress top climbs (8-32 c_d)
 
 
 @pytest.mark.serial

@@ -17,9 +17,10 @@ from forms.solvers.certified import (
 def preload() -> float:
     """Import matplotlib (Agg) now; returns the seconds it took (about 0.5 s here).
 
-    The sweep's rank 0 calls it before it takes its first ``k`` (the ranks take their ``k``
-    whenever free, ``_cli.EndClaims``: meanwhile the others take more), so the picture's import
-    is not part of the serial tail everyone waits on. (Before session 27 rank 0 called it after
+    The sweep's rank 0 calls it before the exact families and the ``k`` values (the last rank
+    plans the families meanwhile, ``forms.studies.sweep.family_plan``; the ranks take their
+    ``k`` whenever free, ``_cli.EndClaims``), so the picture's import is not part of the serial
+    tail everyone waits on. (Before session 27 rank 0 called it after
     its own share, while the others finished theirs; with the ranks finishing together that
     overlap was gone.)
     """

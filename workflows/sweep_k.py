@@ -246,6 +246,9 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         # exact-seeded path and the family plan take the exact roots' region
         plan = sweep.plan_regions(params, region, k, check, args.solver,  # a bar from the start
                                   _cli.progress_mapper(comm, "region bound", args.quiet))
+        # rank 0 imports the picture's matplotlib first: meanwhile the last rank plans the
+        # exact families (sweep.family_plan) or, unchecked, the other ranks take more k
+        t_pre = preload() if comm.rank == 0 and not args.no_plot else 0.0
         t_fam, fams = time.perf_counter(), []
         if check:
             def fam_share(n: int) -> object:  # progress from the first second
@@ -258,8 +261,6 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                     unit=" families", file=sys.stderr)
             fams = sweep.follow_all(comm, params, plan, region, k, fam_share)
         t_fam = time.perf_counter() - t_fam
-        # rank 0 imports the picture's matplotlib first: meanwhile the other ranks take more k
-        t_pre = preload() if comm.rank == 0 and not args.no_plot else 0.0
         # runs of neighbouring k per rank, from both ends of a block as each rank gets free
         mine = (todo[j] for j in _cli.EndClaims(comm, len(todo), sweep.k_costs(
             params, plan.big, k, todo), bar=None if args.quiet else "k values"))

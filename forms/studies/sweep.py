@@ -536,13 +536,18 @@ def largest_region(params: Params, region: Region, k: Sequence[float],
 
 def family_plan(comm: object, params: Params, region: Region, k_max: float
                 ) -> tuple[FamilyPlan, list[tuple]]:
-    """The families that can reach the region up to ``k_max``, planned on rank 0 (collective).
+    """The families that can reach the region up to ``k_max``, planned on one rank (collective).
+
+    The last rank plans (the roots at the seed wavenumber in the tall box: 0.15-0.5 s at the
+    defaults), so that rank 0 can meanwhile import the picture's matplotlib (``sweep_k.py``).
 
     Returns:
         ``(plan, items)``: :func:`analytic.numerics.spectrum.plan_families` and its items
         (:func:`analytic.numerics.spectrum.plan_items`), the same on every rank.
     """
-    plan = comm.bcast(plan_families(params, region, k_max) if comm.rank == 0 else None)
+    root = comm.size - 1
+    plan = comm.bcast(plan_families(params, region, k_max) if comm.rank == root else None,
+                      root=root)
     return plan, plan_items(plan)
 
 

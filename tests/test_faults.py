@@ -465,11 +465,12 @@ def test_rank_killed_at_a_random_point(tmp_path, seed):
     """
     rng = random.Random(seed)
     out = tmp_path / "out"
-    # 600 k values up to k = 4: the run must still be computing at the latest kill (12 s).
-    # 240 took 17.7 s on session 11's idle machine, but about 10 s on session 12's faster one,
-    # where seed 0's kill at 10.3 s came as the run was exiting (no stop line: the known race
-    # of a rank killed at exit). 64 up to k = 2 had failed the same way at 6.7 s before.
-    proc = _start("sweep_k.py", ["--k", "0.5:4:600", "--out", str(out)], tmp_path, nproc=2)
+    # The run must still be computing at the latest kill (12 s): LONG_SWEEP took 35 s on 2
+    # ranks (session 35). The former 600 k up to k = 4 (velocity, checked) took 17.7 s on
+    # session 11's machine and about 7 s after session 35's faster exact check, where seed 0's
+    # kill at 10.3 s came as the run was exiting (no stop line: the known race of a rank
+    # killed at exit; 64 up to k = 2 and 240 had failed the same way before).
+    proc = _start("sweep_k.py", [*LONG_SWEEP, "--out", str(out)], tmp_path, nproc=2)
     try:
         time.sleep(rng.uniform(1.0, 12.0))
         ranks = [int(p) for p in os.listdir("/proc") if p.isdigit() and _is_rank(int(p), proc)]

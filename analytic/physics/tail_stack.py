@@ -202,16 +202,27 @@ def _roots_on_grid(fun, t: np.ndarray) -> np.ndarray:  # noqa: ANN001
     return roots_on_grid_rows(lambda x, row: fun(x), t, 1, 60)[0]
 
 
+def _sign_changes(fun, t: np.ndarray, rows: int  # noqa: ANN001
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``fun(x, row)`` on the grid ``t`` for each row, and where it changes sign (or is 0).
+
+    Returns ``(i, j, v)``: a sign change between ``t[j]`` and ``t[j + 1]`` on row ``i``, and
+    the values ``v`` (rows x grid).
+    """
+    X = np.broadcast_to(t[None, :], (rows, len(t)))
+    v = fun(X.ravel(), np.broadcast_to(np.arange(rows)[:, None], X.shape).ravel())
+    v = v.reshape(X.shape)
+    i, j = np.nonzero(np.sign(v[:, :-1]) * np.sign(v[:, 1:]) <= 0)
+    return i, j, v
+
+
 def roots_on_grid_rows(fun, t: np.ndarray, rows: int, steps: int  # noqa: ANN001
                        ) -> tuple[np.ndarray, np.ndarray]:
     """Every sign change of ``fun(x, row)`` on the grid ``t``, for each of ``rows`` rows.
 
     Vectorised bisection, ``steps`` halvings. Returns ``(x, row)`` of every zero found.
     """
-    X = np.broadcast_to(t[None, :], (rows, len(t)))
-    v = fun(X.ravel(), np.broadcast_to(np.arange(rows)[:, None], X.shape).ravel())
-    v = v.reshape(X.shape)
-    i, j = np.nonzero(np.sign(v[:, :-1]) * np.sign(v[:, 1:]) <= 0)
+    i, j, v = _sign_changes(fun, t, rows)
     lo, hi, flo = t[j], t[j + 1], v[i, j]
     for _ in range(steps):
         mid = 0.5 * (lo + hi)
@@ -233,10 +244,7 @@ def zeros_on_grid_rows(fun, t: np.ndarray, rows: int, steps: int  # noqa: ANN001
     bracket's midpoint). The same zeros as the bisection to that width, in fewer evaluations
     (the layered tail bound's dips: 8-12 instead of 32, session 35).
     """
-    X = np.broadcast_to(t[None, :], (rows, len(t)))
-    v = fun(X.ravel(), np.broadcast_to(np.arange(rows)[:, None], X.shape).ravel())
-    v = v.reshape(X.shape)
-    i, j = np.nonzero(np.sign(v[:, :-1]) * np.sign(v[:, 1:]) <= 0)
+    i, j, v = _sign_changes(fun, t, rows)
     a, b, fa, fb = t[j], t[j + 1], v[i, j], v[i, j + 1]
     tol = (float(t[1] - t[0]) if len(t) > 1 else 0.0) * 2.0 ** -steps
     done = (fa == 0) | (fb == 0)

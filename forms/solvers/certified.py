@@ -144,9 +144,8 @@ def split_box(counter: Callable[[Box], tuple[int, np.ndarray]], box: Box, count:
 
 
 def _find(fe: BandedOperator, counter: Callable, box: Box, count: int, t: np.ndarray,
-          most: int, sums: Callable | None, lin: Callable | None = None,
-          cont: Callable[[Box, int], list[Eigen]] | None = None,
-          polish: Callable[..., list[Eigen]] | None = None
+          most: int, sums: Callable | None, lin: Callable | None,
+          cont: Callable[[Box, int], list[Eigen]] | None, polish: Callable[..., list[Eigen]]
           ) -> tuple[list[Eigen], bool, str, str]:
     """The eigenpairs in ``box``: continued or linearised predictors, else moments per part.
 
@@ -157,7 +156,7 @@ def _find(fe: BandedOperator, counter: Callable, box: Box, count: int, t: np.nda
     ``count`` lie inside (the count comes from neither: a missed eigenvalue sends the search
     on). Otherwise (too large a pencil, or a value missing) the moments run per part of
     :func:`split_box` and the note says why. ``polish`` polishes the linearised predictors
-    (default ``fe.polish``; :func:`_polisher`).
+    (``fe.polish`` or :func:`_polisher`'s).
 
     Returns:
         ``(found, the parts' counts add up to count, note, found_by)``: ``found_by`` is
@@ -171,7 +170,7 @@ def _find(fe: BandedOperator, counter: Callable, box: Box, count: int, t: np.nda
             return found, True, "", "continuation"
     if lin is not None and count > 0:
         try:
-            found = (polish or fe.polish)(*lin(box), bx, exact_start=True)
+            found = polish(*lin(box), bx, exact_start=True)
             if len(found) == count:
                 return found, True, "", "linearised"
             note = f"linearised predictors gave {len(found)} of {count}: moments"
@@ -532,15 +531,14 @@ class CertifiedSolver:
                           for ka, z in pts)
         return pred, self._history[-1][2]
 
-    def _continuation(self, fe: BandedOperator, k: float,
-                      polish: Callable[..., list[Eigen]] | None = None,
-                      cond: CondensedOperator | None = None
+    def _continuation(self, k: float, polish: Callable[..., list[Eigen]],
+                      cond: CondensedOperator | None
                       ) -> Callable[[Box, int], list[Eigen]] | None:
         """``(box, count) -> eigenpairs`` from :meth:`predictors` at ``k``, or ``None``.
 
         ``None``: no predictors, or paused. Each predictor near the box (those polish starts
         from, :func:`forms.solvers.banded.predicted_near`) gets :data:`FOLLOW_MAXIT` Newton
-        steps on ``fe`` (by ``polish``, default ``fe.polish``). With the condensed form
+        steps by ``polish`` (the operator's, or :func:`_polisher`'s). With the condensed form
         ``cond``, up to :data:`FILL_MAX` eigenvalues they do not reach (entered the box since
         the last ``k``) are found from the count's power sums (:func:`missing_roots`); more
         than that many predictors short of ``count``, none is polished (the linearisation
@@ -560,9 +558,9 @@ class CertifiedSolver:
             short = count - int(np.sum(predicted_near(pred[0], bx)))
             if short > fill:
                 return []
-            found = (polish or fe.polish)(pred[0], pred[1], bx, maxit=FOLLOW_MAXIT)
+            found = polish(pred[0], pred[1], bx, maxit=FOLLOW_MAXIT)
             if 0 < count - len(found) <= fill:
-                found = _fill(cond, polish or fe.polish, bx, count, found)
+                found = _fill(cond, polish, bx, count, found)
             if len(found) < count and short <= 0:  # enough predictors, not the count
                 self._pause = FOLLOW_PAUSE
             return found
@@ -631,7 +629,7 @@ class CertifiedSolver:
         if t is not None:
             lin = cond.linear_eigs if cond is not None and self.solver == "linear" else None
             polish = _polisher(fe, cond)
-            cont = self._continuation(fe, k, polish, cond) if follow and lin else None
+            cont = self._continuation(k, polish, cond) if follow and lin else None
             found, parts_ok, why, out.found_by = _find(
                 fe, counter, used, out.n_fe, t, self.max_per_box, sums, lin, cont, polish)
             out.note = "; ".join(x for x in (out.note, why) if x)

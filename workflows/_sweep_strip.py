@@ -34,6 +34,7 @@ from _plot_dispersion import plot_dispersion
 
 from analytic.numerics.spectrum import Region
 from analytic.params import Params
+from analytic.physics.tail import velocity_scale
 from forms.solvers.certified import ROW_FIELDS, KResult
 from forms.studies import strip_sweep as ss
 from forms.studies import sweep
@@ -53,6 +54,15 @@ WHY_BOX = ("the cell holds every harmonic h k with its own spectrum: the cross-s
            "resolve) at 13 "
            "times the cost of the default box (528 s against 40 s, the count 93 % of it: "
            "workflows/results/strip_cost*)")
+#: What summary.json's fastest_mode says.
+FASTEST_STATEMENT = (
+    "the cell's modes of harmonic h are the cross-section model's at the wavenumber h k (-h: "
+    "their conjugates, the same growth rates); for each h = 1 .. harmonics (those the cell "
+    "resolves: 8 nodes per wavelength along x) the cross-section FE climbs its own provable "
+    "region at h k (no exact root: the tail bound beyond it below the fastest eigenvalue "
+    "inside); held: at every k each harmonic's fastest mode is proven and the fastest of them "
+    "lies in the cell's box R, so the cell's most unstable in R is the fastest mode of the "
+    "resolved harmonics (harmonics the cell does not resolve are not modelled by it)")
 #: What the labels of a sweep over several k mean (forms.studies.sweep.label_by_continuation).
 TRACK_STATEMENT = (
     "c0, c1, ...: continuation of the FE eigenpairs in k; each row at k_i is followed over 4 "
@@ -135,12 +145,20 @@ def solve_k(comm: object, params: Params, k: float, args: argparse.Namespace,
                                min(args.rtol, SECTION_RTOL), args.degree, args.cells)
         dist, per = ss.compare_with_section(spec, sets)
         rows = ss.strip_rows(spec, dist, args.rtol)
+        t2 = time.perf_counter()
+        fastest = ss.fastest_by_harmonic(
+            params, k, ss.resolved_harmonics(args.strip_cells, args.strip_degree), spec.box,
+            min(args.rtol, SECTION_RTOL), args.degree, args.cells)
+        for f in fastest:  # the --strip-c-max whose box would hold it
+            f["strip_c_max_needed"] = max(0.0, abs(f["im_lambda"]) - args.omega0) / (
+                k * velocity_scale(params))
         entry = {"k": float(k), "box": list(spec.box), "unknowns": spec.unknowns,
                  "unknowns_estimate": spec.fine_unknowns, "counted": spec.counted,
                  "found": len(spec.values), "closed": spec.closed, "harmonics": per,
+                 "fastest_by_harmonic": fastest,
                  "certificate": [r["certificate"] for r in rows],
-                 "seconds": {**spec.seconds, "strip_total": t1 - t0,
-                             "section_sets": time.perf_counter() - t1}}
+                 "seconds": {**spec.seconds, "strip_total": t1 - t0, "section_sets": t2 - t1,
+                             "fastest_by_harmonic": time.perf_counter() - t2}}
     return rows, entry
 
 
@@ -208,8 +226,10 @@ def summarise(config: dict, rows: list[dict], per_k: list[dict], ranks: int, why
     best = max(rows, key=lambda r: (round(r["re_lambda"], 9), -r["im_lambda"]), default=None)
     ests = [r["error_estimate"] for r in rows if math.isfinite(r["error_estimate"])]
     open_k = [e["k"] for e in per_k if not e["closed"]]
+    fastest = fastest_mode(per_k)
     if best is not None:  # as the section's: its row ok and every k's count closed
-        best = best | {"certified": best["status"] == "ok" and not open_k}
+        best = best | {"certified": best["status"] == "ok" and not open_k,
+                       "fastest_mode": fastest["held"]}
     return {**config, "box_reason": why, "versions": _cli.versions(), "command": _cli.command(),
             "mpi": {"ranks": ranks}, "certificate": {
                 "statement": "fe: the count (argument principle on MUMPS's log det) equals the "
@@ -224,7 +244,36 @@ def summarise(config: dict, rows: list[dict], per_k: list[dict], ranks: int, why
                            "section": sum(v["section"] for v in ones),
                            "max_rel_distance": by_h.get("1")},
             "max_rel_distance_by_harmonic": by_h, "most_unstable": best,
+            "fastest_mode": fastest,
             "labels": TRACK_STATEMENT if len(per_k) > 1 else LABEL_STATEMENT, "per_k": per_k}
+
+
+def fastest_mode(per_k: list[dict]) -> dict:
+    """Whether the box held the fastest mode of the resolved harmonics at every ``k`` (pure data).
+
+    At each ``k`` the fastest of the harmonics' fastest modes (``fastest_by_harmonic``, each
+    proven by the 1D model's region at ``h k``) is held when every harmonic's was proven and it
+    lies in the box; then the cell's most unstable in ``R`` at that ``k`` is it (to the cell's
+    discretisation error). ``strip_c_max_needed``: the smallest ``--strip-c-max`` whose box
+    holds the fastest mode at every ``k``.
+    """
+    held, missed, unproven, tops = [], [], [], []
+    for e in per_k:
+        fb = [f for f in e.get("fastest_by_harmonic", []) if math.isfinite(f["re_lambda"])]
+        top = max(fb, key=lambda f: f["re_lambda"], default=None)
+        if not (fb and all(f["proven"] for f in e["fastest_by_harmonic"])):
+            unproven.append(e["k"])
+        elif top is not None and top["in_box"]:
+            held.append(e["k"])
+        else:
+            missed.append(e["k"])
+        if top is not None:
+            tops.append(top | {"k": e["k"]})
+    best = max(tops, key=lambda f: f["re_lambda"], default=None)
+    n = max((len(e.get("fastest_by_harmonic", [])) for e in per_k), default=0)
+    return {"statement": FASTEST_STATEMENT, "harmonics": n, "held": not missed and not unproven,
+            "k_held": held, "k_outside_box": missed, "k_not_proven": unproven, "fastest": best,
+            "strip_c_max_needed": max((f["strip_c_max_needed"] for f in tops), default=None)}
 
 
 def _write(out: str, results: list[KResult], summary: dict, params: Params,
@@ -269,6 +318,23 @@ def report(summary: dict, out: str) -> int:
           f"{short(summary['accuracy']['max_error_estimate'])}, rtol "
           f"{summary['accuracy']['rtol']:g}); harmonic 1: {one['strip']} (1D: {one['section']}),"
           f" max relative distance {short(one['max_rel_distance'])}; most unstable "
-          f"in R (no tail bound for the 2D cell: R not proven to hold the fastest mode) {top}"
-          f" -> {out}", flush=True)
+          f"in R {top}; {_fastest_line(summary['fastest_mode'])} -> {out}", flush=True)
     return code
+
+
+def _fastest_line(fm: dict) -> str:
+    """The result line's account of :func:`fastest_mode`."""
+    f, n = fm["fastest"], fm["harmonics"]
+    what = (f"the fastest mode of harmonics +-1..+-{n} (the 1D model's proven region at h k)")
+    if f is None:
+        return f"{what}: none found"
+    z = f"h = {f['harmonic']} at k = {f['k']:g}: {f['re_lambda']:.6g} {f['im_lambda']:+.6g}i"
+    if fm["held"]:
+        return f"{what} is in R at every k ({z}): R holds the fastest mode"
+    why = []
+    if fm["k_outside_box"]:
+        why.append(f"outside R at {len(fm['k_outside_box'])} k (--strip-c-max "
+                   f"{math.ceil(fm['strip_c_max_needed'] * 10) / 10:g} would hold it)")
+    if fm["k_not_proven"]:
+        why.append(f"not proven at k = {fm['k_not_proven']}")
+    return f"{what}: {z}, {'; '.join(why)}: R NOT proven to hold the fastest mode"

@@ -37,8 +37,9 @@ from forms.mode_postprocessing import harmonic_content
 from forms.models.strip import build_strip_problem, friction_operator_for
 from forms.solvers.certified import CertifiedSolver, default_discretisation
 from forms.solvers.slepc import shift_off, sinvert_pep
-from forms.studies.block import region_session
+from forms.studies.block import NODES_PER_WAVELENGTH, region_session
 from forms.studies.strip_mode import bloch_strip
+from forms.studies.sweep import RungSolvers, climb
 
 PREFIX = "strip_region_"
 """Options prefix of the strip's region solve (the count's LU: ``strip_region_det_``)."""
@@ -284,6 +285,55 @@ def section_sets(params: Params, k: float, harmonics: Sequence[float], box: Sequ
         inside = [z for z in vals if _inside(z, box)]
         out[h] = SectionSet(h, abs(h) * k * (-1.0 if flip else 1.0), vals, len(inside),
                             bool(res.closed))
+    return out
+
+
+def resolved_harmonics(cells_per_wavelength: int, degree: int) -> int:
+    """Largest harmonic ``h`` the cell resolves along ``x`` (a stated rule, not a bound).
+
+    The finite block's rule (:func:`forms.studies.block.resolvable_k`): at least
+    :data:`forms.studies.block.NODES_PER_WAVELENGTH` nodes per wavelength ``2 pi / (h k)``,
+    the cell having ``cells_per_wavelength degree`` nodes per ``2 pi / k``; at least 1.
+    """
+    return max(1, cells_per_wavelength * degree // NODES_PER_WAVELENGTH)
+
+
+def fastest_by_harmonic(params: Params, k: float, n: int, box: Sequence[float],
+                        rtol: float = 1e-8, degree: int = 0, cells: int = 0) -> list[dict]:
+    """The fastest mode of each harmonic ``h = 1 .. n`` of the cell, proven by the 1D model.
+
+    The cell's modes of harmonic ``h`` are the cross-section model's at the wavenumber ``h k``
+    (those of ``-h`` their conjugates: the same growth rates), so the fastest mode of the cell
+    over the harmonics it resolves is the fastest of these. Each is the cross-section FE's own
+    provable region at ``h k`` (:func:`forms.studies.sweep.climb`: no exact root; the region
+    grows until the tail bound beyond it is below the fastest eigenvalue inside), the sweep's
+    default region and discretisation for ``rtol`` (``degree``, ``cells``: 0 from the rule).
+    One process.
+
+    Returns:
+        Per harmonic: ``harmonic``, ``wavenumber``, ``re_lambda``, ``im_lambda`` (the fastest
+        eigenvalue at ``h k``; NaN: none in the region), ``c_max`` (the bound that
+        proves, units of :func:`analytic.physics.tail.velocity_scale`), ``tail_bound``
+        (``None``: none derived), ``proven`` (the count closed and the tail bound is below
+        the fastest value) and ``in_box`` (it lies in the cell's ``box``).
+    """
+    region = Region(c_max=None)
+    rungs = RungSolvers(params, region, n * float(k), rtol, (degree, cells, 0.0),
+                        check_exact=False)
+    out = []
+    try:
+        for h in range(1, n + 1):
+            res, c, tb = climb(params, region, h * float(k), [], rungs)
+            best = max(res.rows, key=lambda r: (r["re_lambda"], -r["im_lambda"]), default=None)
+            z = (complex(math.nan, math.nan) if best is None
+                 else complex(best["re_lambda"], best["im_lambda"]))
+            target = region.re_min if best is None else z.real
+            out.append({"harmonic": h, "wavenumber": h * float(k), "re_lambda": z.real,
+                        "im_lambda": z.imag, "c_max": c, "tail_bound": tb,
+                        "proven": bool(res.closed and tb is not None and tb < target),
+                        "in_box": best is not None and _inside(z, box)})
+    finally:
+        rungs.destroy()
     return out
 
 

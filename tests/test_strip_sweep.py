@@ -28,11 +28,13 @@ from forms.solvers.continuation import cross_section_mode
 from forms.studies.strip_sweep import (
     SectionSet,
     StripSpectrum,
+    c_max_holding,
     canonical_labels,
     compare_with_section,
     continue_values,
     estimates,
     fastest_by_harmonic,
+    inside,
     strip_box,
     strip_rows,
     strip_spectrum,
@@ -183,15 +185,19 @@ def test_sweep_k_model_strip_equals_the_1d_sets(tmp_path, monkeypatch, nproc: in
 
 @pytest.mark.serial
 @pytest.mark.slow
-def test_a_box_that_holds_the_fastest_mode_says_so(tmp_path) -> None:
+@pytest.mark.parametrize("c_max, nproc", [("4", 1), ("auto", 1), ("auto", 2)])
+def test_a_box_that_holds_the_fastest_mode_says_so(tmp_path, monkeypatch, c_max: str,
+                                                   nproc: int) -> None:
     # k = 1, 8 x 4 cells (harmonics +-1, +-2 resolved): the fastest is harmonic 2's, the 1D
-    # model's 0.32234 - 7.3824i at 2 k, |Im| / (k c_d) = 3.69: --strip-c-max 4 holds it. The
-    # cell finds it with its harmonic-2 estimate 3.9e-3 (4 cells per wavelength of that
-    # harmonic; distance to the 1D value 4.0e-3): flagged against --rtol 1e-3. About 3 s.
+    # model's 0.32234 - 7.3824i at 2 k, |Im| / (k c_d) = 3.69: --strip-c-max 4 holds it, and
+    # auto takes 1.05 x 3.69. The cell finds it with its harmonic-2 estimate 3.9e-3 (4 cells
+    # per wavelength of that harmonic; distance to the 1D value 4.0e-3): flagged against
+    # --rtol 1e-3. About 3 s serially.
+    monkeypatch.setenv("OMPI_MCA_mpi_yield_when_idle", "1")
     out = tmp_path / "tall"
     res = run_workflow("sweep_k.py", ["--model", "strip", "--k", "1", "--strip-cells", "8",
-                                      "--strip-ny", "4", "--strip-c-max", "4", "--quiet",
-                                      "--no-plot", "--out", str(out)], timeout=600)
+                                      "--strip-ny", "4", "--strip-c-max", c_max, "--quiet",
+                                      "--no-plot", "--out", str(out)], nproc, timeout=600)
     assert res.returncode == 1, res.stderr[-2000:]  # flagged rows (the harmonic-2 estimate)
     assert "R holds the fastest mode" in res.stdout
     with open(out / "summary.json") as fh:
@@ -200,6 +206,9 @@ def test_a_box_that_holds_the_fastest_mode_says_so(tmp_path) -> None:
     assert fm["held"] and fm["k_held"] == [1.0] and best["fastest_mode"]
     assert fm["fastest"]["harmonic"] == 2 and fm["fastest"]["in_box"]
     assert fm["strip_c_max_needed"] < 4.0
+    used = summary["per_k"][0]["strip_c_max"]
+    assert used == (pytest.approx(1.05 * fm["strip_c_max_needed"], rel=1e-12)
+                    if c_max == "auto" else 4.0)
     # the cell's most unstable in R is that mode, to its own estimate (5 %: EST_RATIO)
     z1 = complex(fm["fastest"]["re_lambda"], fm["fastest"]["im_lambda"])
     z = complex(best["re_lambda"], best["im_lambda"])
@@ -220,16 +229,18 @@ FASTEST_RTOL = 1e-11
 def test_fastest_by_harmonic_is_the_exact_fastest_root_of_a_taller_region(bc: str,
                                                                          k: float) -> None:
     p = Params(bc=bc)
-    box = strip_box(p, k, -0.01, 2.0, 1.0, 0.0)
-    tall = strip_box(p, k, -0.01, 2.0, 64.0, 0.0)
-    got = fastest_by_harmonic(p, k, 2, box)
+    got = fastest_by_harmonic(p, k, 2)
     assert [e["harmonic"] for e in got] == [1, 2]
-    for e, e_tall in zip(got, fastest_by_harmonic(p, k, 2, tall), strict=True):
+    for e in got:
         assert e["proven"] and e["wavenumber"] == e["harmonic"] * k
         z = complex(e["re_lambda"], e["im_lambda"])
         root, n, _ = fastest_root(p, e["wavenumber"], Region(c_max=64.0))
         assert n > 0 and abs(z - root) / abs(root) < FASTEST_RTOL, (e, root)
-        assert not e["in_box"] and e_tall["in_box"]  # the default box is |Im| <= k c_d
+        # the smallest box that holds it: just above it, not just below
+        c = c_max_holding(p, k, z)
+        assert c > 1.0  # the default box (|Im| <= k c_d) misses each
+        assert inside(z, strip_box(p, k, -0.01, 2.0, 1.001 * c))
+        assert not inside(z, strip_box(p, k, -0.01, 2.0, 0.999 * c))
 
 
 @pytest.mark.serial
@@ -279,7 +290,9 @@ def test_coarse_cell_is_flagged_by_its_estimate_and_resume_solves_only_missing_k
                                        (["--c-max", "4"], "--c-max"),
                                        (["--solver", "newton"], "--solver"),
                                        (["--check-exact", "yes"], "--check-exact"),
-                                       (["--layers", "x.csv"], "--layers")])
+                                       (["--layers", "x.csv"], "--layers"),
+                                       (["--strip-c-max", "tall"], "--strip-c-max"),
+                                       (["--strip-c-max", "-1"], "--strip-c-max")])
 def test_sweep_k_model_strip_bad_input_is_one_line(tmp_path, bad: list[str], word: str) -> None:
     res = run_workflow("sweep_k.py", ["--model", "strip", "--k", "4", *bad,
                                       "--out", str(tmp_path / "bad")])

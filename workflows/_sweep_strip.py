@@ -7,7 +7,8 @@ At each ``k`` the cell of one wavelength ``2 pi / k`` (P``--strip-degree`` on
 communicator) in the box ``re_min <= Re Lambda <= re_max``,
 ``|Im Lambda| <= strip_c_max k c_d + omega0`` (:func:`forms.studies.strip_sweep.strip_box`;
 default ``strip_c_max = 1``, ``omega0 = 0``, not the cross-section sweep's region: see
-:data:`WHY_BOX`). Each eigenvalue carries its convergence estimate against the degree ``p + 1``
+:data:`WHY_BOX`; ``auto``: per ``k`` the default or, if taller, :data:`AUTO_MARGIN` times the
+bound that holds the fastest mode of the resolved harmonics, :data:`FASTEST_STATEMENT`). Each eigenvalue carries its convergence estimate against the degree ``p + 1``
 cell on the same mesh (``error_estimate``; ``status`` ``ok`` and certificate ``fe`` when the
 count closed and the estimate is within ``--rtol``, default :data:`STRIP_RTOL` here), its
 harmonic ``h`` (wavenumber ``h k``) and its relative distance to the cross-section model's
@@ -34,7 +35,6 @@ from _plot_dispersion import plot_dispersion
 
 from analytic.numerics.spectrum import Region
 from analytic.params import Params
-from analytic.physics.tail import velocity_scale
 from forms.solvers.certified import ROW_FIELDS, KResult
 from forms.studies import strip_sweep as ss
 from forms.studies import sweep
@@ -54,6 +54,9 @@ WHY_BOX = ("the cell holds every harmonic h k with its own spectrum: the cross-s
            "resolve) at 13 "
            "times the cost of the default box (528 s against 40 s, the count 93 % of it: "
            "workflows/results/strip_cost*)")
+#: ``--strip-c-max auto``: the box's bound over the one that just holds the fastest mode (its
+#: edge 5 % of the height above the mode, not through it).
+AUTO_MARGIN = 1.05
 #: What summary.json's fastest_mode says.
 FASTEST_STATEMENT = (
     "the cell's modes of harmonic h are the cross-section model's at the wavenumber h k (-h: "
@@ -87,9 +90,11 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     g.add_argument("--strip-ny", type=int, default=6, help="cells along y")
     g.add_argument("--strip-degree", type=int, default=2, help="Lagrange degree 1..4 (the "
                    "estimate solves degree + 1)")
-    g.add_argument("--strip-c-max", type=float, default=1.0,
+    g.add_argument("--strip-c-max", default="1",
                    help="box |Im Lambda| <= strip_c_max k c_d + omega0 (c_d: the slider's "
-                   "largest; --omega0 0: none), Re Lambda in [--re-min, --re-max]")
+                   "largest; --omega0 0: none), Re Lambda in [--re-min, --re-max]; auto: per k "
+                   "the default 1 or, if taller, 1.05 times the bound that holds the fastest "
+                   "mode of the harmonics the cell resolves (the 1D model's at h k)")
 
 
 def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray]:
@@ -113,13 +118,25 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray]:
     _cli.positive_int("--strip-ny", args.strip_ny, 1, 1000)
     _cli.positive_int("--strip-degree", args.strip_degree, 1, 4)
     _cli.check_section_options(args)  # the 1D sets' --degree, --cells, --rtol; --omega0
-    if not (math.isfinite(args.strip_c_max) and args.strip_c_max > 0):
-        raise _cli.ParameterError(f"--strip-c-max = {args.strip_c_max} is outside its allowed "
-                                  "range > 0")
+    args.strip_c_max = _strip_c_max(args.strip_c_max)
     if not (-1.0 < args.re_min < args.re_max and math.isfinite(args.re_max)):
         raise _cli.ParameterError(f"--re-min = {args.re_min}, --re-max = {args.re_max} are "
                                   "outside their allowed range -1 < re_min < re_max")
     return params, np.unique(_cli.parse_k(args.k))
+
+
+def _strip_c_max(text: str) -> float | None:
+    """``--strip-c-max``: a number > 0, or ``auto`` (``None``)."""
+    if text == "auto":
+        return None
+    try:
+        c = float(text)
+    except ValueError:
+        c = math.nan
+    if not (math.isfinite(c) and c > 0):
+        raise _cli.ParameterError(f"--strip-c-max = {text} is outside its allowed values: a "
+                                  "number > 0, or auto")
+    return c
 
 
 def solve_k(comm: object, params: Params, k: float, args: argparse.Namespace,
@@ -129,7 +146,22 @@ def solve_k(comm: object, params: Params, k: float, args: argparse.Namespace,
     With ``k_next`` each eigenvalue is also continued there (the links of the labels).
     """
     t0 = time.perf_counter()
-    box = ss.strip_box(params, k, args.re_min, args.re_max, args.strip_c_max, args.omega0)
+    fastest, c = [], args.strip_c_max
+    if comm.rank == 0:  # each resolved harmonic's fastest mode, by the 1D model at h k
+        fastest = ss.fastest_by_harmonic(
+            params, k, ss.resolved_harmonics(args.strip_cells, args.strip_degree),
+            min(args.rtol, SECTION_RTOL), args.degree, args.cells)
+        for f in fastest:  # the --strip-c-max whose box would hold it
+            z = complex(f["re_lambda"], f["im_lambda"])
+            f["strip_c_max_needed"] = ss.c_max_holding(params, k, z, args.omega0)
+        if c is None:  # auto: the default box, or taller to hold the fastest with a margin
+            top = max(fastest, key=lambda f: f["re_lambda"], default=None)
+            c = max(1.0, AUTO_MARGIN * top["strip_c_max_needed"] if top else 1.0)
+    c = comm.bcast(c)
+    t_f = time.perf_counter()
+    box = ss.strip_box(params, k, args.re_min, args.re_max, c, args.omega0)
+    for f in fastest:
+        f["in_box"] = ss.inside(complex(f["re_lambda"], f["im_lambda"]), box)
     mesh = {"cells_per_wavelength": args.strip_cells, "ny": args.strip_ny,
             "degree": args.strip_degree}
     spec = ss.strip_spectrum(comm, params, k, box, **mesh)
@@ -145,20 +177,15 @@ def solve_k(comm: object, params: Params, k: float, args: argparse.Namespace,
                                min(args.rtol, SECTION_RTOL), args.degree, args.cells)
         dist, per = ss.compare_with_section(spec, sets)
         rows = ss.strip_rows(spec, dist, args.rtol)
-        t2 = time.perf_counter()
-        fastest = ss.fastest_by_harmonic(
-            params, k, ss.resolved_harmonics(args.strip_cells, args.strip_degree), spec.box,
-            min(args.rtol, SECTION_RTOL), args.degree, args.cells)
-        for f in fastest:  # the --strip-c-max whose box would hold it
-            f["strip_c_max_needed"] = max(0.0, abs(f["im_lambda"]) - args.omega0) / (
-                k * velocity_scale(params))
-        entry = {"k": float(k), "box": list(spec.box), "unknowns": spec.unknowns,
+        entry = {"k": float(k), "box": list(spec.box), "strip_c_max": c,
+                 "unknowns": spec.unknowns,
                  "unknowns_estimate": spec.fine_unknowns, "counted": spec.counted,
                  "found": len(spec.values), "closed": spec.closed, "harmonics": per,
                  "fastest_by_harmonic": fastest,
                  "certificate": [r["certificate"] for r in rows],
-                 "seconds": {**spec.seconds, "strip_total": t1 - t0, "section_sets": t2 - t1,
-                             "fastest_by_harmonic": time.perf_counter() - t2}}
+                 "seconds": {**spec.seconds, "strip_total": t1 - t_f,
+                             "section_sets": time.perf_counter() - t1,
+                             "fastest_by_harmonic": t_f - t0}}
     return rows, entry
 
 
@@ -166,7 +193,8 @@ def run(comm: object, args: argparse.Namespace, outputs: tuple[str, ...]) -> int
     """``sweep_k.py --model strip`` on ``comm`` (every rank calls this); the exit code."""
     params, ks = validate(args)
     config = {"model": "strip", "params": params.as_dict(), "k": [float(v) for v in ks],
-              "re_min": args.re_min, "re_max": args.re_max, "strip_c_max": args.strip_c_max,
+              "re_min": args.re_min, "re_max": args.re_max,
+              "strip_c_max": "auto" if args.strip_c_max is None else args.strip_c_max,
               "omega0": args.omega0, "rtol": args.rtol,
               "strip": {"cells_per_wavelength": args.strip_cells, "ny": args.strip_ny,
                         "degree": args.strip_degree},
@@ -286,12 +314,15 @@ def _write(out: str, results: list[KResult], summary: dict, params: Params,
     if plot and any(res.rows for res in results):
         best = summary["most_unstable"]
         c = summary
+        c_max = (max(e["strip_c_max"] for e in c["per_k"]) if c["strip_c_max"] == "auto"
+                 else c["strip_c_max"])
+        bound = "(auto per k)" if c["strip_c_max"] == "auto" else f"{c_max:g}"
         title = (f"2D Bloch cell (P{c['strip']['degree']}, {c['strip']['cells_per_wavelength']}"
                  f" x {c['strip']['ny']} cells): every eigenvalue with {c['re_min']:g} <= Re <= "
-                 f"{c['re_max']:g}, |Im| <= {c['strip_c_max']:g} k c_d + {c['omega0']:g}\n"
+                 f"{c['re_max']:g}, |Im| <= {bound} k c_d + {c['omega0']:g}\n"
                  f"colour: harmonic h (wavenumber h k); f={params.f:g}, gamma={params.gamma:g}, "
                  f"beta={params.beta:g}, Delta={params.Delta:g}, H={params.H:g}, bc={params.bc}")
-        region = Region(re_min=c["re_min"], re_max=c["re_max"], c_max=c["strip_c_max"])
+        region = Region(re_min=c["re_min"], re_max=c["re_max"], c_max=c_max)
         plot_dispersion(os.path.join(out, "dispersion.png"), params, region, results, [],
                         None if best is None else best | {"branch": best["label"]},
                         c["params"], colour_by="harmonic", title=title)

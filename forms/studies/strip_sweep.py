@@ -236,6 +236,11 @@ def estimates(values: np.ndarray, fine: np.ndarray | None) -> tuple[np.ndarray, 
     return est, mutual
 
 
+def c_max_holding(params: Params, k: float, z: complex, omega0: float = 0.0) -> float:
+    """The smallest ``c_max`` of :func:`strip_box` whose box at ``k`` holds ``Im z``."""
+    return max(0.0, abs(z.imag) - omega0) / (float(k) * velocity_scale(params))
+
+
 def strip_box(params: Params, k: float, re_min: float, re_max: float, c_max: float,
               omega0: float = 0.0) -> tuple[float, float, float, float]:
     """The strip's box at ``k``: ``re_min <= Re <= re_max``, ``|Im| <= c_max k c_d + omega0``.
@@ -282,8 +287,8 @@ def section_sets(params: Params, k: float, harmonics: Sequence[float], box: Sequ
         res = solver.solve(abs(h) * k, box=sub)
         vals = np.array([complex(r["re_lambda"], r["im_lambda"]) for r in res.rows])
         vals = vals.conj() if flip else vals
-        inside = [z for z in vals if _inside(z, box)]
-        out[h] = SectionSet(h, abs(h) * k * (-1.0 if flip else 1.0), vals, len(inside),
+        in_box = [z for z in vals if inside(z, box)]
+        out[h] = SectionSet(h, abs(h) * k * (-1.0 if flip else 1.0), vals, len(in_box),
                             bool(res.closed))
     return out
 
@@ -298,8 +303,8 @@ def resolved_harmonics(cells_per_wavelength: int, degree: int) -> int:
     return max(1, cells_per_wavelength * degree // NODES_PER_WAVELENGTH)
 
 
-def fastest_by_harmonic(params: Params, k: float, n: int, box: Sequence[float],
-                        rtol: float = 1e-8, degree: int = 0, cells: int = 0) -> list[dict]:
+def fastest_by_harmonic(params: Params, k: float, n: int, rtol: float = 1e-8, degree: int = 0,
+                        cells: int = 0) -> list[dict]:
     """The fastest mode of each harmonic ``h = 1 .. n`` of the cell, proven by the 1D model.
 
     The cell's modes of harmonic ``h`` are the cross-section model's at the wavenumber ``h k``
@@ -314,8 +319,8 @@ def fastest_by_harmonic(params: Params, k: float, n: int, box: Sequence[float],
         Per harmonic: ``harmonic``, ``wavenumber``, ``re_lambda``, ``im_lambda`` (the fastest
         eigenvalue at ``h k``; NaN: none in the region), ``c_max`` (the bound that
         proves, units of :func:`analytic.physics.tail.velocity_scale`), ``tail_bound``
-        (``None``: none derived), ``proven`` (the count closed and the tail bound is below
-        the fastest value) and ``in_box`` (it lies in the cell's ``box``).
+        (``None``: none derived) and ``proven`` (the count closed and the tail bound is below
+        the fastest value).
     """
     region = Region(c_max=None)
     rungs = RungSolvers(params, region, n * float(k), rtol, (degree, cells, 0.0),
@@ -330,8 +335,7 @@ def fastest_by_harmonic(params: Params, k: float, n: int, box: Sequence[float],
             target = region.re_min if best is None else z.real
             out.append({"harmonic": h, "wavenumber": h * float(k), "re_lambda": z.real,
                         "im_lambda": z.imag, "c_max": c, "tail_bound": tb,
-                        "proven": bool(res.closed and tb is not None and tb < target),
-                        "in_box": best is not None and _inside(z, box)})
+                        "proven": bool(res.closed and tb is not None and tb < target)})
     finally:
         rungs.destroy()
     return out
@@ -363,7 +367,8 @@ def _padded(box: Sequence[float]) -> tuple[float, float, float, float]:
     return (box[0] - re_pad, box[1] + 0.05, box[2] - im_pad, box[3] + im_pad)
 
 
-def _inside(z: complex, box: Sequence[float]) -> bool:
+def inside(z: complex, box: Sequence[float]) -> bool:
+    """``z`` strictly inside ``box`` ``(re_min, re_max, im_min, im_max)``."""
     return box[0] < z.real < box[1] and box[2] < z.imag < box[3]
 
 

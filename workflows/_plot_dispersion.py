@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 
 import _cli
 import numpy as np
@@ -35,12 +36,16 @@ def preload() -> float:
 
 def plot_dispersion(path: str, params: Params, region: Region, results: list[KResult],
                     fams: list, most: dict | None, parameters: dict,
-                    colour_by: str | None = None, title: str | None = None) -> None:
+                    colour_by: str | None = None, title: str | None = None,
+                    marks: Sequence[tuple[float, complex, str]] = (),
+                    box_edges: Sequence[tuple[float, float]] = ()) -> None:
     """dispersion.png: growth rate and frequency against k; exact lines, FE points, envelope.
 
     ``colour_by``: a column of the rows (``harmonic`` for the 2D strip) whose values colour the
     ``ok`` points, one legend entry each (no exact-line legend then); ``title`` replaces the
-    region's title.
+    region's title. ``marks``: ``(k, Lambda, label)`` drawn as diamonds, one legend entry per
+    label (the strip: each harmonic's fastest mode by the 1D model); ``box_edges``: ``(k,
+    |Im| bound)`` of a box drawn as dashes on the frequency panel.
     """
     preload()  # matplotlib with Agg (already imported when the sweep preloaded it)
     import matplotlib.pyplot as plt
@@ -97,6 +102,19 @@ def plot_dispersion(path: str, params: Params, region: Region, results: list[KRe
                  label=f"most unstable: {most['branch']}, k = {most['k']:.4g},\n"
                  f"Lambda = {most['re_lambda']:.6g} {most['im_lambda']:+.6g}i")
         ax2.plot([most["k"]], [most["im_lambda"]], "*", ms=17, color="gold", mec="k", zorder=4)
+    for i, label in enumerate(dict.fromkeys(m[2] for m in marks)):
+        a = np.array([(k, z.real, z.imag) for k, z, lab in marks if lab == label])
+        style = {"marker": "D", "ms": 7, "mfc": "none", "mew": 1.3, "ls": "none", "zorder": 4,
+                 "color": colors[(i + 4) % len(colors)]}
+        ax1.plot(a[:, 0], a[:, 1], label=label, **style)
+        ax2.plot(a[:, 0], a[:, 2], **style)
+    if len(box_edges):
+        e = np.array(box_edges, dtype=float)
+        for sign, label in ((1.0, "box |Im| bound"), (-1.0, None)):
+            ax2.plot(e[:, 0], sign * e[:, 1], "--", marker="_", ms=14, color="0.35", lw=0.9,
+                     zorder=2, label=label)
+        ax2.legend(fontsize=7.5, loc="upper left", bbox_to_anchor=(1.01, 1.0),
+                   borderaxespad=0.0)
     if colour_by is None and fams:  # the exact lines' legend, where there are exact lines
         ax1.plot([], [], "-", color=colors[0], lw=0.9,
                  label="exact, waveguide n+/n- (colour: n)")

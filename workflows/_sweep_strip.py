@@ -8,11 +8,12 @@ communicator) in the box ``re_min <= Re Lambda <= re_max``,
 ``|Im Lambda| <= strip_c_max k c_d + omega0`` (:func:`forms.studies.strip_sweep.strip_box`;
 default ``strip_c_max = 1``, ``omega0 = 0``, not the cross-section sweep's region: see
 :data:`WHY_BOX`; ``auto``: per ``k`` the default or, if taller, :data:`AUTO_MARGIN` times the
-bound that holds the fastest mode of the resolved harmonics, :data:`FASTEST_STATEMENT`). Each eigenvalue carries its convergence estimate against the degree ``p + 1``
-cell on the same mesh (``error_estimate``; ``status`` ``ok`` and certificate ``fe`` when the
-count closed and the estimate is within ``--rtol``, default :data:`STRIP_RTOL` here), its
-harmonic ``h`` (wavenumber ``h k``) and its relative distance to the cross-section model's
-complete set at ``h k`` (rank 0, :func:`forms.studies.strip_sweep.section_sets`, the 1D
+bound that holds the fastest mode of the resolved harmonics, :data:`FASTEST_STATEMENT`). Each
+eigenvalue carries its convergence estimate against the degree ``p + 1`` cell on the same mesh
+(``error_estimate``; ``status`` ``ok`` and certificate ``fe`` when the count closed and the
+estimate is within ``--rtol``, default :data:`STRIP_RTOL` here), its harmonic ``h``
+(wavenumber ``h k``) and its relative distance to the cross-section model's complete set at
+``h k`` (rank 0, :func:`forms.studies.strip_sweep.section_sets`, the 1D
 discretisation from ``min(--rtol, 1e-8)``, ``--degree``, ``--cells``). Over several ``k`` the
 labels are ``c0, c1, ...`` by continuation of the eigenpairs in ``k`` (:data:`TRACK_STATEMENT`).
 Every finished ``k`` is saved at once to ``DIR/raw/k#####.json`` (``--resume`` continues).
@@ -323,9 +324,14 @@ def _write(out: str, results: list[KResult], summary: dict, params: Params,
                  f"colour: harmonic h (wavenumber h k); f={params.f:g}, gamma={params.gamma:g}, "
                  f"beta={params.beta:g}, Delta={params.Delta:g}, H={params.H:g}, bc={params.bc}")
         region = Region(re_min=c["re_min"], re_max=c["re_max"], c_max=c_max)
+        marks = [(e["k"], complex(f["re_lambda"], f["im_lambda"]),
+                  f"fastest mode of harmonic {f['harmonic']} (1D model at {f['harmonic']} k)")
+                 for e in c["per_k"] for f in e.get("fastest_by_harmonic", [])
+                 if math.isfinite(f["re_lambda"])]
         plot_dispersion(os.path.join(out, "dispersion.png"), params, region, results, [],
                         None if best is None else best | {"branch": best["label"]},
-                        c["params"], colour_by="harmonic", title=title)
+                        c["params"], colour_by="harmonic", title=title, marks=marks,
+                        box_edges=[(e["k"], e["box"][3]) for e in c["per_k"]])
 
 
 def report(summary: dict, out: str) -> int:

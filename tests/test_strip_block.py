@@ -625,7 +625,7 @@ REGULARISED = "finite_block_regularised"
 REGULARISED_RUNS = {
     "velocity": ({"velocity_complete": 8.0, "velocity_complete_L16": 16.0,
                   "velocity_complete_L32": 32.0, "velocity_complete_L32_tall": 32.0,
-                  "velocity_complete_L64": 64.0},
+                  "velocity_complete_L64": 64.0, "velocity_complete_L64_tall": 64.0},
                  {8.0: 6.6, 16.0: 6.6, 32.0: 6.53, 64.0: 6.53}),
     "stress": ({"stress_complete": 8.0, "stress_complete_L16": 16.0,
                 "stress_complete_L32": 32.0, "stress_complete_L64": 64.0,
@@ -815,21 +815,27 @@ def test_committed_velocity_complete_search_on_a_finer_mesh(fine, length, table,
 
 
 @pytest.mark.serial
-def test_committed_velocity_L32_tall_box_closes_with_the_low_box_set():
-    """README "The velocity top's L = 32": the box to the frequency bound (``Re >= 0.125``,
-    ``|Im| <= 125.67``), which counted 7 in its half box before session 23's grading rule of
-    ``region.winding`` and did not close, counts 9 there and closes at 18 = 18 (session 23).
-    Its eigenvalues are those of the box ``|Im| <= 20`` (another count, other tiles, run in
-    session 19): every one of them below ``|Im| = 20``, equal to the CSVs' 12 digits
-    (measured: 1e-12 relative), so the frequencies 20 .. 125.67 hold none above 0.125."""
-    tall = _spectrum_rows(os.path.join(REGULARISED, "velocity_complete_L32_tall"), 32.0)
-    low = _spectrum_rows(os.path.join(REGULARISED, "velocity_complete_L32"), 32.0)
-    _, meta = _results(os.path.join(REGULARISED, "velocity_complete_L32_tall"))
-    cert = meta["certificates"]["32"]
+@pytest.mark.parametrize(("length", "floor", "n"), [(32, 0.125, 18), (64, 0.135, 24)])
+def test_committed_velocity_tall_box_closes_with_the_low_box_set(length: int, floor: float,
+                                                                 n: int):
+    """README "The velocity top's L = 32" and "L = 64": the box to the frequency bound (``Re >=
+    floor``, ``|Im| <= 125.67``). At ``L = 32`` it counted 7 in its half box before session
+    23's grading rule of ``region.winding`` and did not close; it counts 9 there and closes at
+    18 = 18 (session 23); at ``L = 64`` (session 36, 36 085 count samples) 24 = 24. The
+    eigenvalues are those of the box ``|Im| <= 20`` (another count, other tiles, run in
+    sessions 19 and 20): every one of them below ``|Im| = 20``, equal to the CSVs' 12 digits
+    (measured: 1e-12 and 1.5e-12 relative), so the frequencies 20 .. 125.67 hold none above
+    the floor."""
+    tall = _spectrum_rows(os.path.join(REGULARISED, f"velocity_complete_L{length}_tall"),
+                          float(length))
+    low = _spectrum_rows(os.path.join(REGULARISED, f"velocity_complete_L{length}"),
+                         float(length))
+    _, meta = _results(os.path.join(REGULARISED, f"velocity_complete_L{length}_tall"))
+    cert = meta["certificates"][str(length)]
     assert (meta["params"]["bc"], meta["params"]["alpha_pc"], meta["cells_per_unit"], meta["ny"],
             meta["degree"], meta["search"]) == ("velocity", 0.1, 8, 8, 2, "complete")
-    assert cert["box"][0] == 0.125 and cert["box"][3] >= 125.67
-    assert cert["closed"] and cert["found"] == cert["counted"] == len(tall) == len(low) == 18
+    assert cert["box"][0] == floor and cert["box"][3] >= 125.67
+    assert cert["closed"] and cert["found"] == cert["counted"] == len(tall) == len(low) == n
     assert np.max(np.abs(tall.imag)) < 20.0
     assert all(np.min(np.abs(low - v)) < 1e-10 * abs(v) for v in tall)
 

@@ -156,7 +156,8 @@ def solve_k(comm: object, params: Params, k: float, args: argparse.Namespace,
             z = complex(f["re_lambda"], f["im_lambda"])
             f["strip_c_max_needed"] = ss.c_max_holding(params, k, z, args.omega0)
         if c is None:  # auto: the default box, or taller to hold the fastest with a margin
-            top = max(fastest, key=lambda f: f["re_lambda"], default=None)
+            top = max((f for f in fastest if math.isfinite(f["re_lambda"])),
+                      key=lambda f: f["re_lambda"], default=None)
             c = max(1.0, AUTO_MARGIN * top["strip_c_max_needed"] if top else 1.0)
     c = comm.bcast(c)
     t_f = time.perf_counter()

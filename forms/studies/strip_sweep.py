@@ -30,6 +30,7 @@ import numpy as np
 
 from mpi4py import MPI
 
+from analytic.numerics.roots import ContourError
 from analytic.numerics.spectrum import Region
 from analytic.params import Params
 from analytic.physics.tail import velocity_scale
@@ -320,7 +321,7 @@ def fastest_by_harmonic(params: Params, k: float, n: int, rtol: float = 1e-8, de
         eigenvalue at ``h k``; NaN: none in the region), ``c_max`` (the bound that
         proves, units of :func:`analytic.physics.tail.velocity_scale`), ``tail_bound``
         (``None``: none derived) and ``proven`` (the count closed and the tail bound is below
-        the fastest value).
+        the fastest value; not where no contour of the climb could be used, ``note`` why).
     """
     region = Region(c_max=None)
     rungs = RungSolvers(params, region, n * float(k), rtol, (degree, cells, 0.0),
@@ -328,7 +329,13 @@ def fastest_by_harmonic(params: Params, k: float, n: int, rtol: float = 1e-8, de
     out = []
     try:
         for h in range(1, n + 1):
-            res, c, tb = climb(params, region, h * float(k), [], rungs)
+            try:
+                res, c, tb = climb(params, region, h * float(k), [], rungs)
+            except ContourError as err:  # no usable contour at the top rung: not proven
+                out.append({"harmonic": h, "wavenumber": h * float(k), "re_lambda": math.nan,
+                            "im_lambda": math.nan, "c_max": None, "tail_bound": None,
+                            "proven": False, "note": str(err)})
+                continue
             best = max(res.rows, key=lambda r: (r["re_lambda"], -r["im_lambda"]), default=None)
             z = (complex(math.nan, math.nan) if best is None
                  else complex(best["re_lambda"], best["im_lambda"]))

@@ -573,6 +573,51 @@ def test_stack_tail_bound_above_every_root_beyond_w(case):
     assert z.real.max() / tb > 0.5
 
 
+@pytest.mark.slow  # 5-6 s per top (44-46 roots)
+@pytest.mark.parametrize("bc", ["velocity", "stress"])
+def test_stack_tail_bound_at_large_k_above_every_root_beyond_w(bc):
+    """k = 100 on the stiff substrate: the first-order bound's grid (4.77 million points, in
+    chunks) gives a finite bound (inf before session 36, beyond 4 million points); every root of
+    W < |Im| < W + 60 (44-46 of them) below it (measured at most 0.68 velocity, 0.59 stress)
+    and each root of positive Re below the bound at its own frequency."""
+    from analytic.physics import tail_stack
+
+    p, k = Params(bc=bc, mu2=4.0, rho2=1.0, H2=0.5), 100.0
+    w = Region(c_max=4.0).im_max(p, k)
+    assert tail_stack._MAX_SAMPLES > 4_000_000  # the grid is past the old limit here
+    tb = tail_bound(p, k, w)
+    assert 0 < tb < math.inf
+    z = _band_roots(p, k, w, w + 60.0)
+    assert len(z) > 20
+    assert np.all(z.real < tb), (z[np.argmax(z.real)], tb)
+    up = z[z.real > 0]
+    assert len(up) and np.all(up.real < [tail_bound(p, k, abs(v.imag)) for v in up])
+    assert z.real.max() / tb > 0.5  # not absurdly loose (measured 0.68, 0.59)
+
+
+@pytest.mark.slow  # about 15 s
+def test_two_body_fastest_mode_at_large_k_is_proven_and_the_tall_regions():
+    """k = 100, stress top, stiff substrate: the adaptive region proves the fastest mode at 8
+    c_d2 (0.2024 + 996.0i, 558 roots; before session 36 the bound was inf and the climb ended
+    unproven at 32 c_d2), and the region 32 c_d2 tall (2125 roots) has the same fastest root."""
+    p, k = Params(bc="stress", mu2=4.0, rho2=1.0, H2=0.5), 100.0
+    m = fastest_mode(p, k, Region(c_max=None))
+    assert m.tail_bound is not None and m.tail_bound < m.root.real and m.c_max <= 8.0
+    tall, n, _ = fastest_root(p, k, Region(c_max=32.0))
+    assert n > 3 * m.count and abs(tall - m.root) < 1e-12 * abs(m.root)
+
+
+def test_exact_resonances_in_chunks_are_those_of_one_pass(monkeypatch):
+    """The chunked grid of tail_stack.exact_resonances finds the same resonances as one pass."""
+    from analytic.physics import tail_stack
+
+    p = Params(bc="stress", mu2=4.0, rho2=1.0, H2=0.5)
+    whole = tail_stack.exact_resonances(p, 20.0, 300.0, 900.0)
+    monkeypatch.setattr(tail_stack, "_CHUNK", 997)  # chunk ends between the resonances
+    chunked = tail_stack.exact_resonances(p, 20.0, 300.0, 900.0)
+    assert len(whole) > 50 and np.array_equal(whole, chunked)  # 72 resonances, 20 chunks
+
+
 def test_stack_tail_bound_just_above_its_lowest_w():
     """The tightest of 34 random stacks at W = 2.05-3.1 x 2 k c_max (session 30): every root of
     W < |Im| < 2W below the bound at W (measured 0.92 of it) and at its own frequency (0.93)."""

@@ -72,8 +72,13 @@ TUBE_POINTS = 3
 TUBE_EPS = 0.02
 #: Grid steps per ``pi`` of the fastest resonance phase when searching resonances.
 _STEPS_PER_PI = 40
-#: Largest number of grid points spent on the exact-phase part.
-_MAX_SAMPLES = 4_000_000
+#: Largest number of grid points spent on the exact-phase part (they grow as ``k^2``: 4.77
+#: million at ``k = 100`` for ``mu2 = 4, rho2 = 1, H2 = 0.5``, 0.8-2.2 s a bound; session 36:
+#: 4 million before, ``inf`` there). Evaluated in chunks of :data:`_CHUNK`.
+_MAX_SAMPLES = 20_000_000
+#: Grid points of the exact-phase part evaluated at once (:func:`exact_resonances`): the whole
+#: grid at once took 720 MB at 4.77 million points.
+_CHUNK = 500_000
 #: Largest number of grid points per offset spent on one period of the ``k = 0`` phases.
 _MAX_PERIOD_SAMPLES = 100_000
 
@@ -273,7 +278,13 @@ def exact_resonances(p: Params, k: float, w1: float, w2: float) -> np.ndarray:
     h = math.pi / (_STEPS_PER_PI * (rates[1] + rates[3]))
     n = int(math.ceil((w2 - w1) / h)) + 1
     w = np.linspace(w1, w2, max(n, 2))
-    return _roots_on_grid(lambda x: resonance(p, exact_phases(p, k, x)[0])[0], w)
+
+    def fun(x: np.ndarray) -> np.ndarray:
+        return resonance(p, exact_phases(p, k, x)[0])[0]
+
+    # chunks sharing their end points: every interval of the grid in exactly one chunk
+    return np.concatenate([_roots_on_grid(fun, w[a:a + _CHUNK + 1])
+                           for a in range(0, len(w) - 1, _CHUNK)])
 
 
 def period(p: Params) -> float | None:

@@ -156,8 +156,7 @@ def solve_k(comm: object, params: Params, k: float, args: argparse.Namespace,
             z = complex(f["re_lambda"], f["im_lambda"])
             f["strip_c_max_needed"] = ss.c_max_holding(params, k, z, args.omega0)
         if c is None:  # auto: the default box, or taller to hold the fastest with a margin
-            top = max((f for f in fastest if math.isfinite(f["re_lambda"])),
-                      key=lambda f: f["re_lambda"], default=None)
+            top = ss.fastest_of(fastest)
             c = max(1.0, AUTO_MARGIN * top["strip_c_max_needed"] if top else 1.0)
     c = comm.bcast(c)
     t_f = time.perf_counter()
@@ -289,9 +288,9 @@ def fastest_mode(per_k: list[dict]) -> dict:
     """
     held, missed, unproven, tops = [], [], [], []
     for e in per_k:
-        fb = [f for f in e.get("fastest_by_harmonic", []) if math.isfinite(f["re_lambda"])]
-        top = max(fb, key=lambda f: f["re_lambda"], default=None)
-        if not (fb and all(f["proven"] for f in e["fastest_by_harmonic"])):
+        fb = e.get("fastest_by_harmonic", [])
+        top = ss.fastest_of(fb)
+        if top is None or not all(f["proven"] for f in fb):
             unproven.append(e["k"])
         elif top is not None and top["in_box"]:
             held.append(e["k"])

@@ -348,6 +348,12 @@ def fastest_by_harmonic(params: Params, k: float, n: int, rtol: float = 1e-8, de
     return out
 
 
+def fastest_of(harmonics: Sequence[dict]) -> dict | None:
+    """The fastest of :func:`fastest_by_harmonic`'s entries with a value (``None``: none)."""
+    return max((f for f in harmonics if math.isfinite(f["re_lambda"])),
+               key=lambda f: f["re_lambda"], default=None)
+
+
 @dataclass
 class SectionSet:
     """The cross-section model's eigenvalues at the wavenumber of one harmonic.

@@ -216,6 +216,29 @@ def test_a_box_that_holds_the_fastest_mode_says_so(tmp_path, monkeypatch, c_max:
     assert abs(abs(z - z1) / abs(z1) / best["error_estimate"] - 1.0) < EST_RATIO
 
 
+@pytest.mark.serial
+@pytest.mark.slow
+def test_a_faster_unresolved_row_is_not_called_the_fastest_mode(tmp_path) -> None:
+    # stress top, k = 2, 8 x 4 cells, --strip-c-max auto: the box holds harmonic 2's proven
+    # fastest 0.243132 - 32.7605i, but the cell's most unstable in R is a harmonic-5 row
+    # (0.250896 - 30.2971i; 5 k is not resolved, its estimate far above rtol): held, and the
+    # most unstable row is not the fastest mode (its fastest_mode false, the line says why).
+    # About 6 s serially.
+    out = tmp_path / "stress"
+    res = run_workflow("sweep_k.py", ["--model", "strip", "--bc", "stress", "--k", "2",
+                                      "--strip-cells", "8", "--strip-ny", "4", "--strip-c-max",
+                                      "auto", "--quiet", "--no-plot", "--out", str(out)],
+                       timeout=600)
+    assert res.returncode == 1, res.stderr[-2000:]  # flagged rows
+    assert "but the most unstable in R is not it" in res.stdout
+    with open(out / "summary.json") as fh:
+        summary = json.load(fh)
+    fm, best = summary["fastest_mode"], summary["most_unstable"]
+    assert fm["held"] and not best["fastest_mode"] and not best["certified"]
+    assert abs(best["harmonic"]) > fm["harmonics"]  # a harmonic the cell does not resolve
+    assert best["re_lambda"] > fm["fastest"]["re_lambda"]
+
+
 # The fastest mode of each harmonic (fastest_by_harmonic: the 1D FE's own provable region at
 # h k, no exact root) against the exact fastest root of a region 64 c_d tall (8 to 90 roots;
 # analytic as the referee): measured at most 1.8e-13 relative (both tops, k = 1 and 2.5,

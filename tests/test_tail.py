@@ -596,7 +596,7 @@ def test_stack_tail_bound_at_large_k_above_every_root_beyond_w(bc):
 
 
 @pytest.mark.slow  # about 15 s
-def test_two_body_fastest_mode_at_large_k_is_proven_and_the_tall_regions():
+def test_two_body_fastest_mode_at_large_k_is_proven_and_the_tall_regions_fastest():
     """k = 100, stress top, stiff substrate: the adaptive region proves the fastest mode at 8
     c_d2 (0.2024 + 996.0i, 558 roots; before session 36 the bound was inf and the climb ended
     unproven at 32 c_d2), and the region 32 c_d2 tall (2125 roots) has the same fastest root."""

@@ -258,7 +258,7 @@ def summarise(config: dict, rows: list[dict], per_k: list[dict], ranks: int, why
     fastest = fastest_mode(per_k)
     if best is not None:  # as the section's: its row ok and every k's count closed
         best = best | {"certified": best["status"] == "ok" and not open_k,
-                       "fastest_mode": fastest["held"]}
+                       "fastest_mode": fastest["held"] and _is_the_fastest(best, rows, per_k)}
     return {**config, "box_reason": why, "versions": _cli.versions(), "command": _cli.command(),
             "mpi": {"ranks": ranks}, "certificate": {
                 "statement": "fe: the count (argument principle on MUMPS's log det) equals the "
@@ -305,6 +305,27 @@ def fastest_mode(per_k: list[dict]) -> dict:
             "strip_c_max_needed": max((f["strip_c_max_needed"] for f in tops), default=None)}
 
 
+def _is_the_fastest(best: dict, rows: list[dict], per_k: list[dict]) -> bool:
+    """``best`` is the cell's row of the proven fastest mode at its ``k``.
+
+    Of the rows at that ``k`` whose harmonic is the fastest mode's (``-h``: its conjugate),
+    the nearest to it. Not so when a faster row of another harmonic leads ``R`` (e.g. one the
+    cell does not resolve, flagged by its estimate).
+    """
+    e = next(e for e in per_k if e["k"] == best["k"])
+    top = ss.fastest_of(e.get("fastest_by_harmonic", []))
+    if top is None:
+        return False
+    z = complex(top["re_lambda"], top["im_lambda"])
+
+    def distance(r: dict) -> float:
+        w = complex(r["re_lambda"], r["im_lambda"])
+        return abs(w - (z if r["harmonic"] > 0 else z.conjugate()))
+
+    mine = [r for r in rows if r["k"] == best["k"] and abs(r["harmonic"]) == top["harmonic"]]
+    return bool(mine) and min(mine, key=distance) is best
+
+
 def _write(out: str, results: list[KResult], summary: dict, params: Params,
            plot: bool) -> None:
     with _cli.atomic_open(os.path.join(out, "spectrum.csv"), "w", newline="") as fh:
@@ -344,6 +365,7 @@ def report(summary: dict, out: str) -> int:
               f"flagged, count not closed at k = {cert['k_not_closed']}; see status in "
               f"{out}/spectrum.csv", flush=True)
     best = summary["most_unstable"]
+    lead = best is not None and best["fastest_mode"]
     top = "none" if best is None else (
         f"{best['label']} ({'certified' if best['certified'] else 'NOT certified'}) at k = "
         f"{best['k']:g}: Lambda = {best['re_lambda']:.6g} {best['im_lambda']:+.6g}i")
@@ -355,19 +377,22 @@ def report(summary: dict, out: str) -> int:
           f"{short(summary['accuracy']['max_error_estimate'])}, rtol "
           f"{summary['accuracy']['rtol']:g}); harmonic 1: {one['strip']} (1D: {one['section']}),"
           f" max relative distance {short(one['max_rel_distance'])}; most unstable "
-          f"in R {top}; {_fastest_line(summary['fastest_mode'])} -> {out}", flush=True)
+          f"in R {top}; {_fastest_line(summary['fastest_mode'], lead)} -> {out}", flush=True)
     return code
 
 
-def _fastest_line(fm: dict) -> str:
-    """The result line's account of :func:`fastest_mode`."""
+def _fastest_line(fm: dict, lead: bool) -> str:
+    """The result line's account of :func:`fastest_mode` (``lead``: the most unstable is it)."""
     f, n = fm["fastest"], fm["harmonics"]
     what = (f"the fastest mode of harmonics +-1..+-{n} (the 1D model's proven region at h k)")
     if f is None:
         return f"{what}: none found"
     z = f"h = {f['harmonic']} at k = {f['k']:g}: {f['re_lambda']:.6g} {f['im_lambda']:+.6g}i"
-    if fm["held"]:
+    if fm["held"] and lead:
         return f"{what} is in R at every k ({z}): R holds the fastest mode"
+    if fm["held"]:
+        return (f"{what} is in R at every k ({z}), but the most unstable in R is not it (a "
+                "faster row of another harmonic: see its status)")
     why = []
     if fm["k_outside_box"]:
         why.append(f"outside R at {len(fm['k_outside_box'])} k (--strip-c-max "

@@ -24,21 +24,27 @@ A branch ``(n, sign)`` (label ``"0-"``, ``"1+"``, ...) starts at
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-from analytic.numerics.continuation import March, Path, SkipTarget, Trial, march
+from analytic.numerics.continuation import March, Path, SkipTarget, Trial, march_steps
 from analytic.numerics.roots import (
     ContourError,
     Root,
     count_zeros,
+    point_answers,
     polish,
+    polish_steps,
     samples_for_turn,
-    winding_numbers,
+    stencil_answer,
+    stencil_request,
+    winding_steps,
     zeros_in_box,
 )
+from analytic.numerics.steps import Steps, run_steps
 from analytic.params import ParameterError, Params, check_k
 from analytic.physics.finite_h import cutoff, det_M
 from analytic.physics.smallk import slope
@@ -178,35 +184,114 @@ def _box_around(z: complex, r: float) -> tuple[float, float, float, float]:
     return (z.real - r, z.real + r, z.imag - r, z.imag + r)
 
 
-def _count(p: Params, k: float, z: complex, r: float) -> int:
-    """Roots within the square of half-width ``r`` around ``z``; -1 if the contour is unusable."""
-    fun = spectrum_function(p, k, branch_sheet(p))
+def _count(p: Params, k: float, z: complex, r: float) -> Steps[int]:
+    """Roots within the square of half-width ``r`` around ``z``; -1 if the contour is unusable.
+
+    Step-wise (:class:`Ask` requests, :func:`branch_answers`).
+    """
+    sheet = branch_sheet(p)
     for shrink in (1.0, 0.93, 1.07):
         box = _box_around(z, r * shrink)
         try:
-            return count_zeros(fun, box, n_initial=_n_initial(p, box))
+            n = (yield from winding_steps(box, 1, n_initial=_n_initial(p, box),
+                                          ask=_asker((k,), sheet)))[0]
         except ContourError:
             continue
+        if n >= 0:  # (a negative count: an unusable contour, as count_zeros says)
+            return n
     return -1
 
 
-def _count_pair(p: Params, k1: float, k2: float, z: complex, r: float) -> tuple[int, int]:
-    """:func:`_count` at two wavenumbers; rigid substrate: one ``det_M`` call per refinement."""
+def _count_pair(p: Params, k1: float, k2: float, z: complex, r: float
+                ) -> Steps[tuple[int, int]]:
+    """:func:`_count` at two wavenumbers; rigid substrate: one request per refinement."""
     if p.two_body:
-        return _count(p, k1, z, r), _count(p, k2, z, r)
-
-    def both(zz: np.ndarray) -> np.ndarray:
-        ks = np.concatenate([np.full(zz.shape, k1), np.full(zz.shape, k2)])
-        return det_M(np.concatenate([zz, zz]), ks, p).reshape(2, zz.size)
-
+        return (yield from _count(p, k1, z, r)), (yield from _count(p, k2, z, r))
     for shrink in (1.0, 0.93, 1.07):
         box = _box_around(z, r * shrink)
         try:
-            c1, c2 = winding_numbers(both, box, 2, n_initial=_n_initial(p, box))
+            c1, c2 = yield from winding_steps(box, 2, n_initial=_n_initial(p, box),
+                                              ask=_asker((k1, k2), "physical"))
             return c1, c2
         except ContourError:
             continue
-    return _count(p, k1, z, r), _count(p, k2, z, r)
+    return (yield from _count(p, k1, z, r)), (yield from _count(p, k2, z, r))
+
+
+@dataclass(frozen=True)
+class Ask:
+    """A request of a branch's step-wise continuation (:mod:`analytic.numerics.steps`).
+
+    Attributes:
+        kind: ``"vd"``: the spectrum function and its derivative at the point ``z``;
+            ``"d"``: its derivative there; ``"f"``: its values at the points ``z`` (an array),
+            one row per wavenumber of ``k``.
+        z: The point or points.
+        k: The wavenumber (``"vd"``, ``"d"``: one), or wavenumbers (``"f"``: one or two).
+        sheet: The continuation of a half-space's square roots (two bodies).
+    """
+
+    kind: str
+    z: Any
+    k: tuple[float, ...]
+    sheet: str
+
+
+def _asker(k: tuple[float, ...], sheet: str) -> Callable[[str, Any], Ask]:
+    """The ``ask`` of :func:`analytic.numerics.roots.polish_steps` and ``winding_steps``."""
+    return lambda kind, z: Ask(kind, z, k, sheet)
+
+
+def branch_answers(p: Params) -> Callable[[Ask], Any]:
+    """One :class:`Ask` answered at a time: the calls the plain continuation makes.
+
+    One wavenumber: :func:`spectrum_function` (:func:`analytic.numerics.roots.point_answers`);
+    two (rigid substrate): one :func:`det_M` call at both.
+    """
+
+    def answer(a: Ask) -> Any:
+        if len(a.k) == 2:
+            zz = a.z
+            ks = np.concatenate([np.full(zz.shape, a.k[0]), np.full(zz.shape, a.k[1])])
+            return det_M(np.concatenate([zz, zz]), ks, p).reshape(2, zz.size)
+        return point_answers(spectrum_function(p, a.k[0], a.sheet))((a.kind, a.z))
+
+    return answer
+
+
+def branch_answers_all(p: Params) -> Callable[[Sequence[Ask]], list]:
+    """Many :class:`Ask` answered together (:func:`analytic.numerics.steps.run_many`).
+
+    Rigid substrate: every point of every request (a Newton step's five, a contour's samples at
+    one or two wavenumbers) in one :func:`det_M` call, the wavenumbers as an array: the same
+    function, to rounding (its few-point path rounds differently: tests/test_det_m_fast.py),
+    without its per-call cost once per request. Two bodies: :func:`branch_answers`, one by one.
+    """
+    if p.two_body:
+        one = branch_answers(p)
+        return lambda asks: [one(a) for a in asks]
+
+    def answer_all(asks: Sequence[Ask]) -> list:
+        zs, ks, steps = [], [], []
+        for a in asks:
+            if a.kind == "f":
+                z, h = np.asarray(a.z, dtype=complex), math.nan
+                zs += [z] * len(a.k)
+                ks += [np.full(z.size, kk) for kk in a.k]
+            else:
+                z, h = stencil_request(a.kind, a.z)
+                zs.append(z)
+                ks.append(np.full(z.size, a.k[0]))
+            steps.append((z.size * (len(a.k) if a.kind == "f" else 1), h))
+        vals = det_M(np.concatenate(zs), np.concatenate(ks), p)
+        out, i = [], 0
+        for a, (n, h) in zip(asks, steps, strict=True):
+            f = vals[i:i + n]
+            out.append(f.reshape(len(a.k), -1) if a.kind == "f" else stencil_answer(a.kind, f, h))
+            i += n
+        return out
+
+    return answer_all
 
 
 def branch_cutoff(n: int, sign: int, p: Params) -> complex:
@@ -232,9 +317,14 @@ def _start(p: Params, n: int, sign: int, k0: float) -> tuple[Root | None, str]:
         spacing = math.pi / (p.beta * p.H)  # distance between neighbouring cut-offs
     r = 0.3 * spacing
     for _ in range(12):
+        # counted first: a box of more roots than one is shrunk without searching it (the
+        # stress top's 74 branches at the defaults: 148 searches of 2-4 roots, 0.4 s)
         try:
             box = _box_around(guess, r)
-            roots = zeros_in_box(fun, box, n_initial=_n_initial(p, box))
+            n_initial = _n_initial(p, box)
+            total = count_zeros(fun, box, n_initial=n_initial)
+            roots = zeros_in_box(fun, box, n_initial=n_initial, total=total) if total == 1 \
+                else None
         except ContourError:
             roots = None
         if roots is not None and len(roots) == 1 and roots[0].converged:
@@ -284,6 +374,26 @@ def follow_branch(
     Raises:
         ParameterError: On invalid ``k_values``, ``n`` or ``sign``.
     """
+    return run_steps(follow_branch_steps(p, n, sign, k_values, k_start=k_start, dk_min=dk_min,
+                                         max_steps=max_steps, skip=skip), branch_answers(p))
+
+
+def follow_branch_steps(
+    p: Params,
+    n: int,
+    sign: int,
+    k_values: float | np.ndarray,
+    *,
+    k_start: float | None = None,
+    dk_min: float | None = None,
+    max_steps: int = 20000,
+    skip: Skip | None = None,
+) -> Steps[BranchResult]:
+    """:func:`follow_branch` as a step-wise algorithm (:mod:`analytic.numerics.steps`).
+
+    Its requests are :class:`Ask`; :func:`branch_answers` answers them one by one,
+    :func:`branch_answers_all` many continuations' together. Same arguments and result.
+    """
     if not math.isfinite(p.H):
         raise ParameterError("H = inf: branches start at finite-H cut-offs; use a finite H")
     branch_cutoff(n, sign, p)  # validates n and sign (and H2 for two bodies)
@@ -307,8 +417,8 @@ def follow_branch(
         return BranchResult(label, n, sign, ks, out_L, out_res, out_cond, out_ok, flags,
                             np.array(k_path), np.array(L_path, dtype=complex), note)
     # the cut-off is the k = 0 point of the branch
-    return _continue(p, label, n, sign, ks, (0.0, branch_cutoff(n, sign, p)), (k_start, root.value),
-                     dk_min, max_steps, skip)
+    return (yield from _continue(p, label, n, sign, ks, (0.0, branch_cutoff(n, sign, p)),
+                                 (k_start, root.value), dk_min, max_steps, skip))
 
 
 def follow_root(
@@ -332,13 +442,28 @@ def follow_root(
     Returns:
         A :class:`BranchResult` with ``n = -1``, ``sign = 0``.
     """
+    return run_steps(follow_root_steps(p, label, k0, Lambda0, k_values, dk_min=dk_min,
+                                       max_steps=max_steps, skip=skip), branch_answers(p))
+
+
+def follow_root_steps(
+    p: Params,
+    label: str,
+    k0: float,
+    Lambda0: complex,
+    k_values: float | np.ndarray,
+    *,
+    dk_min: float | None = None,
+    max_steps: int = 20000,
+    skip: Skip | None = None,
+) -> Steps[BranchResult]:
+    """:func:`follow_root` as a step-wise algorithm (as :func:`follow_branch_steps`)."""
     ks = np.unique(check_k(k_values))
     if dk_min is None:
         dk_min = 1e-6 * max(float(ks[-1]), 1.0 / p.H)
-    fun = spectrum_function(p, k0)
-    r0 = polish(fun, complex(Lambda0))
+    r0 = yield from polish_steps(complex(Lambda0), ask=_asker((k0,), "physical"))
     k_a = k0 * (1.0 - 1e-3)
-    r_a = polish(spectrum_function(p, k_a), r0.value)
+    r_a = yield from polish_steps(r0.value, ask=_asker((k_a,), "physical"))
     nan = np.full(ks.shape, np.nan + 0j)
     if not (r0.converged and r_a.converged and abs(r_a.value - r0.value) < 1e-2 * max(
             1.0, abs(r0.value))):
@@ -348,8 +473,8 @@ def follow_root(
     # requested k below k0 are lost; one equal to k0 is the polished start itself
     first = int(np.searchsorted(ks, k0))
     at_k0 = int(first < ks.size and ks[first] == k0)
-    res = _continue(p, label, -1, 0, ks[first + at_k0:], (k_a, r_a.value), (k0, r0.value),
-                    dk_min, max_steps, skip)
+    res = yield from _continue(p, label, -1, 0, ks[first + at_k0:], (k_a, r_a.value),
+                               (k0, r0.value), dk_min, max_steps, skip)
     if first + at_k0 == 0:
         return res
     head = [(np.nan + 0j, np.nan, np.nan, False, "lost")] * first
@@ -387,11 +512,11 @@ class _BranchStepper:
     notes: list[str] = field(default_factory=list)
     doubt: str = ""
 
-    def attempt(self, path: Path, k_new: float) -> Trial[_Step]:
+    def attempt(self, path: Path, k_new: float) -> Steps[Trial[_Step]]:
         """Quadratic predictor, Newton corrector on the spectrum function, root count."""
         L_cur = path.value[-1]  # noqa: N806
         L_pred = path.predict(k_new, order=2)  # noqa: N806
-        r = polish(spectrum_function(self.p, k_new, branch_sheet(self.p)), L_pred)
+        r = yield from polish_steps(L_pred, ask=_asker((k_new,), branch_sheet(self.p)))
         dL = abs(r.value - L_cur)  # noqa: N806
         corr = abs(r.value - L_pred)
         # Until three points exist the secant cannot know the curvature (the linear term may
@@ -405,14 +530,15 @@ class _BranchStepper:
             # and a root approaching ours within the step is seen at one end or the other.
             centre = 0.5 * (L_cur + r.value)
             rad = max(2.0 * corr, dL, 1e-9 * abs(r.value))
-            ok = _count_pair(self.p, k_new, path.k[-1], centre, rad) == (1, 1)
+            ok = (yield from _count_pair(self.p, k_new, path.k[-1], centre, rad)) == (1, 1)
         return Trial(k_new, r.value, ok, _Step(r, corr, dL), flag=self.doubt if ok else "")
 
-    def rescue(self, path: Path, trial: Trial[_Step], k_target: float) -> Trial[_Step] | None:
+    def rescue(self, path: Path, trial: Trial[_Step], k_target: float
+               ) -> Steps[Trial[_Step] | None]:
         """Roots closer than the step can resolve: step over with the last undoubted size."""
         k_cur = path.k[-1]
         k_over = min(k_cur + max(4.0 * self.good_h, 100.0 * self.dk_min), k_target)
-        over = self.attempt(path, k_over)
+        over = yield from self.attempt(path, k_over)
         if over.accepted:
             self.notes.append(f"branch {self.label}: stepped over a near-collision of roots"
                               f" between k = {k_cur:.6g} and {k_over:.6g}")
@@ -456,7 +582,7 @@ def _skip_target(skip: Skip) -> SkipTarget:
 
 def _continue(p: Params, label: str, n: int, sign: int, ks: np.ndarray,
               prev: tuple[float, complex], cur: tuple[float, complex], dk_min: float,
-              max_steps: int, skip: Skip | None = None) -> BranchResult:
+              max_steps: int, skip: Skip | None = None) -> Steps[BranchResult]:
     """The continuation shared by :func:`follow_branch` and :func:`follow_root`.
 
     ``skip(k, Lambda_predicted, uncertainty)`` True: the requested ``k`` is not needed (flag
@@ -467,8 +593,8 @@ def _continue(p: Params, label: str, n: int, sign: int, ks: np.ndarray,
     stepper = _BranchStepper(p, label, dk_min, good_h=dk)
     if ks.size == 0:
         return _branch_result(label, n, sign, ks, path, None, stepper.notes)
-    run = march(stepper, path, ks, dk=dk, dk_min=dk_min, max_steps=max_steps,
-                skip=None if skip is None else _skip_target(skip))
+    run = yield from march_steps(stepper, path, ks, dk=dk, dk_min=dk_min, max_steps=max_steps,
+                                 skip=None if skip is None else _skip_target(skip))
     if run.steps >= max_steps:
         stepper.notes.append(f"branch {label}: max_steps = {max_steps} reached at"
                              f" k = {path.k[-1]:.6g}")

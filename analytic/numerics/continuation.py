@@ -15,6 +15,10 @@ A root ``Lambda(k)`` of some function is followed from the points already known 
 The engine holds the loop common to all: steps end exactly on each target (never leaving a
 sliver before it), a refused step is halved down to ``dk_min`` (or at most ``max_halvings``
 times per target), a target the caller does not need is skipped.
+
+:func:`march_steps` is the engine as a step-wise algorithm (:mod:`analytic.numerics.steps`):
+a stepper whose ``attempt`` and ``rescue`` are generators passes their requests through (the
+exact branches, followed many side by side); :func:`march` runs it for a plain stepper.
 """
 
 from __future__ import annotations
@@ -22,9 +26,12 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from types import GeneratorType
 from typing import Generic, Protocol, TypeVar
 
 import numpy as np
+
+from analytic.numerics.steps import Steps, no_requests, run_steps
 
 R = TypeVar("R")
 
@@ -150,6 +157,20 @@ def march(stepper: Stepper[R], path: Path, targets: np.ndarray, *, dk: float = m
     Returns:
         The :class:`March`.
     """
+    return run_steps(march_steps(stepper, path, targets, dk=dk, dk_min=dk_min,
+                                 max_halvings=max_halvings, max_steps=max_steps, skip=skip),
+                     no_requests)
+
+
+def march_steps(stepper: Stepper[R], path: Path, targets: np.ndarray, *, dk: float = math.inf,
+                dk_min: float = 0.0, max_halvings: int | None = None, max_steps: int = 20000,
+                skip: SkipTarget | None = None) -> Steps[March[R]]:
+    """:func:`march` as a step-wise algorithm (:mod:`analytic.numerics.steps`).
+
+    For a stepper whose :meth:`Stepper.attempt` and :meth:`Stepper.rescue` are step-wise
+    themselves (return generators): their requests pass through. The arguments are
+    :func:`march`'s.
+    """
     n = len(targets)
     out = March(trials=[None] * n, skipped=[False] * n)
     i, halvings, sgn = 0, 0, 1.0
@@ -165,13 +186,13 @@ def march(stepper: Stepper[R], path: Path, targets: np.ndarray, *, dk: float = m
         clamped = reach >= k_target if sgn > 0 else reach <= k_target
         k_new = k_target if clamped else k_cur + sgn * dk
         h = abs(k_new - k_cur)
-        trial = stepper.attempt(path, k_new)
+        trial = yield from _outcome(stepper.attempt(path, k_new))
         if not trial.accepted and h > dk_min and (max_halvings is None
                                                  or halvings < max_halvings):
             dk, halvings = 0.5 * h, halvings + 1
             continue
         if not trial.accepted:
-            rescued = stepper.rescue(path, trial, k_target)
+            rescued = yield from _outcome(stepper.rescue(path, trial, k_target))
             if rescued is None:
                 out.stopped = True
                 break
@@ -182,3 +203,10 @@ def march(stepper: Stepper[R], path: Path, targets: np.ndarray, *, dk: float = m
             i, halvings = i + 1, 0
         dk = stepper.next_step(path, abs(trial.k - k_cur), trial, clamped, dk)
     return out
+
+
+def _outcome(x: object) -> Steps:
+    """A stepper method's result: itself, or what its generator returns (requests pass)."""
+    if isinstance(x, GeneratorType):
+        return (yield from x)
+    return x

@@ -28,8 +28,11 @@ import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+
+from analytic.numerics.steps import Steps, run_steps
 
 ComplexFunction = Callable[[np.ndarray], np.ndarray]
 Box = tuple[float, float, float, float]
@@ -110,6 +113,42 @@ def _value_and_derivative(fun: ComplexFunction, z: complex, dfun: ComplexFunctio
     return complex(f[0]), complex(_wirtinger(f[1:], h))
 
 
+def stencil_request(kind: str, z: complex) -> tuple[np.ndarray, float]:
+    """The points where ``F`` answers a ``("vd", z)`` or ``("d", z)`` request, and the step.
+
+    For answering many requests in one vectorised call; :func:`stencil_answer` makes the
+    answer from ``F`` at those points (as :func:`point_answers` does with ``fun``).
+    """
+    h, pts = _stencil(z)
+    return (np.concatenate([[z], pts]) if kind == "vd" else pts), h
+
+
+def stencil_answer(kind: str, f: np.ndarray, h: float) -> complex | tuple[complex, complex]:
+    """The answer to a ``("vd", z)`` or ``("d", z)`` request from ``F`` at its points."""
+    if kind == "vd":
+        return complex(f[0]), complex(_wirtinger(f[1:], h))
+    return complex(_wirtinger(f, h))
+
+
+def point_answers(fun: ComplexFunction, dfun: ComplexFunction | None = None
+                  ) -> Callable[[tuple[str, Any]], Any]:
+    """The answers of ``fun`` (and ``dfun``) to the requests of this module's step-wise algorithms.
+
+    ``("vd", z)``: ``(F(z), F'(z))`` (:func:`_value_and_derivative`); ``("d", z)``: ``F'(z)``;
+    ``("f", z)``: ``fun(z)`` at the points ``z`` (an array; rows for several functions).
+    """
+
+    def answer(req: tuple[str, Any]) -> Any:
+        kind, z = req
+        if kind == "vd":
+            return _value_and_derivative(fun, z, dfun)
+        if kind == "d":
+            return _derivative(fun, z, dfun)
+        return fun(z)
+
+    return answer
+
+
 def polish(
     fun: ComplexFunction,
     z0: complex,
@@ -138,9 +177,23 @@ def polish(
     Returns:
         A :class:`Root`; check :attr:`Root.converged` and :attr:`Root.reason`.
     """
+    return run_steps(polish_steps(z0, tol=tol, maxiter=maxiter, scale=scale, unwanted=unwanted),
+                     point_answers(fun, dfun))
+
+
+def polish_steps(z0: complex, *, tol: float = 1e-14, maxiter: int = 60, scale: float = 1.0,
+                 unwanted: Callable[[complex, float], bool] | None = None,
+                 ask: Callable[[str, complex], Any] = lambda kind, z: (kind, z)
+                 ) -> Steps[Root]:
+    """:func:`polish` as a step-wise algorithm (:mod:`analytic.numerics.steps`).
+
+    It yields ``ask("vd", z)`` for ``(F(z), F'(z))`` and ``ask("d", z)`` for ``F'(z)``
+    (:func:`point_answers` answers ``(kind, z)``, the default ``ask``) and returns the
+    :class:`Root`. The other arguments are :func:`polish`'s.
+    """
     z = complex(z0)
     # F(z0) and the first derivative in one call; later ones come with each accepted step
-    fz, pending = _value_and_derivative(fun, z, dfun)
+    fz, pending = yield ask("vd", z)
     prev: tuple[complex, complex] | None = None
     step = math.inf
     reason = f"maximum number of iterations ({maxiter}) reached"
@@ -158,19 +211,19 @@ def polish(
         if pending is not None:
             dfz, pending = pending, None
         else:
-            dfz = _derivative(fun, z, dfun)
+            dfz = yield ask("d", z)
         dz = _direction(z, fz, dfz, prev)
         last, step = step, abs(dz)
         if step <= tol * max(abs(z), 1.0):
             z += dz
-            fz, dfz = _value_and_derivative(fun, z, dfun)  # dfz: for cond, at the final z
+            fz, dfz = yield ask("vd", z)  # dfz: for cond, at the final z
             converged, reason = True, "Newton step below tolerance"
             break
         if (unwanted is not None and step <= 0.5 * last < math.inf
                 and unwanted(z + dz, ABANDON_RADIUS * step)):
             reason = ABANDONED
             break
-        zn, fn, pending = _damped_step(fun, z, fz, dz, dfun)
+        zn, fn, pending = yield from _damped_steps(z, fz, dz, ask)
         if zn is None:
             if step <= 1e3 * tol * max(abs(z), 1.0) or abs(fz) <= 1e3 * _EPS * scale:
                 converged, reason = True, "residual at the rounding level of the function"
@@ -181,7 +234,7 @@ def polish(
         z, fz = zn, fn
     # (on every exit above dfz is already the derivative at the final z, unless not finite)
     if not np.isfinite(dfz) or dfz == 0:
-        dfz = _derivative(fun, z, dfun)
+        dfz = yield ask("d", z)
     absd = abs(dfz) if np.isfinite(dfz) else 0.0
     cond = scale / (absd * max(abs(z), 1e-300)) if absd > 0 else math.inf
     residual = abs(fz) / scale if np.isfinite(fz) else math.inf
@@ -206,19 +259,18 @@ def _direction(z: complex, fz: complex, dfz: complex, prev: tuple[complex, compl
     return 1e-6 * max(abs(z), 1.0) * (1 + 1j)  # nudge off a critical point
 
 
-def _damped_step(fun: ComplexFunction, z: complex, fz: complex, dz: complex,
-                 dfun: ComplexFunction | None
-                 ) -> tuple[complex | None, complex, complex | None]:
+def _damped_steps(z: complex, fz: complex, dz: complex, ask: Callable[[str, complex], Any]
+                  ) -> Steps[tuple[complex | None, complex, complex | None]]:
     """Halve the step until ``|F|`` decreases: ``(z_new, F(z_new), F'(z_new))``.
 
     ``z_new`` is None when twelve halvings did not decrease ``|F|``. The value and the next
-    derivative come in one call (one call per Newton step).
+    derivative come in one request (one request per Newton step).
     """
     lam = 1.0
     fn: complex = fz
     for _ in range(12):
         zn = z + lam * dz
-        fn, pending = _value_and_derivative(fun, zn, dfun)
+        fn, pending = yield ask("vd", zn)
         if np.isfinite(fn) and abs(fn) < abs(fz):
             return zn, fn, pending
         lam *= 0.5
@@ -321,6 +373,24 @@ def winding_numbers(fun: Callable[[np.ndarray], np.ndarray], box: Sequence[float
     Raises:
         ContourError: As :func:`winding_number`, if any row's contour is unusable.
     """
+    return run_steps(winding_steps(box, m, n_initial=n_initial, max_dphase=max_dphase,
+                                   max_rel=max_rel, max_points=max_points, zero_tol=zero_tol,
+                                   log=log, samples=samples, values=values),
+                     point_answers(fun))
+
+
+def winding_steps(box: Sequence[float], m: int, *, n_initial: int = 32,
+                  max_dphase: float = math.pi / 3, max_rel: float = 0.8,
+                  max_points: int = 50000, zero_tol: float = 1e-12, log: bool = False,
+                  samples: bool = False, values: bool = False,
+                  ask: Callable[[str, np.ndarray], Any] = lambda kind, z: (kind, z)
+                  ) -> Steps[list[int] | tuple]:
+    """:func:`winding_numbers` as a step-wise algorithm (:mod:`analytic.numerics.steps`).
+
+    It yields ``ask("f", z)`` for the ``m`` functions' values at the contour points ``z`` (an
+    array ``m x len(z)``, or anything of that size) and returns what :func:`winding_numbers`
+    returns; the other arguments are its.
+    """
     bx = _box_checked(box)
     # the guard scales with the box's own sampling (n_initial from the root spacing): with a
     # fixed 50 000 every tall box failed by construction (stress top k = 51.8 at 12 c_d: 15 264
@@ -329,11 +399,11 @@ def winding_numbers(fun: Callable[[np.ndarray], np.ndarray], box: Sequence[float
     max_points = max(max_points, 32 * n_initial)
     t = _initial_samples(bx, n_initial)
 
-    def call(tt: np.ndarray) -> np.ndarray:
+    def call(tt: np.ndarray) -> Steps[np.ndarray]:
         z = _perimeter_point(bx, tt)
-        return np.asarray(fun(z), dtype=complex).reshape(m, z.size)
+        return np.asarray((yield ask("f", z)), dtype=complex).reshape(m, z.size)
 
-    f = call(t)
+    f = yield from call(t)
     min_dt = 4.0 * 1e-12
     verified = False
     while True:
@@ -378,7 +448,7 @@ def winding_numbers(fun: Callable[[np.ndarray], np.ndarray], box: Sequence[float
                 f"contour needs more than max_points = {max_points} samples (near z = {zbad:.6g})"
             )
         t = np.concatenate([t, tm])
-        f = np.concatenate([f, call(tm)], axis=1)
+        f = np.concatenate([f, (yield from call(tm))], axis=1)
         order = np.argsort(t)
         t, f = t[order], f[:, order]
 

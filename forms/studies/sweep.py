@@ -38,7 +38,7 @@ from analytic.numerics.spectrum import (
     FamilyPlan,
     Region,
     fastest_mode,
-    follow_family,
+    follow_many,
     plan_families,
     plan_items,
     provable_region,
@@ -383,7 +383,8 @@ def follow_all(comm: object, params: Params, plan: RegionPlan, region: Region, k
     the stress top's default sweep climbs to 32 ``c_d`` at one ``k`` and to 8-16 at most, and
     following every family of the tallest box at every ``k`` took twice as long (7.9 against
     4.1 s, one rank, 225 families, 2026-12-01). A family skipped where the region's roots needed
-    it would leave an unlabelled, flagged root (:func:`follow_family`), not a gap.
+    it would leave an unlabelled, flagged root
+    (:func:`analytic.numerics.spectrum.follow_family`), not a gap.
     """
     fplan, items = family_plan(comm, params, plan.big, float(k[-1]))
     c_at = dict(zip(map(float, k), plan.c_at_k, strict=True)) if plan.c_at_k else None
@@ -571,7 +572,7 @@ def follow_families(comm: object, params: Params, region: Region, plan: FamilyPl
     Returns:
         The followed families in the order of ``items``, on every rank.
     """
-    done = {i: follow_family(params, plan, items[i], k, region, c_at) for i in mine}
+    done = follow_many(params, plan, mine, k, region, c_at)
     merged: dict[int, BranchResult] = {}
     for part in comm.allgather(done):
         merged.update(part)

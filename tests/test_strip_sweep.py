@@ -325,6 +325,22 @@ def test_sweep_k_model_strip_bad_input_is_one_line(tmp_path, bad: list[str], wor
 
 
 @pytest.mark.serial
+@pytest.mark.parametrize("model", ["section", "layers"])
+@pytest.mark.parametrize("bad, word", [(["--strip-cells", "8"], "--strip-cells"),
+                                       (["--strip-ny", "4"], "--strip-ny"),
+                                       (["--strip-degree", "3"], "--strip-degree"),
+                                       (["--strip-c-max", "auto"], "--strip-c-max")])
+def test_strip_options_refused_by_the_other_models(tmp_path, model: str, bad: list[str],
+                                                   word: str) -> None:
+    res = run_workflow("sweep_k.py", ["--model", model, "--k", "4", *bad,
+                                      "--out", str(tmp_path / "bad")])
+    assert res.returncode == 2
+    assert res.stderr.strip().count("\n") == 0 and word in res.stderr and "strip only" in \
+        res.stderr
+    assert not (tmp_path / "bad").exists()
+
+
+@pytest.mark.serial
 def test_compare_with_section_distances_and_counts() -> None:
     spec = StripSpectrum(2.0, (-0.01, 1.0, -5.0, 5.0), np.array([0.1 + 3j, 0.1 - 3j, 4j]),
                          np.zeros(3), np.array([1.0, -1.0, 2.0]), 3, True, 10,

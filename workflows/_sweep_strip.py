@@ -84,14 +84,32 @@ NOT_FOR_STRIP = (("c_max", "--c-max", "auto", "its box's bound is --strip-c-max"
                   "-strip_region_*"))
 
 
+#: The strip's own options with their defaults: another ``--model`` refuses them (one line,
+#: exit 2) instead of ignoring them (session 36 noticed ``--model section --strip-cells 8``
+#: run without a word).
+STRIP_ONLY = (("strip_cells", "--strip-cells", 12), ("strip_ny", "--strip-ny", 6),
+              ("strip_degree", "--strip-degree", 2), ("strip_c_max", "--strip-c-max", "1"))
+
+
+def refuse_strip_options(args: argparse.Namespace) -> None:
+    """Raise ParameterError if a strip option was changed for another ``--model``."""
+    for name, option, default in STRIP_ONLY:
+        if getattr(args, name) != default:
+            raise _cli.ParameterError(f"{option} = {getattr(args, name)} is outside the allowed "
+                                      f"options of --model {args.model}: it applies to --model "
+                                      "strip only")
+
+
 def add_arguments(ap: argparse.ArgumentParser) -> None:
     """The strip's options (a group of ``sweep_k.py``'s parser)."""
     g = ap.add_argument_group("2D Bloch strip (--model strip; forms.studies.strip_sweep)")
-    g.add_argument("--strip-cells", type=int, default=12, help="cells along x per wavelength")
-    g.add_argument("--strip-ny", type=int, default=6, help="cells along y")
-    g.add_argument("--strip-degree", type=int, default=2, help="Lagrange degree 1..4 (the "
-                   "estimate solves degree + 1)")
-    g.add_argument("--strip-c-max", default="1",
+    default = {name: value for name, _, value in STRIP_ONLY}
+    g.add_argument("--strip-cells", type=int, default=default["strip_cells"],
+                   help="cells along x per wavelength")
+    g.add_argument("--strip-ny", type=int, default=default["strip_ny"], help="cells along y")
+    g.add_argument("--strip-degree", type=int, default=default["strip_degree"],
+                   help="Lagrange degree 1..4 (the estimate solves degree + 1)")
+    g.add_argument("--strip-c-max", default=default["strip_c_max"],
                    help="box |Im Lambda| <= strip_c_max k c_d + omega0 (c_d: the slider's "
                    "largest; --omega0 0: none), Re Lambda in [--re-min, --re-max]; auto: per k "
                    "the default 1 or, if taller, 1.05 times the bound that holds the fastest "

@@ -145,6 +145,7 @@ def validate(args: argparse.Namespace) -> tuple[Params, np.ndarray, int, Region]
     """
     if args.model not in ("section", "layers", "strip"):  # strip: dispatched before this
         raise _cli.ParameterError(f"--model = {args.model!r} is not one of section, layers, strip")
+    _sweep_strip.refuse_strip_options(args)
     # the slider of --model: one homogeneous layer (mu = rho = 1, no profile) is today's slider
     # (H, beta of its row; exact roots checked); several layers or profiles have no exact roots
     # (FE only: sweep.layered_params; --check-exact auto is then no)

@@ -312,6 +312,7 @@ def test_coarse_cell_is_flagged_by_its_estimate_and_resume_solves_only_missing_k
 @pytest.mark.parametrize("bad, word", [(["--strip-degree", "9"], "--strip-degree"),
                                        (["--c-max", "4"], "--c-max"),
                                        (["--solver", "newton"], "--solver"),
+                                       (["--layers-bound", "yes"], "--layers-bound"),
                                        (["--check-exact", "yes"], "--check-exact"),
                                        (["--layers", "x.csv"], "--layers"),
                                        (["--strip-c-max", "tall"], "--strip-c-max"),

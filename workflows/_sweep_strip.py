@@ -81,7 +81,9 @@ LABEL_STATEMENT = "h<harmonic>_<j>: j by increasing |Im Lambda| within the harmo
 #: option, default, what the strip has instead).
 NOT_FOR_STRIP = (("c_max", "--c-max", "auto", "its box's bound is --strip-c-max"),
                  ("solver", "--solver", "linear", "its solver is the region solve, options "
-                  "-strip_region_*"))
+                  "-strip_region_*"),
+                 ("layers_bound", "--layers-bound", "auto", "a homogeneous slider: its "
+                  "harmonics' fastest modes are proven through the 1D model"))
 
 
 #: The strip's own options with their defaults: another ``--model`` refuses them (one line,

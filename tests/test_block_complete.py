@@ -14,7 +14,7 @@ from mpi4py import MPI
 
 from analytic.params import Params
 from forms.models.strip import build_strip_problem, friction_operator_for, strip_mesh_for
-from forms.solvers.region import count_in_box
+from forms.solvers.region import SampleJournal, count_in_box
 from forms.studies import block
 
 SMALL = dict(cells_per_unit=4, ny=3, degree=2, lateral="free", nev=8)
@@ -117,3 +117,52 @@ def test_progress_reports_the_count_and_the_tiles():
     assert counts == sorted(counts) and counts[-1] + sum(ends) == spec.count_evaluations
     assert len(tiles) == spec.tiles and tiles[-1].endswith(f"{spec.found} of {spec.found} found")
     assert any(x.startswith("P3 estimate, tiles: ") for x in lines)
+
+
+@pytest.mark.parametrize("divide", [False, True])
+def test_count_journal_resumes_a_stopped_count(tmp_path, divide):
+    """A count stopped part way (its journal cut to a third of its samples, and a last line
+    cut in the middle, as a kill leaves it) and run again with the journal: the same count,
+    the same samples, and only the samples it had not journalled computed again (serial and
+    ``mpirun -n 2``, split count: every rank reads the same journal)."""
+    comm, p = MPI.COMM_WORLD, Params()
+    strip = strip_mesh_for(comm, p, 2.0, 8, 3)
+    problem = build_strip_problem(strip, p, k=None, degree=2, lateral="free")
+    op = friction_operator_for(problem)
+    ref = block.elastic_reference(problem) if divide else None
+    path = str(comm.bcast(tmp_path, root=0) / "journal.csv")
+    box = (0.05, 0.6, -0.025, 10.0)
+
+    def count(journal):
+        return count_in_box(op.matrices, box, op.law.spurious, cleared_rows=op.cleared_rows,
+                            split=True, reference=ref, journal=journal)
+
+    try:
+        plain = count(None)
+        book1 = SampleJournal(comm, path, "block L = 2")
+        first = count(book1)
+        kept = 0
+        if comm.rank == 0:
+            with open(path) as f:
+                lines = f.read().split("\n")
+            kept = (len(lines) - 3) // 3  # a third of the samples, after the header's 2 lines
+            with open(path, "w") as f:
+                f.write("\n".join(lines[:2 + kept]) + "\n" + lines[2 + kept][:9])
+        kept = comm.bcast(kept, root=0)
+        book = SampleJournal(comm, path, "block L = 2")
+        again = count(book)
+        with pytest.raises(RuntimeError, match="another problem"):
+            SampleJournal(comm, path, "block L = 4")
+    finally:
+        for m in ref or ():
+            m.destroy()
+        op.destroy()
+        problem.destroy()
+    n = plain[2]["evaluations"]  # the samples asked for
+    assert plain[0] == first[0] == again[0] >= 1
+    assert np.array_equal(plain[2]["samples"], again[2]["samples"])
+    # each point computed once (the count asks for some twice: 1 of 515, 9 of 526 divided)
+    assert first[2]["evaluations"] == len(book1.values) == n - book1.reused
+    # the third read back, the rest (the cut line's point included) computed, once
+    assert book.reused + again[2]["evaluations"] == n
+    assert again[2]["evaluations"] == len(book1.values) - kept

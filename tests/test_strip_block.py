@@ -6,6 +6,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -291,6 +292,47 @@ def test_finite_block_complete_search_resume_writes_each_length_once(tmp_path):
     assert res.returncode == 0, res.stderr[-3000:]
     again = (out / "finite_block_spectrum.csv").read_text().splitlines()
     assert again == first
+    assert not (out / "count_samples").exists()  # a saved length's journal goes
+
+
+@pytest.mark.slow  # two small complete searches (~10-40 s each)
+@pytest.mark.serial
+def test_finite_block_killed_in_its_count_resumes_from_the_journal(tmp_path):
+    """A run killed (SIGKILL) part way through a length's count keeps the samples it computed
+    (``count_samples/L2.0.csv``); ``--resume`` takes them from there, computes only the others
+    and writes the same table as a run never stopped."""
+    env = dict(os.environ)
+    env.pop("DISPLAY", None)
+    base = [sys.executable, SCRIPT, "--search", "complete", "--lengths", "2",
+            "--cells-per-unit", "4", "--ny", "3", "--nev", "8", "--k-scan", "0.5:3:6",
+            "--box", "0.05:0.6:10", "--no-kulikovskii"]
+    whole = tmp_path / "whole"
+    res = subprocess.run([*base, "--out", str(whole)], capture_output=True, text=True, env=env,
+                         timeout=600)
+    assert res.returncode == 0, res.stderr[-3000:]
+    out = tmp_path / "out"
+    journal = out / "count_samples" / "L2.0.csv"
+    proc = subprocess.Popen([*base, "--out", str(out)], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, env=env)
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < 300:  # until a third or so of the count is journalled
+        if journal.exists() and journal.read_text().count("\n") > 150:
+            break
+        time.sleep(0.02)
+    proc.kill()
+    proc.wait()
+    kept = journal.read_text().count("\n") - 2
+    assert kept >= 150 and not (out / "raw" / "L2.0.json").exists()
+    res = subprocess.run([*base, "--out", str(out), "--resume"], capture_output=True, text=True,
+                         env=env, timeout=600)
+    assert res.returncode == 0, res.stderr[-3000:]
+    for name in ("finite_block.csv", "finite_block_spectrum.csv"):
+        assert (out / name).read_bytes() == (whole / name).read_bytes()
+    cert = [json.loads((d / "finite_block.json").read_text())["certificates"]["2"]
+            for d in (whole, out)]
+    # only the samples not journalled were computed (the cut last line's point at most again)
+    assert cert[1]["count_evaluations"] <= cert[0]["count_evaluations"] - kept + 1
+    assert not journal.exists()
 
 
 # ---------------------------------------------------------------- forms.studies.block, called

@@ -154,6 +154,17 @@ def progress_printer(comm, L: float, every: float = PROGRESS_EVERY) -> Callable[
     return report
 
 
+#: Folder of the run where a complete search's count keeps its samples as it computes them
+#: (:class:`forms.solvers.region.SampleJournal`), one file per length; ``--resume`` continues
+#: a stopped count from it; the file goes once its length is saved.
+JOURNALS = "count_samples"
+
+
+def journal_path(out: str, L: float) -> str:
+    """The count's sample journal of length ``L`` in the run folder ``out``."""
+    return os.path.join(out, JOURNALS, f"L{float(L)!r}.csv")
+
+
 def solve_length(comm, args: argparse.Namespace, params, L: float, ref, keep_mode: bool,
                  certificates: dict) -> tuple[block.BlockMode, bool]:
     """One length by ``args.search``; its certificate (with the spectrum's rows) kept.
@@ -173,7 +184,8 @@ def solve_length(comm, args: argparse.Namespace, params, L: float, ref, keep_mod
         comm, params, L, cells_per_unit=args.cells_per_unit, ny=args.ny, degree=args.degree,
         lateral=args.lateral, box=box, nev=args.nev, estimate=True, keep_mode=keep_mode,
         half=args.half, split_count=args.count_ranks == "split",
-        divide=args.count_reference == "elastic", progress=progress_printer(comm, L))
+        divide=args.count_reference == "elastic", progress=progress_printer(comm, L),
+        journal=journal_path(args.out, L))
     # the progress lines are at most every PROGRESS_EVERY seconds: the last one may be stale
     # ("tiles: 8 solved, 0 of 12 found" before the tiles that found them), so say the outcome
     outcome = progress_printer(comm, L, every=0.0)  # above the lengths' bar, like the progress

@@ -38,6 +38,7 @@ Example::
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import os
 import sys
@@ -59,7 +60,8 @@ PETSC_PREFIXES = ("block_", "block_region_", "block_region_det_", "block_region_
                   "kroots_")
 #: Files this workflow writes.
 OUTPUTS = ("finite_block.csv", "finite_block_spectrum.csv", "finite_block_spectrum.png",
-           "finite_block.png", "block_mode.png", "finite_block.json", "raw")
+           "finite_block.png", "block_mode.png", "finite_block.json", "raw",
+           _block_search.JOURNALS)
 COLUMNS = list(block.ROW_COLUMNS)
 
 
@@ -86,7 +88,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="skip the long-block limit from the cross-section model")
     p.add_argument("--resume", action="store_true",
                    help="keep the lengths already finished (raw/L*.json; same parameters "
-                        "required; --lengths may differ: only the missing lengths are computed)")
+                        "required; --lengths may differ: only the missing lengths are computed);"
+                        " a complete search's count stopped part way continues from its "
+                        "samples (count_samples/L*.csv)")
     p.add_argument("--out", default="out/finite_block", help="output directory")
     return p
 
@@ -200,6 +204,15 @@ def main(comm=None, argv: list[str] | None = None) -> int:
         return _run(comm, args, run, params, lengths, branches, k_scan)
 
 
+def _drop_journal(out: str, L: float) -> None:
+    """The count's sample journal of a saved length goes (its folder too, once empty)."""
+    path = _block_search.journal_path(out, L)
+    if os.path.exists(path):
+        os.remove(path)
+        with contextlib.suppress(OSError):  # not empty: another length's journal is there
+            os.rmdir(os.path.dirname(path))
+
+
 def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, branches,
          k_scan) -> int:
     t_start = time.perf_counter()
@@ -236,6 +249,7 @@ def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, b
                 certificates.get(f"{float(L):g}"), "row": [f"{v:.12g}" if isinstance(v, float)
                                                           else v for v in mode.row(ref)]})
             _write_table(csv_path, done, args.out, certificates)
+            _drop_journal(args.out, float(L))
             bar.update(1)
     if bar is not None:
         bar.close()

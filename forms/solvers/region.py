@@ -35,6 +35,7 @@ determinant's LU ``<prefix>det_`` (``-region_det_pc_factor_mat_solver_type``,
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -469,13 +470,98 @@ class LogDet:
         self.copies = []
 
 
+class SampleJournal:
+    """The count's samples of ``log det`` on disk as they are computed: a stopped count resumes.
+
+    A count of a long block takes hours (36 085 samples in 65 min on 2 ranks: the velocity top's
+    ``L = 64`` to ``|Im| = 125.67``); a run stopped in it lost them all. The journal is a CSV
+    file, ``re,im,logdet_re,logdet_im`` per sample (Python's shortest round-trip float repr: the
+    values read back are the values computed, bit for bit), after a header line naming the
+    problem (:meth:`open`). Every value computed is appended and flushed before the count goes
+    on; a count run again with the journal takes its samples from it and computes only the
+    others, so it takes the same steps and gives the same count. Collective: rank 0 reads and
+    writes the file, every rank holds the same samples.
+    """
+
+    HEADER = "re,im,logdet_re,logdet_im"
+
+    def __init__(self, comm: MPI.Comm, path: str, problem: str) -> None:
+        """Open (or start) the journal at ``path`` for ``problem`` (a line naming it).
+
+        Raises:
+            RuntimeError: The file names another problem (on every rank).
+        """
+        self.comm, self.path, self.problem = comm, path, problem
+        got, error = None, ""
+        if comm.rank == 0:
+            try:
+                got = self._read()
+            except (OSError, ValueError) as err:
+                error = f"count journal {path}: {err}"
+        got, error = comm.bcast((got, error), root=0)
+        if error:
+            raise RuntimeError(error)
+        self.values: dict[complex, complex] = got
+        self.reused = 0
+
+    def _read(self) -> dict[complex, complex]:
+        if not os.path.exists(self.path):
+            os.makedirs(os.path.dirname(self.path) or ".", exist_ok=True)
+            with open(self.path, "w") as f:
+                f.write(f"# {self.problem}\n{self.HEADER}\n")
+            return {}
+        out: dict[complex, complex] = {}
+        with open(self.path) as f:
+            lines = f.read().split("\n")
+        if lines[:2] != [f"# {self.problem}", self.HEADER]:
+            raise ValueError(f"it belongs to another problem ({lines[0]!r}, this one: "
+                             f"'# {self.problem}'): remove it or use another --out")
+        for line in lines[2:]:
+            parts = line.split(",")
+            if len(parts) != 4:  # the last line of a stopped write, or the final newline
+                continue
+            a, b, c, d = (float(v) for v in parts)
+            out[complex(a, b)] = complex(c, d)
+        return out
+
+    def __call__(self, z: np.ndarray, compute: Callable[[np.ndarray], np.ndarray]
+                 ) -> np.ndarray:
+        """``compute(z)`` with the samples already journalled taken from the journal."""
+        z = np.atleast_1d(np.asarray(z, dtype=complex))
+        flat = z.ravel()
+        have = [self.values.get(complex(w)) for w in flat]
+        missing = np.array([v is None for v in have], dtype=bool)
+        out = np.array([0j if v is None else v for v in have], dtype=complex)
+        self.reused += int((~missing).sum())
+        if missing.any():
+            new = np.asarray(compute(flat[missing]), dtype=complex).ravel()
+            out[missing] = new
+            self.values.update(zip(map(complex, flat[missing]), map(complex, new), strict=True))
+            error = ""
+            if self.comm.rank == 0:
+                try:
+                    with open(self.path, "a") as f:
+                        f.write("".join(f"{w.real!r},{w.imag!r},{v.real!r},{v.imag!r}\n"
+                                        for w, v in zip(map(complex, flat[missing]),
+                                                        map(complex, new), strict=True)))
+                        f.flush()
+                        os.fsync(f.fileno())
+                except OSError as err:  # e.g. a full disk: every rank stops, not rank 0 alone
+                    error = f"count journal {self.path}: {err.strerror or err}"
+            error = self.comm.bcast(error, root=0)
+            if error:
+                raise OSError(error)
+        return out.reshape(z.shape)
+
+
 def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
                  spurious: Sequence[complex] = (-1.0 + 0j,), *, cleared_rows: int = 0,
                  prefix: str = "region_det_", n_initial: int = 16, nudge: float = 1e-3,
                  tries: int = 3, split: bool = False,
                  reference: Sequence[PETSc.Mat] | None = None,
                  deflate: Sequence[complex] = (),
-                 progress: Callable[[str], object] | None = None) -> tuple[int, Box, dict]:
+                 progress: Callable[[str], object] | None = None,
+                 journal: SampleJournal | None = None) -> tuple[int, Box, dict]:
     """Discrete eigenvalues of ``T_h`` in ``box``: the winding number of ``det T_h`` on its edge.
 
     ``det T_h`` is a polynomial in ``Lambda`` (no poles), so the winding number is the number of
@@ -506,6 +592,8 @@ def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
 
     ``deflate``: known eigenvalues in the box, divided out: the count of the others
     (:meth:`RegionSolver._verify`). ``progress``: called with ``"count: N samples, T s"``.
+    ``journal``: the samples of ``log det T_h - log det R_h`` kept on disk as computed and
+    taken from it where already there (:class:`SampleJournal`: a stopped count resumes).
 
     Returns:
         ``(count, box_used, info)`` with ``info`` = evaluations (LU factorisations), seconds
@@ -515,11 +603,13 @@ def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
     logdet = LogDet(matrices, prefix, split)
     logref = None if reference is None else LogDet(reference, prefix + "ref_", split)
 
+    def raw(z: np.ndarray) -> np.ndarray:
+        out = logdet(z)
+        return out - logref(z) if logref is not None else out
+
     def logf(z: np.ndarray) -> np.ndarray:
         z = np.atleast_1d(np.asarray(z, dtype=complex))
-        out = logdet(z)
-        if logref is not None:
-            out = out - logref(z)
+        out = raw(z) if journal is None else journal(z, raw)
         for s in spurious if cleared_rows else ():
             # an integer multiple of 2 pi i across the branch cut: the wrapped increments of
             # :func:`winding` do not see it
@@ -528,7 +618,9 @@ def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
             out = out - np.log(z - s)
         if progress is not None:
             spent = logdet.seconds + (logref.seconds if logref else 0.0)
-            progress(f"count: {logdet.evaluations} samples, {spent:.0f} s")
+            kept = f" (and {journal.reused} from the journal)" if journal and journal.reused \
+                else ""
+            progress(f"count: {logdet.evaluations} samples{kept}, {spent:.0f} s")
         return out
 
     try:
@@ -756,7 +848,8 @@ class RegionSolver:
               expected: int | None = None, tiles: tuple[int, int] | None = None,
               cleared_rows: int = 0, split_count: bool = False,
               reference: Sequence[PETSc.Mat] | None = None,
-              progress: Callable[[str], object] | None = None) -> RegionResult:
+              progress: Callable[[str], object] | None = None,
+              journal: SampleJournal | None = None) -> RegionResult:
         """Every eigenpair in ``box``; with ``count``, the argument-principle count too.
 
         Args:
@@ -779,6 +872,8 @@ class RegionSolver:
             progress: Called with a short line after every batch of the count's samples and
                 every tile (``"tiles: 3 solved, 5 of 12 found"``); the verification's count
                 lines start with ``"verify "``.
+            journal: The count's samples on disk (:class:`SampleJournal`; the verification's
+                too): a stopped count resumes from it.
 
         Returns:
             :class:`RegionResult` (``closed`` is the certificate; with ``count``, verified by
@@ -789,7 +884,8 @@ class RegionSolver:
         if count:
             counted, bx, info = count_in_box(matrices, bx, spurious, cleared_rows=cleared_rows,
                                              prefix=self.prefix + "det_", split=split_count,
-                                             reference=reference, progress=progress)
+                                             reference=reference, progress=progress,
+                                             journal=journal)
         a, b, c, d = bx
         nev = self.pep.getDimensions()[0]
         stop_at = counted if count else expected
@@ -818,7 +914,8 @@ class RegionSolver:
         if count:
             solved, t_more = self._verify(matrices, bx, spurious, todo, kept, counts, info,
                                           dict(cleared_rows=cleared_rows, split=split_count,
-                                               reference=reference), progress, solved)
+                                               reference=reference, journal=journal),
+                                          progress, solved)
             t_solve += t_more
         counted = counts[-1] if counts else None
         self._release()

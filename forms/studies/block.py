@@ -53,7 +53,7 @@ from forms.models.strip import (
     strip_mesh_for,
 )
 from forms.solvers.continuation import follow_fe_branch, most_unstable_k
-from forms.solvers.region import RegionSolver
+from forms.solvers.region import RegionSolver, SampleJournal
 from forms.solvers.spatial_stability import kulikovskii_limit
 
 #: Columns of :meth:`BlockMode.row` (the CSV of ``finite_block.py``).
@@ -466,12 +466,14 @@ def _region_solve(comm: MPI.Comm, params: Params, length: float, cells_per_unit:
                   degree: int, lateral: str, box: Sequence[float], nev: int, count: bool,
                   keep_mode: bool, friction: FrictionProfile | None, prefix: str,
                   expected: int | None = None, split: bool = False,
-                  divide: bool = False, progress: Callable[[str], object] | None = None):
+                  divide: bool = False, progress: Callable[[str], object] | None = None,
+                  journal: str | None = None):
     """One region solve of the block; ``keep_mode``: the fastest found, as a function.
 
     The mode is that of the value of ``Im <= 0`` (a conjugated vector if only ``Im > 0`` was
     found, as in a half box), the one the sorted full set lists first. ``divide``: the count's
-    samples divided by the elastic determinant (:func:`elastic_reference`).
+    samples divided by the elastic determinant (:func:`elastic_reference`). ``journal``: a
+    path for the count's samples (:class:`forms.solvers.region.SampleJournal`).
     """
     nx = max(2, int(round(cells_per_unit * length)))
     strip = strip_mesh_for(comm, params, float(length), nx, ny)
@@ -479,10 +481,17 @@ def _region_solve(comm: MPI.Comm, params: Params, length: float, cells_per_unit:
                                   friction=friction)
     with region_session(comm, problem, nev, prefix) as (op, solver):
         res, ref = None, elastic_reference(problem) if divide and count else None
+        book = None
+        if journal is not None and count:  # the problem the samples belong to, in one line
+            book = SampleJournal(comm, journal, (
+                f"log det of the block L = {float(length)!r}, {nx} x {ny} cells, P{degree}, "
+                f"{op.matrices[0].getSize()[0]} unknowns, {lateral} ends, reference "
+                f"{'elastic' if ref else 'none'}, box {tuple(float(v) for v in box)}"))
         try:
             res = solver.solve(op.matrices, box, op.law.spurious, count=count,
                                cleared_rows=op.cleared_rows, expected=expected,
-                               split_count=split, reference=ref, progress=progress)
+                               split_count=split, reference=ref, progress=progress,
+                               journal=book)
             u = None
             if keep_mode and res.found:
                 if res.values[0].imag > 0:
@@ -520,7 +529,8 @@ def block_spectrum(comm: MPI.Comm, params: Params, length: float, *, cells_per_u
                    friction: FrictionProfile | None = None,
                    prefix: str = "block_region_", half: bool = False,
                    split_count: bool = False, divide: bool = False,
-                   progress: Callable[[str], object] | None = None) -> BlockSpectrum:
+                   progress: Callable[[str], object] | None = None,
+                   journal: str | None = None) -> BlockSpectrum:
     """Every eigenvalue of the block ``0 < x < length`` in ``box``, with its certificate.
 
     The region solve (:class:`forms.solvers.region.RegionSolver`, options prefix
@@ -557,6 +567,9 @@ def block_spectrum(comm: MPI.Comm, params: Params, length: float, *, cells_per_u
             the same count, far fewer samples.
         progress: Called with a short line as the count and the tiles advance (the
             estimate's lines prefixed ``P(p+1) estimate``); the caller throttles and prints.
+        journal: A path where the count keeps its samples as it computes them
+            (:class:`forms.solvers.region.SampleJournal`): a count stopped and run again with
+            the same path computes only the samples it had not.
     """
     tail = (friction, prefix)
     fine_progress = None if progress is None else (
@@ -564,7 +577,7 @@ def block_spectrum(comm: MPI.Comm, params: Params, length: float, *, cells_per_u
     res, u = _region_solve(comm, params, length, cells_per_unit, ny, degree, lateral,
                            half_box(box) if half else box, nev, True, keep_mode, *tail,
                            split=split_count, divide=divide and float(box[0]) > 0,
-                           progress=progress)
+                           progress=progress, journal=journal)
     values, source = res.values, np.arange(res.found)
     full = res.box
     if half:

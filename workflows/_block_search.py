@@ -11,6 +11,7 @@ symmetry, P(p+1) estimate). Rows are written here (rank 0).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import os
 import sys
@@ -163,6 +164,25 @@ JOURNALS = "count_samples"
 def journal_path(out: str, L: float) -> str:
     """The count's sample journal of length ``L`` in the run folder ``out``."""
     return os.path.join(out, JOURNALS, f"L{float(L)!r}.csv")
+
+
+def drop_journal(out: str, L: float) -> None:
+    """The count's sample journal of a saved length goes (its folder too, once empty)."""
+    path = journal_path(out, L)
+    if os.path.exists(path):
+        os.remove(path)
+        with contextlib.suppress(OSError):  # not empty: another length's journal is there
+            os.rmdir(os.path.dirname(path))
+
+
+def save_length(parts, out: str, L: float, record: dict) -> dict:  # noqa: ANN001
+    """A finished length's part saved (``raw/L*.json``), then its count's journal dropped.
+
+    Rank 0. Returns what ``parts.save`` returns.
+    """
+    saved = parts.save(f"L{float(L)!r}", record)
+    drop_journal(out, L)
+    return saved
 
 
 def solve_length(comm, args: argparse.Namespace, params, L: float, ref, keep_mode: bool,

@@ -38,7 +38,6 @@ Example::
 from __future__ import annotations
 
 import argparse
-import contextlib
 import csv
 import os
 import sys
@@ -204,15 +203,6 @@ def main(comm=None, argv: list[str] | None = None) -> int:
         return _run(comm, args, run, params, lengths, branches, k_scan)
 
 
-def _drop_journal(out: str, L: float) -> None:
-    """The count's sample journal of a saved length goes (its folder too, once empty)."""
-    path = _block_search.journal_path(out, L)
-    if os.path.exists(path):
-        os.remove(path)
-        with contextlib.suppress(OSError):  # not empty: another length's journal is there
-            os.rmdir(os.path.dirname(path))
-
-
 def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, branches,
          k_scan) -> int:
     t_start = time.perf_counter()
@@ -244,12 +234,11 @@ def _run(comm, args: argparse.Namespace, run: _cli.RunFolder, params, lengths, b
         last = mode if mode.u is not None else last
         timings[f"{float(L):g}"] = time.perf_counter() - t0
         if comm.rank == 0:
-            done[float(L)] = parts.save(f"L{float(L)!r}", {
+            done[float(L)] = _block_search.save_length(parts, args.out, float(L), {
                 "L": float(L), "seconds": timings[f"{float(L):g}"], "certificate":
                 certificates.get(f"{float(L):g}"), "row": [f"{v:.12g}" if isinstance(v, float)
                                                           else v for v in mode.row(ref)]})
             _write_table(csv_path, done, args.out, certificates)
-            _drop_journal(args.out, float(L))
             bar.update(1)
     if bar is not None:
         bar.close()

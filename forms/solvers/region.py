@@ -484,6 +484,9 @@ class SampleJournal:
     """
 
     HEADER = "re,im,logdet_re,logdet_im"
+    #: Samples computed between two writes: a uniform level of a tall box's count holds
+    #: thousands (an hour of LUs on the ``L = 64`` block), so the batch is cut.
+    CHUNK = 64
 
     def __init__(self, comm: MPI.Comm, path: str, problem: str) -> None:
         """Open (or start) the journal at ``path`` for ``problem`` (a line naming it).
@@ -533,25 +536,31 @@ class SampleJournal:
         missing = np.array([v is None for v in have], dtype=bool)
         out = np.array([0j if v is None else v for v in have], dtype=complex)
         self.reused += int((~missing).sum())
-        if missing.any():
-            new = np.asarray(compute(flat[missing]), dtype=complex).ravel()
-            out[missing] = new
-            self.values.update(zip(map(complex, flat[missing]), map(complex, new), strict=True))
-            error = ""
-            if self.comm.rank == 0:
-                try:
-                    with open(self.path, "a") as f:
-                        f.write("".join(f"{w.real!r},{w.imag!r},{v.real!r},{v.imag!r}\n"
-                                        for w, v in zip(map(complex, flat[missing]),
-                                                        map(complex, new), strict=True)))
-                        f.flush()
-                        os.fsync(f.fileno())
-                except OSError as err:  # e.g. a full disk: every rank stops, not rank 0 alone
-                    error = f"count journal {self.path}: {err.strerror or err}"
-            error = self.comm.bcast(error, root=0)
-            if error:
-                raise OSError(error)
+        todo = np.flatnonzero(missing)
+        for lo in range(0, todo.size, self.CHUNK):  # written as it goes, a chunk at a time
+            idx = todo[lo:lo + self.CHUNK]
+            new = np.asarray(compute(flat[idx]), dtype=complex).ravel()
+            out[idx] = new
+            self._append(flat[idx], new)
         return out.reshape(z.shape)
+
+    def _append(self, z: np.ndarray, new: np.ndarray) -> None:
+        """Keep and write (rank 0, flushed to disk) the values ``new`` at the points ``z``."""
+        self.values.update(zip(map(complex, z), map(complex, new), strict=True))
+        error = ""
+        if self.comm.rank == 0:
+            try:
+                with open(self.path, "a") as f:
+                    f.write("".join(f"{w.real!r},{w.imag!r},{v.real!r},{v.imag!r}\n"
+                                    for w, v in zip(map(complex, z), map(complex, new),
+                                                    strict=True)))
+                    f.flush()
+                    os.fsync(f.fileno())
+            except OSError as err:  # e.g. a full disk: every rank stops, not rank 0 alone
+                error = f"count journal {self.path}: {err.strerror or err}"
+        error = self.comm.bcast(error, root=0)
+        if error:
+            raise OSError(error)
 
 
 def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],

@@ -527,9 +527,12 @@ class SampleJournal:
             out[complex(a, b)] = complex(c, d)
         return out
 
-    def __call__(self, z: np.ndarray, compute: Callable[[np.ndarray], np.ndarray]
-                 ) -> np.ndarray:
-        """``compute(z)`` with the samples already journalled taken from the journal."""
+    def __call__(self, z: np.ndarray, compute: Callable[[np.ndarray], np.ndarray],
+                 written: Callable[[], object] | None = None) -> np.ndarray:
+        """``compute(z)`` with the samples already journalled taken from the journal.
+
+        ``written`` is called after each chunk is written (progress within a long batch).
+        """
         z = np.atleast_1d(np.asarray(z, dtype=complex))
         flat = z.ravel()
         have = [self.values.get(complex(w)) for w in flat]
@@ -542,6 +545,8 @@ class SampleJournal:
             new = np.asarray(compute(flat[idx]), dtype=complex).ravel()
             out[idx] = new
             self._append(flat[idx], new)
+            if written is not None:
+                written()
         return out.reshape(z.shape)
 
     def _append(self, z: np.ndarray, new: np.ndarray) -> None:
@@ -616,20 +621,23 @@ def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
         out = logdet(z)
         return out - logref(z) if logref is not None else out
 
+    def report() -> None:
+        if progress is not None:
+            spent = logdet.seconds + (logref.seconds if logref else 0.0)
+            kept = f" (and {journal.reused} from the journal)" if journal and journal.reused \
+                else ""
+            progress(f"count: {logdet.evaluations} samples{kept}, {spent:.0f} s")
+
     def logf(z: np.ndarray) -> np.ndarray:
         z = np.atleast_1d(np.asarray(z, dtype=complex))
-        out = raw(z) if journal is None else journal(z, raw)
+        out = raw(z) if journal is None else journal(z, raw, report)
         for s in spurious if cleared_rows else ():
             # an integer multiple of 2 pi i across the branch cut: the wrapped increments of
             # :func:`winding` do not see it
             out = out - cleared_rows * np.log(z - s)
         for s in deflate:  # the same: a multiple of 2 pi i, unseen
             out = out - np.log(z - s)
-        if progress is not None:
-            spent = logdet.seconds + (logref.seconds if logref else 0.0)
-            kept = f" (and {journal.reused} from the journal)" if journal and journal.reused \
-                else ""
-            progress(f"count: {logdet.evaluations} samples{kept}, {spent:.0f} s")
+        report()
         return out
 
     try:

@@ -568,6 +568,30 @@ class SampleJournal:
             raise OSError(error)
 
 
+def _wind_nudged(logf: Callable[[np.ndarray], np.ndarray], bx: Box,
+                 spurious: Sequence[complex], n_initial: int, nudge: float,
+                 tries: int) -> tuple[int, np.ndarray, Box]:
+    """The winding number on ``bx``'s edge, the box nudged outwards if a root is on it.
+
+    On a :class:`ContourError` the box is enlarged by ``nudge`` of its size on every side and
+    wound again (up to ``tries`` times).
+
+    Returns:
+        ``(count, samples, box_used)``.
+    """
+    for attempt in range(tries):
+        try:
+            n, t = winding(logf, bx, n_initial=n_initial, samples=True)
+            return n, t, bx
+        except ContourError:
+            if attempt == tries - 1:
+                raise
+            a, b, c, d = bx
+            da, dc = nudge * (b - a), nudge * (d - c)
+            bx = _check_box((a - da, b + da, c - dc, d + dc), spurious)
+    raise ValueError("tries must be at least 1")
+
+
 def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
                  spurious: Sequence[complex] = (-1.0 + 0j,), *, cleared_rows: int = 0,
                  prefix: str = "region_det_", n_initial: int = 16, nudge: float = 1e-3,
@@ -641,19 +665,9 @@ def count_in_box(matrices: Sequence[PETSc.Mat], box: Sequence[float],
         return out
 
     try:
-        for attempt in range(tries):
-            try:
-                n, t = winding(logf, bx, n_initial=n_initial, samples=True)
-                break
-            except ContourError:
-                if attempt == tries - 1:
-                    raise
-                a, b, c, d = bx
-                da, dc = nudge * (b - a), nudge * (d - c)
-                bx = _check_box((a - da, b + da, c - dc, d + dc), spurious)
-        return n, bx, {"evaluations": logdet.evaluations,
-                       "seconds": logdet.seconds + (logref.seconds if logref else 0.0),
-                       "samples": t}
+        n, t, bx = _wind_nudged(logf, bx, spurious, n_initial, nudge, tries)
+        spent = logdet.seconds + (logref.seconds if logref else 0.0)
+        return n, bx, {"evaluations": logdet.evaluations, "seconds": spent, "samples": t}
     finally:
         logdet.destroy()
         if logref is not None:
@@ -915,11 +929,7 @@ class RegionSolver:
         if getattr(self, "_shape", shape) != shape:
             self.pep.reset()  # SLEPc 3.18 keeps work arrays of the previous size
         self._shape = shape
-        self._mats = list(matrices)
-        self._pole, self._restarts, self._inv = None, 0, []
-        if self.invert and spurious:
-            self._pole = complex(min(spurious, key=lambda z: _distance(bx, z)))
-            self._inv = inverted(matrices, self._pole)
+        self._prepare(matrices, bx, spurious)
         norms = np.array([m.norm(PETSc.NormType.FROBENIUS) for m in matrices])
         scale = max(b - a, d - c)
         t0 = time.perf_counter()
@@ -944,6 +954,18 @@ class RegionSolver:
         return RegionResult(bx, values, residuals, [v for _, v in kept], counted, solved,
                             {"solve": t_solve, "count": info["seconds"]},
                             info["evaluations"], self._restarts, counts)
+
+    def _prepare(self, matrices: Sequence[PETSc.Mat], bx: Box,
+                 spurious: Sequence[complex]) -> None:
+        """The solve's state: its matrices and, with ``invert``, the inverted operator.
+
+        The operator is inverted about the spurious root nearest the box (:func:`inverted`).
+        """
+        self._mats = list(matrices)
+        self._pole, self._restarts, self._inv = None, 0, []
+        if self.invert and spurious:
+            self._pole = complex(min(spurious, key=lambda z: _distance(bx, z)))
+            self._inv = inverted(matrices, self._pole)
 
     def _verify(self, matrices: Sequence[PETSc.Mat], bx: Box, spurious: Sequence[complex],
                 todo: list[Box], kept: list, counts: list[int], info: dict, options: dict,

@@ -671,7 +671,7 @@ REGULARISED_RUNS = {
                  {8.0: 6.6, 16.0: 6.6, 32.0: 6.53, 64.0: 6.53}),
     "stress": ({"stress_complete": 8.0, "stress_complete_L16": 16.0,
                 "stress_complete_L32": 32.0, "stress_complete_L64": 64.0,
-                "stress_complete_wide": 8.0},
+                "stress_complete_L64_tall": 64.0, "stress_complete_wide": 8.0},
                {8.0: 5.61, 16.0: 5.57, 32.0: 5.56, 64.0: 19.27}),
 }
 
@@ -857,28 +857,33 @@ def test_committed_velocity_complete_search_on_a_finer_mesh(fine, length, table,
 
 
 @pytest.mark.serial
-@pytest.mark.parametrize(("length", "floor", "n"), [(32, 0.125, 18), (64, 0.135, 24)])
-def test_committed_velocity_tall_box_closes_with_the_low_box_set(length: int, floor: float,
-                                                                 n: int):
-    """README "The velocity top's L = 32" and "L = 64": the box to the frequency bound (``Re >=
-    floor``, ``|Im| <= 125.67``). At ``L = 32`` it counted 7 in its half box before session
-    23's grading rule of ``region.winding`` and did not close; it counts 9 there and closes at
-    18 = 18 (session 23); at ``L = 64`` (session 36, 36 085 count samples) 24 = 24. The
-    eigenvalues are those of the box ``|Im| <= 20`` (another count, other tiles, run in
-    sessions 19 and 20): every one of them below ``|Im| = 20``, equal to the CSVs' 12 digits
-    (measured: 1e-12 and 1.5e-12 relative), so the frequencies 20 .. 125.67 hold none above
-    the floor."""
-    tall = _spectrum_rows(os.path.join(REGULARISED, f"velocity_complete_L{length}_tall"),
+@pytest.mark.parametrize(("top", "length", "floor", "n", "im_max"),
+                         [("velocity", 32, 0.125, 18, 20.0), ("velocity", 64, 0.135, 24, 20.0),
+                          ("stress", 64, 0.14, 26, 25.0)])
+def test_committed_tall_box_closes_with_the_low_box_set(top: str, length: int, floor: float,
+                                                        n: int, im_max: float):
+    """README "The velocity top's L = 32", "L = 64" and "The stress L = 64 box to the frequency
+    bound": the box to the frequency bound (``Re >= floor``, ``|Im| <= 125.67``). Velocity: at
+    ``L = 32`` it counted 7 in its half box before session 23's grading rule of
+    ``region.winding`` and did not close; it counts 9 there and closes at 18 = 18 (session 23);
+    at ``L = 64`` (session 36, 36 085 count samples) 24 = 24. Stress ``L = 64`` (sessions 37-38,
+    34 054 count samples): 26 = 26. The eigenvalues are those of the low box ``|Im| <= im_max``
+    (another count, other tiles, run in sessions 19 and 20): every one of them below ``|Im| =
+    im_max``, equal to the CSVs' 12 digits (measured: 1e-12, 1.5e-12 and 9.3e-13 relative), so
+    the frequencies im_max .. 125.67 hold none above the floor."""
+    tall = _spectrum_rows(os.path.join(REGULARISED, f"{top}_complete_L{length}_tall"),
                           float(length))
-    low = _spectrum_rows(os.path.join(REGULARISED, f"velocity_complete_L{length}"),
-                         float(length))
-    _, meta = _results(os.path.join(REGULARISED, f"velocity_complete_L{length}_tall"))
+    low = _spectrum_rows(os.path.join(REGULARISED, f"{top}_complete_L{length}"), float(length))
+    _, meta = _results(os.path.join(REGULARISED, f"{top}_complete_L{length}_tall"))
+    _, low_meta = _results(os.path.join(REGULARISED, f"{top}_complete_L{length}"))
     cert = meta["certificates"][str(length)]
     assert (meta["params"]["bc"], meta["params"]["alpha_pc"], meta["cells_per_unit"], meta["ny"],
-            meta["degree"], meta["search"]) == ("velocity", 0.1, 8, 8, 2, "complete")
+            meta["degree"], meta["search"]) == (top, 0.1, 8, 8, 2, "complete")
+    assert meta["params"] == low_meta["params"]
     assert cert["box"][0] == floor and cert["box"][3] >= 125.67
+    assert low_meta["certificates"][str(length)]["box"][3] == im_max
     assert cert["closed"] and cert["found"] == cert["counted"] == len(tall) == len(low) == n
-    assert np.max(np.abs(tall.imag)) < 20.0
+    assert np.max(np.abs(tall.imag)) < im_max
     assert all(np.min(np.abs(low - v)) < 1e-10 * abs(v) for v in tall)
 
 

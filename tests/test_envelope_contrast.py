@@ -111,6 +111,52 @@ def test_contrast_rigid_limit_and_rows(tmp_path, nproc):
     assert "in R only, R proven to hold the fastest mode at 0 of 4 k with a root" in proc.stdout
 
 
+@pytest.mark.parametrize("nproc", [1, 2])
+def test_contrast_fe_check_finds_the_points_on_its_own(tmp_path, nproc):
+    """``--fe-check yes``: at each finite-H2 point the FE's own fastest eigenvalue at the
+    point's k (no exact root consulted) is the exact point; a half-space substrate has no FE
+    model and says so. The FE's value is set against an exact root polished on its own here."""
+    out = tmp_path / "c"
+    proc = run_workflow("contrast.py", ["--mu2-grid", "3", "--H2s", "H,inf", "--k", "1,2",
+                                        "--fe-check", "yes", "--out", str(out)], nproc=nproc)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    with open(out / "contrast.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    finite, half = rows
+    assert finite["fe_closed"] == "True" and int(finite["fe_count"]) > 0
+    fe = complex(float(finite["fe_re_lambda"]), float(finite["fe_im_lambda"]))
+    q = Params(mu2=3.0, H2=0.5)
+    exact = polish_root(q, float(finite["k"]), fe).value
+    # FE (P6, --rtol 1e-8 rule) against the exact root: measured 2.2e-14 relative
+    assert abs(fe - exact) < 1e-9 * abs(exact)
+    assert abs(fe - complex(float(finite["re_lambda"]), float(finite["im_lambda"]))) \
+        < 1e-9 * abs(exact)
+    assert float(finite["fe_rel_diff"]) < 1e-9
+    assert half["fe_re_lambda"] == "" and "half-space" in half["fe_note"]
+    assert "FE check: 1 of 1 point(s) found and closed by the FE on its own" in proc.stdout
+
+
+def test_committed_contrast_points_found_by_the_fe():
+    """README "Contrast curve", session 38: the committed ``contrast.py --c-max auto --fe-check
+    yes`` run. At every finite-H2 point with a root the FE, on its own at the point's k, found
+    the exact point (closed count; measured 1.5e-10 relative at most, P6 and the 1e-8 rule);
+    the half-space points say they have no FE model. Re-checked here against an exact root
+    polished from the FE value (independent of the curve's count)."""
+    path = os.path.join(os.path.dirname(__file__), "..", "workflows", "results",
+                        "contrast_auto", "contrast.csv")
+    with open(path) as fh:
+        rows = list(csv.DictReader(fh))
+    finite = [r for r in rows if r["H2"] != "inf" and r["re_lambda"]]
+    assert len(finite) == 12
+    for r in finite:
+        assert r["fe_closed"] == "True" and float(r["fe_rel_diff"]) < 1e-9
+        fe = complex(float(r["fe_re_lambda"]), float(r["fe_im_lambda"]))
+        q = Params(mu2=float(r["mu2"]), rho2=float(r["rho2"]), H2=float(r["H2"]))
+        exact = polish_root(q, float(r["k"]), fe).value
+        assert abs(fe - exact) < 1e-9 * abs(exact)
+    assert all("half-space" in r["fe_note"] for r in rows if r["H2"] == "inf")
+
+
 @pytest.mark.parametrize("script, bad, word", [("contrast.py", ["--H2s", "0"], "--H2s"),
                                                ("contrast.py", ["--mu2", "-1"], "mu2"),
                                                ("envelope.py", ["--k", "2:1:10log"], "--k"),

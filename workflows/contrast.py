@@ -11,6 +11,11 @@ values are refined by sampling between their neighbours (as ``envelope.py``). Fo
 substrate (``inf``) the region stays in ``Re > 0``, on the physical sheet. Is the curve
 monotonic in mu2? Writes ``contrast.csv``, ``summary.json``, ``contrast.png``; parallel over the
 (mu2, H2) pairs. Exit code 1 if the root count failed at some grid k (``failed_counts``).
+
+``--fe-check yes``: at each finite-``H2`` point the finite elements find the fastest mode at the
+point's ``k`` on their own (the certified sweep's FE path, ``sweep_k.py --check-exact no``, its
+region climbed by the FE; no exact root consulted): columns ``fe_*``, ``fe_rel_diff`` against the
+exact point; exit code 1 also if an FE count did not close.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ import _cli
 import numpy as np
 
 from analytic.studies.growth import best_over_k, counts_seconds, curve_shape
+from forms.studies.sweep import fe_fastest
 
 PETSC_PREFIXES: tuple[str, ...] = ()
 OUTPUTS = ("contrast.csv", "summary.json", "contrast.png", "run.json", "run.lock")
@@ -44,8 +50,35 @@ def build_parser() -> argparse.ArgumentParser:
                     "(grown per k until it provably holds the fastest mode)")
     ap.add_argument("--re-min", type=float, default=1e-4,
                     help="region: smallest Re Lambda (> 0: unstable modes, physical sheet)")
+    ap.add_argument("--fe-check", choices=("no", "yes"), default="no",
+                    help="yes: the finite elements' own fastest mode at each finite-H2 point's k "
+                    "(columns fe_*)")
     ap.add_argument("--out", default=os.path.join("out", "contrast"), help="output folder")
     return ap
+
+
+FE_COLUMNS = ("fe_re_lambda", "fe_im_lambda", "fe_rel_diff", "fe_count", "fe_closed", "fe_c_max",
+              "fe_proven", "fe_note")
+
+
+def fe_point(q: object, row: dict, region: object) -> dict:
+    """The FE's own fastest mode at ``row``'s ``k`` (``--fe-check yes``), set against it."""
+    out = dict.fromkeys(FE_COLUMNS)
+    if not math.isfinite(q.H2) or row["re_lambda"] is None:
+        out["fe_note"] = "no FE model of a half-space substrate" if not math.isfinite(q.H2) \
+            else "no exact root to check"
+        return out
+    try:
+        _cli.check_sweep_limits(q, np.array([row["k"]]), region)
+    except _cli.ParameterError as err:
+        out["fe_note"] = f"not run: {err}"
+        return out
+    out |= fe_fastest(q, region, row["k"])
+    if out["fe_re_lambda"] is not None:
+        fe = complex(out["fe_re_lambda"], out["fe_im_lambda"])
+        exact = complex(row["re_lambda"], row["im_lambda"])
+        out["fe_rel_diff"] = abs(fe - exact) / abs(exact)
+    return out
 
 
 def heights(spec: str, H: float) -> list[float]:
@@ -89,7 +122,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                                       for q in params], region, comm.size))
         res = _cli.progress_mapper(comm, "(mu2, H2) cases", False, " cases")(
             [1.0 + (not math.isfinite(h)) for _, h in cases],  # a bar: minutes per case
-            lambda i: best_over_k(params[i], ks, region))
+            lambda i: (r := best_over_k(params[i], ks, region)) | (
+                fe_point(params[i], r, region) if args.fe_check == "yes" else {}))
         if comm.rank == 0:
             rows = [{"mu2": float(m), "rho2": params[i].rho2, "H2": h, **res[i]}
                     for i, (m, h) in enumerate(cases)]
@@ -113,10 +147,21 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                 _cli.say(f"H2 = {h}: max growth {c['max_growth']:.4f} at mu2 = "
                          f"{c['mu2_at_max']:.3g}; monotonic in mu2: {c['monotonic']}; {proof}")
     failed = sum(r["failed_counts"] for r in res.values())
+    checked = [r for r in res.values() if r.get("fe_closed") is not None]
+    if checked:
+        diff = max((r["fe_rel_diff"] for r in checked if r["fe_rel_diff"] is not None),
+                   default=float("nan"))
+        _cli.say(f"FE check: {sum(r['fe_closed'] for r in checked)} of {len(checked)} point(s) "
+                 f"found and closed by the FE on its own, largest relative difference from the "
+                 f"exact point {diff:.2g}")
+    unclosed = sum(not r["fe_closed"] for r in checked)
+    if unclosed:
+        _cli.say(f"warning: the FE count did not close at {unclosed} point(s); see fe_closed in "
+                 "contrast.csv", err=True)
     if failed:
         _cli.say(f"warning: the count failed at {failed} grid k value(s) (those k are left out "
                  "of the maximisation); see failed_counts in contrast.csv", err=True)
-    return 1 if failed else 0
+    return 1 if failed or unclosed else 0
 
 
 def plot(path: str, p: object, rows: list[dict], h2s: list[float], meta: dict) -> None:

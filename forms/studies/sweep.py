@@ -749,6 +749,33 @@ def climb(params: Params, region: Region, k: float, fams: list[BranchResult],
     return solve(c), c, tb
 
 
+def fe_fastest(params: Params, region: Region, k: float, rtol: float = 1e-8) -> dict:
+    """The finite elements' own fastest eigenvalue at one ``k``, no exact root consulted.
+
+    The certified FE spectrum of the rung the FE climbs to (:func:`climb` with
+    ``check_exact=False``: the default sweep's path with ``--check-exact no``, the meshes of
+    :class:`RungSolvers` planned for this ``k``) and its fastest row: a scene whose answer
+    comes from the exact roots (``contrast.py``) asks it to find the same mode on its own.
+    Not collective (``COMM_SELF`` solvers).
+
+    Returns:
+        ``fe_re_lambda``, ``fe_im_lambda`` (``None``: no FE eigenvalue in the region),
+        ``fe_count`` (the FE's own count in the rung's region), ``fe_closed`` (found ==
+        counted, every row within ``rtol`` of its estimate), ``fe_c_max`` (the rung) and
+        ``fe_proven`` (its tail bound below the fastest: :func:`tail_entry`).
+    """
+    rungs = RungSolvers(params, region, float(k), rtol, (0, 0, 1.0), check_exact=False)
+    try:
+        res, c, tb = climb(params, region, float(k), [], rungs)
+    finally:
+        rungs.destroy()
+    best = max(res.rows, key=lambda r: r["re_lambda"], default=None)
+    return {"fe_re_lambda": None if best is None else best["re_lambda"],
+            "fe_im_lambda": None if best is None else best["im_lambda"],
+            "fe_count": res.n_fe, "fe_closed": bool(res.closed), "fe_c_max": c,
+            "fe_proven": tail_entry(region, res, c, tb)["fastest_proven"]}
+
+
 def solve_k_values(params: Params, region: Region, rungs: RungSolvers, k: np.ndarray,
                    mine: Iterable[int], fams: list[BranchResult],
                    save: Callable[[int, dict], object],

@@ -86,6 +86,28 @@ def test_envelope_proves_beyond_alpha_pc_delta_one(tmp_path):
 
 
 @pytest.mark.parametrize("nproc", [1, 2])
+def test_envelope_fe_check_finds_every_local_maximum(tmp_path, nproc):
+    """``envelope.py --fe-check yes``: each local maximum of the envelope (exact roots) is the
+    FE's own fastest eigenvalue at its k (the sweep's FE path, no exact root consulted), set
+    against an exact root polished from the FE value here."""
+    out = tmp_path / "env"
+    proc = run_workflow("envelope.py", ["--k", "1,3,6,10", "--refine-rounds", "0",
+                                        "--fe-check", "yes", "--out", str(out)], nproc=nproc)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    s = json.loads((out / "summary.json").read_text())
+    peaks, fe = s["global_max_on_grid"]["local_peaks"], s["fe_check"]
+    assert len(fe) == len(peaks) == 2  # kH ~ 0.88 (the 0- branch) and the grid's k = 9.1
+    for pk, r in zip(peaks, fe, strict=True):
+        assert r["k"] == pk["k"] and r["fe_closed"] and r["fe_proven"]
+        z = complex(r["fe_re_lambda"], r["fe_im_lambda"])
+        exact = polish_root(Params(), r["k"], z).value
+        # FE (P6, the 1e-8 rule) against exact: measured 6.6e-14 and 2.2e-14 relative
+        assert abs(z - exact) < 1e-9 * abs(exact)
+        assert abs(z - complex(pk["re_lambda"], pk["im_lambda"])) < 1e-9 * abs(exact)
+    assert "FE check: 2 of 2 point(s) found again by the FE on its own" in proc.stdout
+
+
+@pytest.mark.parametrize("nproc", [1, 2])
 def test_contrast_rigid_limit_and_rows(tmp_path, nproc):
     out = tmp_path / "c"
     proc = run_workflow("contrast.py", ["--mu2-grid", "3,1e6", "--H2s", "H", "--k", "1,2",
@@ -133,7 +155,8 @@ def test_contrast_fe_check_finds_the_points_on_its_own(tmp_path, nproc):
         < 1e-9 * abs(exact)
     assert float(finite["fe_rel_diff"]) < 1e-9
     assert half["fe_re_lambda"] == "" and "half-space" in half["fe_note"]
-    assert "FE check: 1 of 1 point(s) found and closed by the FE on its own" in proc.stdout
+    assert "FE check: 1 of 1 point(s) found again by the FE on its own" in proc.stdout
+    assert "0 FE count(s) not closed" in proc.stdout
 
 
 def test_committed_contrast_points_found_by_the_fe():

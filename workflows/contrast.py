@@ -27,9 +27,9 @@ import os
 
 import _cli
 import numpy as np
+from _points import fe_point, fe_ready, fe_report
 
 from analytic.studies.growth import best_over_k, counts_seconds, curve_shape
-from forms.studies.sweep import fe_fastest
 
 PETSC_PREFIXES: tuple[str, ...] = ()
 OUTPUTS = ("contrast.csv", "summary.json", "contrast.png", "run.json", "run.lock")
@@ -55,30 +55,6 @@ def build_parser() -> argparse.ArgumentParser:
                     "(columns fe_*)")
     ap.add_argument("--out", default=os.path.join("out", "contrast"), help="output folder")
     return ap
-
-
-FE_COLUMNS = ("fe_re_lambda", "fe_im_lambda", "fe_rel_diff", "fe_count", "fe_closed", "fe_c_max",
-              "fe_proven", "fe_note")
-
-
-def fe_point(q: object, row: dict, region: object) -> dict:
-    """The FE's own fastest mode at ``row``'s ``k`` (``--fe-check yes``), set against it."""
-    out = dict.fromkeys(FE_COLUMNS)
-    if not math.isfinite(q.H2) or row["re_lambda"] is None:
-        out["fe_note"] = "no FE model of a half-space substrate" if not math.isfinite(q.H2) \
-            else "no exact root to check"
-        return out
-    try:
-        _cli.check_sweep_limits(q, np.array([row["k"]]), region)
-    except _cli.ParameterError as err:
-        out["fe_note"] = f"not run: {err}"
-        return out
-    out |= fe_fastest(q, region, row["k"])
-    if out["fe_re_lambda"] is not None:
-        fe = complex(out["fe_re_lambda"], out["fe_im_lambda"])
-        exact = complex(row["re_lambda"], row["im_lambda"])
-        out["fe_rel_diff"] = abs(fe - exact) / abs(exact)
-    return out
 
 
 def heights(spec: str, H: float) -> list[float]:
@@ -108,6 +84,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         raise _cli.ParameterError(f"--rho2-exponent = {args.rho2_exponent} is outside its "
                                   "allowed range -4..4")
     region = _cli.region_from_args(args.c_max, args.re_min)
+    if args.fe_check == "yes":
+        fe_ready()  # collective: PETSc's initialisation
     cases = [(m, h) for h in h2s for m in mus]
     params = [p0.replace(mu2=float(m), rho2=float(p0.rho2 * m ** args.rho2_exponent), H2=h)
               for m, h in cases]  # validates every case before any work
@@ -123,7 +101,9 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         res = _cli.progress_mapper(comm, "(mu2, H2) cases", False, " cases")(
             [1.0 + (not math.isfinite(h)) for _, h in cases],  # a bar: minutes per case
             lambda i: (r := best_over_k(params[i], ks, region)) | (
-                fe_point(params[i], r, region) if args.fe_check == "yes" else {}))
+                fe_point(params[i], r["k"], None if r["re_lambda"] is None else
+                         complex(r["re_lambda"], r["im_lambda"]), region)
+                if args.fe_check == "yes" else {}))
         if comm.rank == 0:
             rows = [{"mu2": float(m), "rho2": params[i].rho2, "H2": h, **res[i]}
                     for i, (m, h) in enumerate(cases)]
@@ -147,14 +127,9 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                 _cli.say(f"H2 = {h}: max growth {c['max_growth']:.4f} at mu2 = "
                          f"{c['mu2_at_max']:.3g}; monotonic in mu2: {c['monotonic']}; {proof}")
     failed = sum(r["failed_counts"] for r in res.values())
-    checked = [r for r in res.values() if r.get("fe_closed") is not None]
-    if checked:
-        diff = max((r["fe_rel_diff"] for r in checked if r["fe_rel_diff"] is not None),
-                   default=float("nan"))
-        _cli.say(f"FE check: {sum(r['fe_closed'] for r in checked)} of {len(checked)} point(s) "
-                 f"found and closed by the FE on its own, largest relative difference from the "
-                 f"exact point {diff:.2g}")
-    unclosed = sum(not r["fe_closed"] for r in checked)
+    line, unclosed = fe_report(list(res.values()))
+    if line:
+        _cli.say(line)
     if unclosed:
         _cli.say(f"warning: the FE count did not close at {unclosed} point(s); see fe_closed in "
                  "contrast.csv", err=True)

@@ -28,9 +28,9 @@ import os
 import _cli
 import _plots
 import numpy as np
+from _points import fastest_on, fe_points, fe_ready, fe_report
 
-from analytic.numerics.roots import ContourError
-from analytic.numerics.spectrum import Region, fastest_mode
+from analytic.numerics.spectrum import Region
 from analytic.params import require_rigid
 from analytic.physics import halfspace
 from analytic.studies.growth import (
@@ -67,6 +67,9 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--dependence", action="store_true",
                     help="also follow the fastest sample at k H >= 5 (a plateau mode) in "
                     "alpha_pc, f gamma and H: dependence.png, summary.json plateau_dependence")
+    ap.add_argument("--fe-check", choices=("no", "yes"), default="no",
+                    help="yes: each local maximum found again by the finite elements at its k "
+                    "(summary.json fe_check)")
     ap.add_argument("--out", default=os.path.join("out", "envelope"), help="output folder")
     return ap
 
@@ -85,6 +88,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         raise _cli.ParameterError(f"--refine-rounds = {args.refine_rounds} is outside its "
                                   "allowed range 0 .. 50")
     region = _cli.region_from_args(args.c_max, args.re_min)
+    if args.fe_check == "yes":
+        fe_ready()  # collective: PETSc's initialisation
     _cli.check_roots_region(p, float(k[-1]), region, "k or --c-max")
     config = {"params": p.as_dict(), "k": args.k, "region": region.as_dict(p),
               "min_ratio": args.min_ratio, "refine_rounds": args.refine_rounds}
@@ -93,35 +98,26 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                       "refinement,", counts_seconds([[(p, float(v))] for v in k], region,
                                                     comm.size), "for the grid")
 
-        def fastest(kk: float) -> tuple[complex | None, int, str, bool]:
-            try:
-                m = fastest_mode(p, kk, region)
-            except ContourError as err:  # reported (by rank 0, below), the run goes on
-                return None, -1, str(err), False
-            return m.root, m.count, "", bool(m.proven)
-
-        def sample(ks_new: list[float]) -> dict[float, tuple]:
-            first = region if region.c_max is not None else region.fixed(4.0)
-            costs = [first.im_max(p, kk) ** 1.5 for kk in ks_new]
-            got = _cli.progress_mapper(comm, "k values")(  # a bar from the first k value
-                costs, lambda i: fastest(float(ks_new[i])))
-            return {float(ks_new[i]): got[i] for i in range(len(ks_new))}
-
-        found = sample([float(v) for v in k])
+        found = fastest_on(comm, p, region, [float(v) for v in k])
         for _ in range(args.refine_rounds):  # no grid hides an extremum (growth.py)
             ks = sorted(found)
             new = refinement_points(p, ks, [found[kk][0] for kk in ks], args.min_ratio)
             if not new:
                 break
-            found.update(sample(new))
+            found.update(fastest_on(comm, p, region, new))
         ks = sorted(found)
         rows = [found[kk] for kk in ks]
         failed = [i for i in range(len(ks)) if rows[i][1] < 0]
         for i in failed:
             _cli.say(f"k = {ks[i]:g}: no count ({rows[i][2]})", err=True)
         re = np.array([r[0].real if r[0] is not None else np.nan for r in rows])
+        best = comm.bcast(envelope_maximum(p, region, ks, [r[0] for r in rows])
+                          if comm.rank == 0 else None)
+        fe = [] if args.fe_check == "no" or best is None else fe_points(
+            comm, p, [(pk["k"], complex(pk["re_lambda"], pk["im_lambda"]))
+                      for pk in best["local_peaks"]], region)
+        fe_line, unclosed = fe_report(fe)
         if comm.rank == 0:
-            best = envelope_maximum(p, region, ks, [r[0] for r in rows])
             hs = halfspace.max_growth("dilatational", p.replace(H=math.inf))
             with _cli.atomic_open(run.file("envelope.csv"), "w", newline="") as fh:
                 w = csv.writer(fh)
@@ -146,6 +142,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                                         for j in local_extrema(re)
                                         if re[j] <= min(re[j - 1], re[j + 1])],
                        "failed_counts_k": [ks[i] for i in failed],
+                       **({"fe_check": fe} if fe else {}),
                        "versions": _cli.versions(), "command": _cli.command()}
             large = [i for i in range(len(ks)) if ks[i] * p.H >= 5 and np.isfinite(re[i])]
             if args.dependence and large:
@@ -164,12 +161,14 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                          f"{best['re_lambda']:.6f} at k = {best['k']:.5g} (k H = "
                          f"{best['kH']:.4g}), Im Lambda = {best['im_lambda']:.6g}; at k H = "
                          f"{ks[-1] * p.H:g}: {re[-1]:.6f}; {_cli.proof_clause(proven, with_root)}")
+            if fe_line:
+                _cli.say(fe_line)
             if failed:
                 _cli.say(f"warning: the count failed at {len(failed)} of {len(ks)} k value(s) "
                          "(no value there; the maximum is over the others); see "
                          "failed_counts_k in summary.json", err=True)
         comm.Barrier()  # a rank leaving with code 1 first would make mpirun stop rank 0's writing
-    return 1 if failed else 0
+    return 1 if failed or unclosed else 0
 
 
 def plot(path: str, p: object, k: np.ndarray, re: np.ndarray, best: dict | None, hs: float,

@@ -44,7 +44,7 @@ from analytic.numerics.roots import (
     winding_steps,
     zeros_in_box,
 )
-from analytic.numerics.steps import Steps, run_steps
+from analytic.numerics.steps import Steps, run_many, run_steps
 from analytic.params import ParameterError, Params, check_k
 from analytic.physics.finite_h import cutoff, det_M
 from analytic.physics.smallk import slope
@@ -622,7 +622,15 @@ def _branch_result(label: str, n: int, sign: int, ks: np.ndarray, path: Path,
 
 def follow_branches(p: Params, n_branches: int, k_values: float | np.ndarray
                     ) -> list[BranchResult]:
-    """Branches ``0+, 0-, 1+, 1-, ...`` (``n < n_branches``), each via :func:`follow_branch`."""
+    """Branches ``0+, 0-, 1+, 1-, ...`` (``n < n_branches``), each as :func:`follow_branch`.
+
+    The continuations run side by side (:func:`analytic.numerics.steps.run_many`), every point
+    of a round in one :func:`det_M` call (:func:`branch_answers_all`): the same steps, checks
+    and flags as one by one, the values to rounding (tests/test_steps.py).
+    """
     if int(n_branches) != n_branches or n_branches < 1:
         raise ParameterError(f"branches = {n_branches!r} is outside its allowed range >= 1")
-    return [follow_branch(p, n, s, k_values) for n in range(int(n_branches)) for s in (1, -1)]
+    pairs = [(n, s) for n in range(int(n_branches)) for s in (1, -1)]
+    done = run_many(((i, follow_branch_steps(p, n, s, k_values))
+                     for i, (n, s) in enumerate(pairs)), branch_answers_all(p))
+    return [done[i] for i in range(len(pairs))]

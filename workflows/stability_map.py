@@ -15,6 +15,8 @@ continues a run with the same parameters: the points there are not computed agai
 ``stability_map.csv``, ``summary.json``, ``stability_map.png`` (with the boundary
 max Re Lambda = 0 and the closed-form k H -> infinity boundary of ``phase_diagram.py``).
 Exit code 1 if a root count failed somewhere (the point is then not called stable).
+``--fe-check yes``: the map's fastest point handed to the certified FE sweep's own path at its
+``k`` (no exact root consulted; ``workflows/_points.py``): ``summary.json`` ``fe_check``.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ import os
 import _cli
 import _plots
 import numpy as np
+from _points import fe_points, fe_ready, fe_report
 
 from analytic.studies import stability_map as sm
 
@@ -60,6 +63,9 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--re-min", type=float, default=1e-6,
                     help="region: smallest Re Lambda counted as unstable (> 0: the contour "
                     "stays off Lambda = 0)")
+    ap.add_argument("--fe-check", choices=("no", "yes"), default="no",
+                    help="yes: the map's fastest point found again by the finite elements at its "
+                    "k (summary.json fe_check; not a parameter of the points: --resume keeps them)")
     ap.add_argument("--resume", action="store_true", help="continue a run with the same "
                     "parameters in --out")
     ap.add_argument("--out", default=os.path.join("out", "stability_map"), help="output folder")
@@ -92,6 +98,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     """Compute the map (points shared over the ranks; each written as it is done)."""
     args, comm = _cli.start(build_parser(), argv, comm)
     base, x, y, khs, region = validate(args)
+    if args.fe_check == "yes":
+        fe_ready()  # collective: PETSc's initialisation
     nx, ny = len(x[1]), len(y[1])
     config = {"params": base.as_dict(), "x": args.x, "y": args.y, "kH": [float(v) for v in khs],
               "region": region.as_dict(base)}
@@ -117,21 +125,26 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         rows = _cli.progress_mapper(comm, "map points", unit=" points")(  # a bar from the start
             [1.0] * (nx * ny), point)
         failed = sum(rows[i]["failed_counts"] for i in rows)
+        rows = [rows[i] for i in range(nx * ny)]
+        unstable = [r for r in rows if r["re_lambda"] is not None]
+        fastest = max(unstable, key=lambda r: r["re_lambda"]) if unstable else None
+        fe = [] if args.fe_check == "no" or fastest is None else fe_points(
+            comm, sm.point_params(base, (x[0], fastest["x"]), (y[0], fastest["y"])),
+            [(fastest["k"], complex(fastest["re_lambda"], fastest["im_lambda"]))], region)
+        fe_line, unclosed = fe_report(fe)
         if comm.rank == 0:
-            rows = [rows[i] for i in range(nx * ny)]
             with _cli.atomic_open(run.file("stability_map.csv"), "w", newline="") as fh:
                 w = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")
                 w.writeheader()
                 w.writerows(rows)
-            unstable = [r for r in rows if r["re_lambda"] is not None]
-            fastest = max(unstable, key=lambda r: r["re_lambda"]) if unstable else None
             summary = {"parameters": base.as_dict(), "x": {"name": x[0], "spec": args.x},
                        "y": {"name": y[0], "spec": args.y}, "region": region.as_dict(base),
                        "kH_grid": {"min": args.kH_min, "max": args.kH_max, "count": args.nk,
                                    "ratio": float(khs[1] / khs[0])},
                        "coverage": COVERAGE, "points": nx * ny,
                        "stable_on_grid": sum(bool(r["stable_on_grid"]) for r in rows),
-                       "fastest_point": fastest, "failed_counts": failed,
+                       "fastest_point": fastest, **({"fe_check": fe} if fe else {}),
+                       "failed_counts": failed,
                        "resumed": run.resumed, "mpi_ranks": comm.size,
                        "versions": _cli.versions(), "command": _cli.command()}
             _cli.write_json(run.file("summary.json"), summary)
@@ -142,11 +155,13 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                      f"(kH <= {args.kH_max:g}); fastest: " + ("none" if fastest is None else
                      f"Re Lambda = {fastest['re_lambda']:.5g} at {x[0]} = {fastest['x']:g}, "
                      f"{y[0]} = {fastest['y']:g}, k H = {fastest['kH']:.4g}; {proof}"))
+            if fe_line:
+                _cli.say(fe_line)
             if failed:
                 _cli.say(f"warning: {failed} root count(s) failed (see failed_counts in "
                          "stability_map.csv)", err=True)
         comm.Barrier()  # a rank leaving with code 1 first would make mpirun stop rank 0's writing
-    return 1 if failed else 0
+    return 1 if failed or unclosed else 0
 
 
 #: What summary.json says about the coverage in k.

@@ -1,7 +1,7 @@
 """The points of the exact-root scenes over ``k`` (:func:`fastest_on`) and their ``--fe-check``.
 
-``contrast.py`` and ``envelope.py`` maximise the growth rate over the exact roots (their
-argument-principle counts); with ``--fe-check yes`` each of their points is handed to the
+``contrast.py``, ``envelope.py`` and ``stability_map.py`` maximise the growth rate over the
+exact roots (their argument-principle counts); with ``--fe-check yes`` their points is handed to the
 certified FE sweep's own path at the point's ``k`` (:func:`forms.studies.sweep.fe_fastest`:
 its meshes, its count, its region climbed by the FE, no exact root consulted) and the FE's
 fastest eigenvalue is set against the point: the columns :data:`FE_COLUMNS`.

@@ -98,12 +98,16 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         _cli.say_plan(comm, f"{len(cases)} (mu2, H2) case(s) x {len(ks)} k values + {refine}",
                       counts_seconds([[(q, k) for k in [*ks, *[ks[len(ks) // 2]] * refine]]
                                       for q in params], region, comm.size))
+
+        def case(i: int) -> dict:  # the curve's point, and the FE's own check of it
+            r = best_over_k(params[i], ks, region)
+            if args.fe_check == "no":
+                return r
+            exact = None if r["re_lambda"] is None else complex(r["re_lambda"], r["im_lambda"])
+            return r | fe_point(params[i], r["k"], exact, region)
+
         res = _cli.progress_mapper(comm, "(mu2, H2) cases", False, " cases")(
-            [1.0 + (not math.isfinite(h)) for _, h in cases],  # a bar: minutes per case
-            lambda i: (r := best_over_k(params[i], ks, region)) | (
-                fe_point(params[i], r["k"], None if r["re_lambda"] is None else
-                         complex(r["re_lambda"], r["im_lambda"]), region)
-                if args.fe_check == "yes" else {}))
+            [1.0 + (not math.isfinite(h)) for _, h in cases], case)  # a bar: minutes per case
         if comm.rank == 0:
             rows = [{"mu2": float(m), "rho2": params[i].rho2, "H2": h, **res[i]}
                     for i, (m, h) in enumerate(cases)]

@@ -159,6 +159,23 @@ def test_contrast_fe_check_finds_the_points_on_its_own(tmp_path, nproc):
     assert "0 FE count(s) not closed" in proc.stdout
 
 
+@pytest.mark.parametrize(("rows", "line", "unclosed"), [
+    ([{"re_lambda": 0.3}], None, 0),  # no check asked: no line
+    ([{"fe_closed": None, "fe_note": "not run: ..."}],
+     "FE check: none of 1 point(s) run (see fe_note)", 0),
+    ([{"fe_closed": True, "fe_rel_diff": 1e-12}, {"fe_closed": False, "fe_rel_diff": 0.2},
+      {"fe_closed": None, "fe_note": "no FE model of a half-space substrate"}],
+     "FE check: 1 of 2 point(s) found again by the FE on its own (largest relative difference "
+     "from the exact point 0.2); 1 FE count(s) not closed; 1 point(s) not run (see fe_note)", 1),
+])
+def test_fe_report_says_what_was_found_run_and_not_run(rows, line, unclosed):
+    """``_points.fe_report``: a check asked for never ends silent (points it could not run are
+    counted), a point is found only within SAME_MODE, an unclosed count is returned (exit 1)."""
+    from _points import fe_report
+
+    assert fe_report(rows) == (line, unclosed)
+
+
 @pytest.mark.parametrize("top", ["velocity", "stress"])
 def test_committed_envelope_maxima_found_by_the_fe(top):
     """README "Envelope", session 38: the committed ``envelope.py --fe-check yes`` runs. Each of

@@ -1,10 +1,11 @@
 """The points of the exact-root scenes over ``k`` (:func:`fastest_on`) and their ``--fe-check``.
 
 ``contrast.py``, ``envelope.py`` and ``stability_map.py`` maximise the growth rate over the
-exact roots (their argument-principle counts); with ``--fe-check yes`` their points is handed to the
-certified FE sweep's own path at the point's ``k`` (:func:`forms.studies.sweep.fe_fastest`:
-its meshes, its count, its region climbed by the FE, no exact root consulted) and the FE's
-fastest eigenvalue is set against the point: the columns :data:`FE_COLUMNS`.
+exact roots (their argument-principle counts); with ``--fe-check yes`` each of their points
+is handed to the certified FE sweep's own path at the point's ``k``
+(:func:`forms.studies.sweep.fe_fastest`: its meshes, its count, its region climbed by the FE,
+no exact root consulted) and the FE's fastest eigenvalue is set against the point: the
+columns :data:`FE_COLUMNS`.
 """
 
 from __future__ import annotations
@@ -81,19 +82,27 @@ def fe_points(comm: Any, params: Any, points: Sequence[tuple[float, complex]], r
 
 
 def fe_report(checked: Sequence[dict]) -> tuple[str | None, int]:
-    """The scene's line on the points run (``None``: none) and how many counts did not close.
+    """The scene's line on the points checked (``None``: no check asked) and the counts not closed.
 
-    A point is found again when the FE's fastest eigenvalue is within :data:`SAME_MODE` of it.
+    A point is found again when the FE's fastest eigenvalue is within :data:`SAME_MODE` of it;
+    a point the FE could not be run at (``fe_note``: a half-space substrate, a ``k`` the sweep
+    refuses) is counted as such, so that a check asked for never ends in silence.
     """
-    run = [r for r in checked if r.get("fe_closed") is not None]
-    if not run:
+    asked = [r for r in checked if "fe_closed" in r]
+    if not asked:
         return None, 0
+    run = [r for r in asked if r["fe_closed"] is not None]
+    if not run:
+        return f"FE check: none of {len(asked)} point(s) run (see fe_note)", 0
     diffs = [r["fe_rel_diff"] for r in run if r["fe_rel_diff"] is not None]
     found = sum(d < SAME_MODE for d in diffs)
     unclosed = sum(not r["fe_closed"] for r in run)
     line = (f"FE check: {found} of {len(run)} point(s) found again by the FE on its own "
             f"(largest relative difference from the exact point "
             f"{max(diffs, default=float('nan')):.2g}); {unclosed} FE count(s) not closed")
+    not_run = len(asked) - len(run)
+    if not_run:
+        line += f"; {not_run} point(s) not run (see fe_note)"
     return line, unclosed
 
 

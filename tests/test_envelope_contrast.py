@@ -159,7 +159,7 @@ def test_contrast_fe_check_finds_the_points_on_its_own(tmp_path, nproc):
     assert "0 FE count(s) not closed" in proc.stdout
 
 
-@pytest.mark.parametrize(("rows", "line", "unclosed"), [
+@pytest.mark.parametrize(("rows", "line", "failed"), [
     ([{"re_lambda": 0.3}], None, 0),  # no check asked: no line
     ([{"fe_closed": None, "fe_note": "not run: ..."}],
      "FE check: none of 1 point(s) run (see fe_note)", 0),
@@ -167,13 +167,23 @@ def test_contrast_fe_check_finds_the_points_on_its_own(tmp_path, nproc):
       {"fe_closed": None, "fe_note": "no FE model of a half-space substrate"}],
      "FE check: 1 of 2 point(s) found again by the FE on its own (largest relative difference "
      "from the exact point 0.2); 1 FE count(s) not closed; 1 point(s) not run (see fe_note)", 1),
+    # closed, but the FE's fastest is another mode (2e-6 > SAME_MODE): FE and exact disagree
+    ([{"fe_closed": True, "fe_rel_diff": 2e-6}, {"fe_closed": True, "fe_rel_diff": 3e-11}],
+     "FE check: 1 of 2 point(s) found again by the FE on its own (largest relative difference "
+     "from the exact point 2e-06); 0 FE count(s) not closed; 1 closed count(s) whose fastest "
+     "eigenvalue is not the point", 1),
+    ([{"fe_closed": True, "fe_rel_diff": None, "fe_note": "no eigenvalue in the region"}],
+     "FE check: 0 of 1 point(s) found again by the FE on its own (largest relative difference "
+     "from the exact point nan); 0 FE count(s) not closed; 1 closed count(s) whose fastest "
+     "eigenvalue is not the point", 1),
 ])
-def test_fe_report_says_what_was_found_run_and_not_run(rows, line, unclosed):
+def test_fe_report_says_what_was_found_run_and_not_run(rows, line, failed):
     """``_points.fe_report``: a check asked for never ends silent (points it could not run are
-    counted), a point is found only within SAME_MODE, an unclosed count is returned (exit 1)."""
+    counted), a point is found only within SAME_MODE, an unclosed count and a closed one on
+    another mode are failures (returned: the scene's exit 1)."""
     from _points import fe_report
 
-    assert fe_report(rows) == (line, unclosed)
+    assert fe_report(rows) == (line, failed)
 
 
 @pytest.mark.parametrize("top", ["velocity", "stress"])

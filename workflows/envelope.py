@@ -15,7 +15,9 @@ maximum of the dilatational family (``analytic.physics.halfspace``: H -> infinit
 different limit from k H -> infinity at fixed H) is drawn for comparison. Writes
 ``envelope.csv``, ``summary.json``, ``envelope.png``. ``--k`` accepts ``start:stop:count``
 (linear), ``start:stop:countlog`` (geometric) or a comma list. Exit code 1 if the root count
-failed at some k (each is reported, and left out of the maximum).
+failed at some k (each is reported, and left out of the maximum), and with ``--fe-check yes``
+where the FE's count did not close or its fastest eigenvalue is not the maximum's
+(``workflows/_points.py``).
 """
 
 from __future__ import annotations
@@ -116,7 +118,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         fe = [] if args.fe_check == "no" or best is None else fe_points(
             comm, p, [(pk["k"], complex(pk["re_lambda"], pk["im_lambda"]))
                       for pk in best["local_peaks"]], region)
-        fe_line, unclosed = fe_report(fe)
+        fe_line, fe_failed = fe_report(fe)
         if comm.rank == 0:
             hs = halfspace.max_growth("dilatational", p.replace(H=math.inf))
             with _cli.atomic_open(run.file("envelope.csv"), "w", newline="") as fh:
@@ -168,7 +170,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                          "(no value there; the maximum is over the others); see "
                          "failed_counts_k in summary.json", err=True)
         comm.Barrier()  # a rank leaving with code 1 first would make mpirun stop rank 0's writing
-    return 1 if failed or unclosed else 0
+    return 1 if failed or fe_failed else 0
 
 
 def plot(path: str, p: object, k: np.ndarray, re: np.ndarray, best: dict | None, hs: float,

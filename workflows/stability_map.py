@@ -16,7 +16,8 @@ continues a run with the same parameters: the points there are not computed agai
 max Re Lambda = 0 and the closed-form k H -> infinity boundary of ``phase_diagram.py``).
 Exit code 1 if a root count failed somewhere (the point is then not called stable).
 ``--fe-check yes``: the map's fastest point handed to the certified FE sweep's own path at its
-``k`` (no exact root consulted; ``workflows/_points.py``): ``summary.json`` ``fe_check``.
+``k`` (no exact root consulted; ``workflows/_points.py``): ``summary.json`` ``fe_check``; exit
+code 1 also where the FE's count did not close or its fastest eigenvalue is not that point.
 """
 
 from __future__ import annotations
@@ -131,7 +132,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         fe = [] if args.fe_check == "no" or fastest is None else fe_points(
             comm, sm.point_params(base, (x[0], fastest["x"]), (y[0], fastest["y"])),
             [(fastest["k"], complex(fastest["re_lambda"], fastest["im_lambda"]))], region)
-        fe_line, unclosed = fe_report(fe)
+        fe_line, fe_failed = fe_report(fe)
         if comm.rank == 0:
             with _cli.atomic_open(run.file("stability_map.csv"), "w", newline="") as fh:
                 w = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")
@@ -161,7 +162,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                 _cli.say(f"warning: {failed} root count(s) failed (see failed_counts in "
                          "stability_map.csv)", err=True)
         comm.Barrier()  # a rank leaving with code 1 first would make mpirun stop rank 0's writing
-    return 1 if failed or unclosed else 0
+    return 1 if failed or fe_failed else 0
 
 
 #: What summary.json says about the coverage in k.

@@ -120,19 +120,11 @@ def fastest_on(comm: Any, p: Any, region: Any, ks: Sequence[float]) -> dict[floa
 
     Returns:
         ``{k: (root or None, count (-1: failed), error text, proven)}`` on every rank
-        (:func:`analytic.numerics.spectrum.fastest_mode`).
+        (:func:`analytic.studies.growth.fastest_at`).
     """
-    from analytic.numerics.roots import ContourError
-    from analytic.numerics.spectrum import fastest_mode
-
-    def fastest(kk: float) -> tuple[complex | None, int, str, bool]:
-        try:
-            m = fastest_mode(p, kk, region)
-        except ContourError as err:  # reported by the scene, the run goes on
-            return None, -1, str(err), False
-        return m.root, m.count, "", bool(m.proven)
+    from analytic.studies.growth import fastest_at
 
     first = region if region.c_max is not None else region.fixed(4.0)
     costs = [first.im_max(p, kk) ** 1.5 for kk in ks]
-    got = progress_mapper(comm, "k values")(costs, lambda i: fastest(float(ks[i])))
+    got = progress_mapper(comm, "k values")(costs, lambda i: fastest_at(p, float(ks[i]), region))
     return {float(ks[i]): got[i] for i in range(len(ks))}

@@ -184,6 +184,20 @@ def envelope_maximum(p: Params, region: Region, ks: list[float], zs: list) -> di
             "refinement": REFINEMENT, "local_peaks": ref["peaks"]}
 
 
+def fastest_at(p: Params, k: float, region: Region) -> tuple[complex | None, int, str, bool]:
+    """:func:`analytic.numerics.spectrum.fastest_mode` at ``k``, a failed count kept as such.
+
+    Returns:
+        ``(root or None, count, error text, proven)``; a count that fails on its contour gives
+        ``(None, -1, its message, False)`` (the scenes report it and go on).
+    """
+    try:
+        m = fastest_mode(p, float(k), region)
+    except ContourError as err:
+        return None, -1, str(err), False
+    return m.root, m.count, "", bool(m.proven)
+
+
 def best_over_k(p: Params, ks: np.ndarray, region: Region) -> dict:
     """Fastest root over every mode in R and over k (grid, then local samples).
 
@@ -198,11 +212,8 @@ def best_over_k(p: Params, ks: np.ndarray, region: Region) -> dict:
     """
 
     def growth(k: float) -> tuple[float, complex | None, int, bool]:
-        try:
-            m = fastest_mode(p, float(k), region)
-        except ContourError:
-            return -np.inf, None, -1, False
-        return (m.root.real if m.root is not None else -np.inf), m.root, m.count, bool(m.proven)
+        root, count, _, proven = fastest_at(p, k, region)
+        return (root.real if root is not None else -np.inf), root, count, proven
 
     vals = [growth(k) for k in ks]
     grid_proven = sum(v[3] for v in vals)

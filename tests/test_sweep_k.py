@@ -439,6 +439,33 @@ def test_most_unstable_is_the_fastest_mode_far_beyond_4_c_d(tmp_path):
     assert summary["per_k"][0]["c_max"] > 4.0
 
 
+@pytest.mark.serial
+@pytest.mark.parametrize("check_exact", ["yes", "no"])
+def test_most_unstable_at_k_26_5_is_the_fastest_mode_beyond_4_c_d(tmp_path, check_exact):
+    """Issue 17's case through the sweep: paper defaults, stress top, k = 26.5. The fixed 4 c_d
+    region's fastest root is 0.2961604; the sweep's region climbs until the tail bound proves
+    it holds the fastest mode, 0.3170864 at 4.50 c_d, with the exact check and with the FE
+    alone (--check-exact no). Independent: the fastest exact root of a box 32 c_d tall (twice
+    the rung the sweep climbs to) and of the 4 c_d box, by the argument principle on det_M."""
+    out = tmp_path / check_exact
+    proc = run_workflow("sweep_k.py", ["--bc", "stress", "--k", "26.5", "--check-exact",
+                                       check_exact, *QUIET, "--out", str(out)])
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    summary = json.loads((out / "summary.json").read_text())
+    best = summary["most_unstable"]
+    z = complex(best["re_lambda"], best["im_lambda"])
+    p, k = Params(H=0.5, bc="stress"), 26.5
+    assert summary["per_k"][0]["c_max"] < 32.0
+    z_ex = fastest_in_box(p, k, Region(c_max=32.0).box(p, k))[0]
+    z4 = fastest_in_box(p, k, Region(c_max=4.0).box(p, k))[0]
+    assert abs(z - z_ex) < 1e-8 * abs(z_ex)  # the sweep's rtol (measured 5.5e-15 both ways)
+    assert z.real == pytest.approx(0.3170864, abs=5e-8) and z4.real < z.real - 0.02
+    assert abs(z.imag) * p.beta / k > 4.0  # phase velocity beyond 4 c_d
+    cert = best["certificate"]
+    assert cert["fastest_mode"] and cert["certified"] and cert["largest_tail_bound"] < z.real
+    assert cert["carries"] == ("fe+exact" if check_exact == "yes" else "fe")
+
+
 @pytest.mark.slow  # measured 13-32 s on the loaded 2-core machine
 @pytest.mark.serial
 def test_two_ranks_give_the_same_spectrum_and_plot(tmp_path):

@@ -486,6 +486,40 @@ def follow_root_steps(
                         res.k_path, res.Lambda_path, res.note)
 
 
+def trace_back_steps(p: Params, k0: float, Lambda0: complex, k_targets: Sequence[float], *,
+                     max_steps: int = 20000) -> Steps[tuple[np.ndarray, list[str]]]:
+    """The root at ``(k0, Lambda0)`` continued *down* in ``k`` to each of ``k_targets``.
+
+    The continuation of :func:`follow_root` run backwards (the same step control, corrector
+    test and root count at both ends of every step): which family's start a root of a large
+    ``k`` comes from (:func:`analytic.numerics.spectrum.label_roots`). Step-wise
+    (:mod:`analytic.numerics.steps`).
+
+    Returns:
+        ``(values, flags)`` in the order of ``k_targets``: the root at each target (``nan``: not
+        reached) and its flag (``""``; ``"ambiguous"`` or ``"after an ambiguous point ..."``: a
+        step could not isolate the root; ``"lost"``: not reached).
+    """
+    kt = np.asarray(k_targets, dtype=float)
+    order = np.argsort(-kt, kind="stable")
+    values = np.full(kt.shape, np.nan + 0j)
+    flags = ["lost"] * kt.size
+    r0 = yield from polish_steps(complex(Lambda0), ask=_asker((k0,), branch_sheet(p)))
+    k_a = k0 * (1.0 + 1e-3)
+    r_a = yield from polish_steps(r0.value, ask=_asker((k_a,), branch_sheet(p)))
+    if not (r0.converged and r_a.converged and abs(r_a.value - r0.value) < 1e-2 * max(
+            1.0, abs(r0.value))) or not kt.size:
+        return values, flags
+    dk_min = 1e-6 * max(k0, 1.0 / p.H)
+    stepper = _BranchStepper(p, "trace", dk_min, good_h=k_a - k0)
+    run = yield from march_steps(stepper, Path([k_a, k0], [r_a.value, r0.value]), kt[order],
+                                 dk=k_a - k0, dk_min=dk_min, max_steps=max_steps)
+    for j, trial in zip(order, run.trials, strict=True):
+        if trial is not None:
+            values[j], flags[j] = trial.value, trial.flag
+    return values, flags
+
+
 @dataclass
 class _Step:
     """A corrected step of a branch: the polished root, the corrector and the move."""
@@ -537,7 +571,9 @@ class _BranchStepper:
                ) -> Steps[Trial[_Step] | None]:
         """Roots closer than the step can resolve: step over with the last undoubted size."""
         k_cur = path.k[-1]
-        k_over = min(k_cur + max(4.0 * self.good_h, 100.0 * self.dk_min), k_target)
+        over_h = max(4.0 * self.good_h, 100.0 * self.dk_min)
+        k_over = (min(k_cur + over_h, k_target) if k_target >= k_cur  # forward, or back
+                  else max(k_cur - over_h, k_target))
         over = yield from self.attempt(path, k_over)
         if over.accepted:
             self.notes.append(f"branch {self.label}: stepped over a near-collision of roots"

@@ -41,6 +41,7 @@ from analytic.numerics.branches import (
     branch_cutoff,
     follow_branch_steps,
     follow_root_steps,
+    trace_back_steps,
 )
 from analytic.numerics.roots import Box, ContourError, Root, zeros_in_box
 from analytic.numerics.steps import Steps, run_many, run_steps
@@ -487,27 +488,82 @@ def _labelled(f: BranchResult, i: int, value: complex | None = None) -> Labelled
     return Labelled(z, f.label, bool(f.ok[i]), "" if f.ok[i] else f.flag[i])
 
 
-def label_roots(roots: list[Root], fams: list[BranchResult], k: float) -> list[Labelled]:
+def label_roots(roots: list[Root], fams: list[BranchResult], k: float,
+                p: Params | None = None) -> list[Labelled]:
     """Give every exact root the label of the family whose continued value it is.
 
     A root is claimed by a family when they agree to :data:`SAME_ROOT_RTOL`; a root claimed
-    by two families, or by none, is not certified (``"?"`` labels for the latter).
+    by two families, or by none, is not certified (``"?"`` labels for the latter). With ``p``,
+    the roots no family reaches are traced back (:func:`trace_families`) first.
     """
     out = []
     unl = 0
     at_k = [(f, i) for f in fams for i in [_index_at(f, k)] if i is not None]
-    for r in roots:
+    claims = [[(f, i) for f, i in at_k
+               if abs(f.Lambda[i] - r.value) <= SAME_ROOT_RTOL * max(1.0, abs(r.value))]
+              for r in roots]
+    unclaimed = [j for j, c in enumerate(claims) if not c]
+    traced = (trace_families(p, k, [roots[j].value for j in unclaimed], fams)
+              if p is not None and unclaimed else [None] * len(unclaimed))
+    back = dict(zip(unclaimed, traced, strict=True))
+    for j, r in enumerate(roots):
         z = r.value
-        claims = [(f, i) for f, i in at_k
-                  if abs(f.Lambda[i] - z) <= SAME_ROOT_RTOL * max(1.0, abs(z))]
-        if len(claims) == 1:
-            out.append(_labelled(*claims[0], value=z))
-        elif not claims:
+        if len(claims[j]) == 1:
+            out.append(_labelled(*claims[j][0], value=z))
+        elif back.get(j) is not None:
+            out.append(replace(back[j], value=z))
+        elif not claims[j]:
             out.append(Labelled(z, f"?{unl}", False, "no followed family reaches this root"))
             unl += 1
         else:
-            labs = "+".join(f.label for f, _ in claims)
-            out.append(Labelled(z, labs, False, f"claimed by {len(claims)} families"))
+            labs = "+".join(f.label for f, _ in claims[j])
+            out.append(Labelled(z, labs, False, f"claimed by {len(claims[j])} families"))
+    return out
+
+
+def _start_of(f: BranchResult) -> tuple[float, complex] | None:
+    """A family's first polished root ``(k, Lambda)``: its path's second point.
+
+    The first is the cut-off at ``k = 0`` of a waveguide branch, or the secant point below a
+    seed.
+    """
+    return ((float(f.k_path[1]), complex(f.Lambda_path[1])) if len(f.k_path) >= 2
+            and np.isfinite(f.Lambda_path[1]) else None)
+
+
+def trace_families(p: Params, k: float, values: Sequence[complex], fams: list[BranchResult]
+                   ) -> list[Labelled | None]:
+    """The family of each root ``values`` at ``k`` that no followed family reached, by tracing.
+
+    A family is skipped at a requested ``k`` where the secant from its last point predicts it
+    far outside the region (:func:`region_skip`); a lone ``k`` far from the seeds (the stress
+    top at ``k = 26.5``: families at ``Re = -0.69`` from ``k = 0.04`` to 14 rise through a
+    trapped-wave bump to ``Re = 0.24`` near ``k = 24``) is then reached by none. Each root is
+    continued down in ``k`` (:func:`analytic.numerics.branches.trace_back_steps`, side by
+    side) to every family's start (:func:`_start_of`); the family whose start it reaches (to
+    :data:`SAME_ROOT_RTOL`), if exactly one, labels it, certified when no step was ambiguous.
+
+    Returns:
+        Per root, its :class:`Labelled` (value: the root at ``k``) or ``None`` (no single family).
+    """
+    starts = [(f, s) for f in fams for s in [_start_of(f)] if s is not None and s[0] < k]
+    ks = sorted({s[0] for _, s in starts})
+    if not ks or not values:
+        return [None] * len(values)
+    got = run_many(((j, trace_back_steps(p, float(k), z, ks)) for j, z in enumerate(values)),
+                   branch_answers_all(p))
+    out: list[Labelled | None] = []
+    for j, z in enumerate(values):
+        vals, flags = got[j]
+        at = dict(zip(ks, zip(vals, flags, strict=True), strict=True))
+        hit = [(f, at[s[0]][1]) for f, s in starts
+               if abs(at[s[0]][0] - s[1]) <= SAME_ROOT_RTOL * max(1.0, abs(s[1]))]
+        if len(hit) != 1:
+            out.append(None)
+            continue
+        f, flag = hit[0]
+        note = f"traced back to {f.label}'s start with doubt ({flag})" if flag else ""
+        out.append(Labelled(complex(z), f.label, not flag, note))
     return out
 
 
@@ -539,7 +595,7 @@ def certified_roots(p: Params, k: float, region: Region, fams: list[BranchResult
         out = [_labelled(f, i) for f, i in cand]
     else:
         roots = zeros_in_box(fun, bx, n_initial=_n_initial(p, bx))
-        out = label_roots(roots, fams, k)
+        out = label_roots(roots, fams, k, p)
     return sorted(out, key=lambda r: (-r.value.real, r.value.imag)), bx, n
 
 

@@ -466,6 +466,37 @@ def test_most_unstable_at_k_26_5_is_the_fastest_mode_beyond_4_c_d(tmp_path, chec
     assert cert["carries"] == ("fe+exact" if check_exact == "yes" else "fe")
 
 
+@pytest.mark.serial
+def test_two_body_stiff_substrate_most_unstable_is_the_fastest_mode(tmp_path):
+    """Issue 17's two-body case through the sweep, FE alone (--check-exact no): mu2 = 4 (c_d2 =
+    2 c_d of the slider), velocity top, k = 5. The region is scaled by the stack's largest c_d
+    and climbs to 6 c_d2, where the stack's tail bound proves the most unstable mode, at 6.9 c_d
+    of the slider. Independent: the fastest root of det_twobody in a box twice as tall as the
+    region's, by zeros_in_box."""
+    from analytic.numerics.branches import _n_initial, spectrum_function
+    from analytic.numerics.roots import zeros_in_box
+
+    out = tmp_path / "two"
+    proc = run_workflow("sweep_k.py", ["--mu2", "4", "--rho2", "1", "--H2", "0.5", "--k", "5",
+                                       "--check-exact", "no", *QUIET, "--out", str(out)])
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    summary = json.loads((out / "summary.json").read_text())
+    best, row = summary["most_unstable"], summary["per_k"][0]
+    z = complex(best["re_lambda"], best["im_lambda"])
+    p, k = Params(H=0.5, mu2=4.0, rho2=1.0, H2=0.5), 5.0
+    assert row["c_max"] > 4.0  # the rung, in units of c_d2 (the first, 4, does not prove)
+    assert abs(z.imag) * p.beta / k > 4.0  # 6.9 c_d of the slider: outside its old 4 c_d box
+    cert = best["certificate"]
+    assert cert["fastest_mode"] and cert["certified"] and cert["largest_tail_bound"] < z.real
+    fun = spectrum_function(p, k)
+    w = 2.0 * row["box"][3]
+    faster = []
+    for box in ((z.real - 0.02, 2.0, -w, 0.0), (z.real - 0.02, 2.0, 0.0, w)):
+        faster += [r.value for r in zeros_in_box(fun, box, n_initial=_n_initial(p, box))]
+    z_ex = max(faster, key=lambda v: v.real)
+    assert abs(z - z_ex) < 1e-8 * abs(z_ex)  # the sweep's rtol (measured 6.0e-14)
+
+
 @pytest.mark.slow  # measured 13-32 s on the loaded 2-core machine
 @pytest.mark.serial
 def test_two_ranks_give_the_same_spectrum_and_plot(tmp_path):

@@ -11,14 +11,17 @@ A branch ``(n, sign)`` (label ``"0-"``, ``"1+"``, ...) starts at
    :func:`det_M`;
 3. accepts a step only if the corrector moved less than a quarter of the step's move ``dL``
    and the square centred between the old and the new root, of half-width
-   ``max(dL, 2 * corrector)``, holds exactly one root both at the new and at the old ``k``
-   (argument principle): otherwise another root is close and the step is halved ("halve the
-   step on doubt"). A silent jump to a neighbouring root would need a predictor error above
-   ~3/4 of the move, and a root approaching ours during the step is seen at one end. If the
-   step falls below ``dk_min`` while roots stay closer than the box (a near-collision), one
-   step of 4x the last undoubted size is tried across it (accepted under the same checks; a
-   note says so); failing that, the point is kept with flag ``"ambiguous"`` (the root nearest
-   the prediction) and the march continues.
+   ``max(COUNT_MOVES * dL, 2 * corrector)`` (:data:`COUNT_MOVES` = 2), holds exactly one root
+   both at the new and at the old ``k`` (argument principle): otherwise another root is close
+   and the step is halved ("halve the step on doubt"). A silent jump to a neighbouring root
+   would need a predictor error above ~3/4 of the move, and a root passing ours during the step
+   is seen at one end (unless it moves much faster than ours). If the
+   step falls below ``dk_min``, it is retried with the path's tangent (``-F_k / F_Lambda``) as
+   the predictor, from the last undoubted size down (a long step can leave the three-point
+   parabola's end slope far off); if that fails too, roots stay closer than the box (a
+   near-collision): one step of 4x the last undoubted size is tried across it (accepted under
+   the same checks; a note says so); failing that, the point is kept with flag ``"ambiguous"``
+   (the root nearest the prediction) and the march continues.
 """
 
 from __future__ import annotations
@@ -520,6 +523,21 @@ def trace_back_steps(p: Params, k0: float, Lambda0: complex, k_targets: Sequence
     return values, flags
 
 
+#: :meth:`_BranchStepper.rescue`'s tangent step is accepted only with no other root, at both ends,
+#: within this many times its move nor within the move of the last undoubted step along the
+#: tangent: near a near-collision (two roots 0.01 apart, ``alpha_pc = alpha_ld = 1``, ``H = 1``,
+#: branch ``2+`` at ``k = 4.155``) the tangent step passed the usual test and a sparse and a
+#: dense list of ``k`` then ended on different roots.
+ISOLATION = 10.0
+#: Half-width of a step's counting square in units of the step's move ``dL`` (at least; twice the
+#: corrector if larger). With 1 (until session 39) a step could jump across an avoided crossing:
+#: the other root, 0.15 and 0.19 from ours at the step's ends, stayed outside both counts while
+#: passing within 0.01 in between (``alpha_pc = alpha_ld = 1``, ``H = 1``, ``s4-`` from ``k =
+#: 2.98`` to 3.38), and a sparse and a dense list of ``k`` then gave different roots the same
+#: label at 23 of 135 points (``k = 5, 10``); with 2, at 1 (docs/design.md section 4).
+COUNT_MOVES = 2.0
+
+
 @dataclass
 class _Step:
     """A corrected step of a branch: the polished root, the corrector and the move."""
@@ -545,11 +563,14 @@ class _BranchStepper:
     good_h: float
     notes: list[str] = field(default_factory=list)
     doubt: str = ""
+    grow_from: float = 0.0  #: a step :meth:`rescue` took with the tangent: the next grows from it
 
-    def attempt(self, path: Path, k_new: float) -> Steps[Trial[_Step]]:
-        """Quadratic predictor, Newton corrector on the spectrum function, root count."""
+    def attempt(self, path: Path, k_new: float, tangent: complex | None = None
+                ) -> Steps[Trial[_Step]]:
+        """Quadratic (or ``tangent``) predictor, Newton corrector, root count."""
         L_cur = path.value[-1]  # noqa: N806
-        L_pred = path.predict(k_new, order=2)  # noqa: N806
+        L_pred = (path.predict(k_new, order=2) if tangent is None  # noqa: N806
+                  else L_cur + tangent * (k_new - path.k[-1]))
         r = yield from polish_steps(L_pred, ask=_asker((k_new,), branch_sheet(self.p)))
         dL = abs(r.value - L_cur)  # noqa: N806
         corr = abs(r.value - L_pred)
@@ -559,18 +580,59 @@ class _BranchStepper:
         ok = r.converged and corr <= ratio * max(dL, 1e-12 * abs(L_cur))
         if ok:
             # Counting between steps: the square centred between the old and the new root,
-            # half-width max(dL, 2 corr), must hold exactly one root at k_new *and* at k_cur.
-            # A jump to a neighbouring root would need a predictor error of ~3/4 of the move,
-            # and a root approaching ours within the step is seen at one end or the other.
+            # half-width max(COUNT_MOVES dL, 2 corr), must hold exactly one root at k_new *and*
+            # at k_cur. A jump to a neighbouring root would need a predictor error of ~3/4 of
+            # the move, and a root passing ours within the step is seen at one end or the other
+            # unless it moves much faster than ours (COUNT_MOVES).
             centre = 0.5 * (L_cur + r.value)
-            rad = max(2.0 * corr, dL, 1e-9 * abs(r.value))
+            rad = max(2.0 * corr, COUNT_MOVES * dL, 1e-9 * abs(r.value))
             ok = (yield from _count_pair(self.p, k_new, path.k[-1], centre, rad)) == (1, 1)
         return Trial(k_new, r.value, ok, _Step(r, corr, dL), flag=self.doubt if ok else "")
 
+    def _tangent(self, path: Path) -> Steps[complex | None]:
+        """``dLambda/dk`` at the path's last point, ``-F_k / F_Lambda``.
+
+        ``F_k`` by a central difference in ``k``, ``F_Lambda`` as the corrector's; ``None`` where
+        ``F_Lambda`` is 0.
+        """
+        k, z = path.k[-1], path.value[-1]
+        dk = 1e-5 * max(k, 1.0 / self.p.H)
+        sheet = branch_sheet(self.p)
+        f_up = np.ravel((yield Ask("f", np.array([z]), (k + dk,), sheet)))[0]
+        f_down = np.ravel((yield Ask("f", np.array([z]), (k - dk,), sheet)))[0]
+        _, d = yield Ask("vd", z, (k,), sheet)
+        return None if d == 0 else -(f_up - f_down) / (2.0 * dk * d)
+
     def rescue(self, path: Path, trial: Trial[_Step], k_target: float
                ) -> Steps[Trial[_Step] | None]:
-        """Roots closer than the step can resolve: step over with the last undoubted size."""
+        """The step is below ``dk_min`` and still not accepted.
+
+        First the step is retried with the path's own tangent as the predictor
+        (:meth:`_tangent`), from the last undoubted size down to ``dk_min``, under the same
+        acceptance test: after a long step the three-point parabola's slope at its end can be
+        40 % off, and a corrector proportional to the step then fails the quarter test however
+        short the step (velocity top, ``s8+`` at ``k = 26``); the tangent step must also find no
+        other root within :data:`ISOLATION` times its move or the last undoubted step's move.
+        Otherwise roots are closer than the step can resolve: one step over with 4x the last
+        undoubted size, else the point is kept as ``"ambiguous"``.
+        """
         k_cur = path.k[-1]
+        tangent = yield from self._tangent(path)
+        h = min(self.good_h, abs(k_target - k_cur))
+        sgn = 1.0 if k_target >= k_cur else -1.0
+        while tangent is not None and h >= self.dk_min:
+            t = yield from self.attempt(path, k_cur + sgn * h, tangent)
+            if t.accepted:  # and no other root within a normal step's move, nor ISOLATION moves
+                st = t.result
+                near = ISOLATION * max(st.move, 2.0 * st.corr)
+                rad = max(self.good_h * abs(tangent), near)
+                if (yield from _count_pair(self.p, t.k, k_cur, 0.5 * (path.value[-1]
+                                                                    + t.value), rad)) == (1, 1):
+                    self.grow_from = h
+                    return t
+                if near <= self.good_h * abs(tangent):
+                    break  # a root within a normal step: a near-collision, not a poor predictor
+            h *= 0.5
         over_h = max(4.0 * self.good_h, 100.0 * self.dk_min)
         k_over = (min(k_cur + over_h, k_target) if k_target >= k_cur  # forward, or back
                   else max(k_cur - over_h, k_target))
@@ -595,6 +657,9 @@ class _BranchStepper:
         """Grow when the predictor was good; after doubt restart at a normal size."""
         if trial.flag == "ambiguous":
             return self.good_h
+        if self.grow_from:  # a tangent step of the rescue: grow from its size
+            h, self.grow_from = self.grow_from, 0.0
+            return min(2.0 * h, self.good_h)
         if clamped and h < dk:
             return dk  # a short step onto a requested k says nothing about the step size
         self.good_h = h

@@ -401,6 +401,29 @@ def test_most_unstable_of_a_conjugate_pair_is_the_same_row_in_every_run() -> Non
 
 
 @pytest.mark.serial
+@pytest.mark.parametrize("eps", [1e-15, -1e-15, 0.0])
+def test_either_row_of_a_conjugate_pair_is_the_fastest_mode(eps: float) -> None:
+    """The cell's most unstable row is the proven fastest mode whichever row of its conjugate
+    pair it is: the pair's distances to the mode differ by rounding, either way (the scene said
+    "not it" on one machine, test_a_box_that_holds_the_fastest_mode_says_so); a row of the
+    pair 1e-6 farther is not it."""
+    import _sweep_strip
+
+    top = {"harmonic": 2, "re_lambda": 0.32234, "im_lambda": -7.3824, "proven": True,
+           "in_box": True}
+    per_k = [{"k": 1.0, "fastest_by_harmonic": [top]}]
+
+    def row(re: float, im: float, h: float) -> dict:
+        return {"k": 1.0, "re_lambda": re, "im_lambda": im, "harmonic": h}
+
+    best = row(0.3258011, -7.4116979, 2.0)
+    rows = [best, row(0.3258011, 7.4116979 + eps, -2.0), row(0.0866, -4.47, 3.0)]
+    assert _sweep_strip._is_the_fastest(best, rows, per_k)
+    rows[1] = row(0.3258011, 7.4116979 - 1e-6, -2.0)  # nearer by 1e-6: a distinct row
+    assert not _sweep_strip._is_the_fastest(best, rows, per_k)
+
+
+@pytest.mark.serial
 def test_canonical_labels_do_not_depend_on_rounding_of_a_conjugate_pair() -> None:
     def rows(eps: float, names: tuple[str, ...]) -> list[dict]:
         ims = [5.0, -5.0 - eps, 6.0, 5.5, -5.0 - eps]

@@ -329,8 +329,10 @@ def _is_the_fastest(best: dict, rows: list[dict], per_k: list[dict]) -> bool:
     """``best`` is the cell's row of the proven fastest mode at its ``k``.
 
     Of the rows at that ``k`` whose harmonic is the fastest mode's (``-h``: its conjugate),
-    the nearest to it. Not so when a faster row of another harmonic leads ``R`` (e.g. one the
-    cell does not resolve, flagged by its estimate).
+    the nearest to it (either row of a conjugate pair: on a 2026-12-02 machine the pair's
+    distances differed by rounding the other way and the line said "not it"). Not so when a
+    faster row of another harmonic leads ``R`` (e.g. one the cell does not resolve, flagged by
+    its estimate).
     """
     e = next(e for e in per_k if e["k"] == best["k"])
     top = ss.fastest_of(e.get("fastest_by_harmonic", []))
@@ -343,7 +345,10 @@ def _is_the_fastest(best: dict, rows: list[dict], per_k: list[dict]) -> bool:
         return abs(w - (z if r["harmonic"] > 0 else z.conjugate()))
 
     mine = [r for r in rows if r["k"] == best["k"] and abs(r["harmonic"]) == top["harmonic"]]
-    return bool(mine) and min(mine, key=distance) is best
+    if not any(r is best for r in mine):
+        return False
+    # a conjugate pair's two rows are equally near to rounding (1e-15 apart): either is it
+    return distance(best) <= min(map(distance, mine)) + 1e-12 * abs(z)
 
 
 def _write(out: str, results: list[KResult], summary: dict, params: Params,

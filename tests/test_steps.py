@@ -6,6 +6,8 @@ they made before. Both ways must give the same families: the same labels, flags 
 the values to rounding.
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -162,6 +164,14 @@ def test_families_skipped_to_a_lone_far_k_are_traced_back_to_their_seeds():
     without = certified_roots(p, k, region, [f for f in fams if f.label != gone])[0]
     left = [r for r in without if abs(r.value - traced[0].value) < 1e-12 * abs(r.value)]
     assert len(left) == 1 and left[0].label.startswith("?") and not left[0].certified
+    # that family made to reach another root at k instead (a wrong continuation): the traced
+    # root keeps the label, not certified, and says why
+    other = next(r for r in labelled if r.label not in skipped)
+    wrong = [dataclasses.replace(f, Lambda=np.array([other.value]), ok=np.array([True]),
+                                 flag=[""]) if f.label == gone else f for f in fams]
+    again = certified_roots(p, k, region, wrong)[0]
+    mine = next(r for r in again if abs(r.value - traced[0].value) < 1e-12 * abs(r.value))
+    assert mine.label == gone and not mine.certified and "reaches another root" in mine.note
 
 
 @pytest.mark.parametrize("params", [Params(bc="stress"), Params(bc="velocity"),

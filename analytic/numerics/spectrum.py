@@ -541,7 +541,8 @@ def trace_families(p: Params, k: float, values: Sequence[complex], fams: list[Br
     trapped-wave bump to ``Re = 0.24`` near ``k = 24``) is then reached by none. Each root is
     continued down in ``k`` (:func:`analytic.numerics.branches.trace_back_steps`, side by
     side) to every family's start (:func:`_start_of`); the family whose start it reaches (to
-    :data:`SAME_ROOT_RTOL`), if exactly one, labels it, certified when no step was ambiguous.
+    :data:`SAME_ROOT_RTOL`), if exactly one, labels it, certified when no step was ambiguous
+    and that family does not reach another root at ``k``.
 
     Returns:
         Per root, its :class:`Labelled` (value: the root at ``k``) or ``None`` (no single family).
@@ -562,6 +563,8 @@ def trace_families(p: Params, k: float, values: Sequence[complex], fams: list[Br
             out.append(None)
             continue
         f, flag = hit[0]
+        if _index_at(f, k) is not None:  # the family reaches another root here: one is wrong
+            flag = flag or f"{f.label} itself reaches another root at this k"
         note = f"traced back to {f.label}'s start with doubt ({flag})" if flag else ""
         out.append(Labelled(complex(z), f.label, not flag, note))
     return out

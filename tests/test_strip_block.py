@@ -821,6 +821,42 @@ def test_committed_stress_complete_search_at_l16_on_a_finer_mesh():
     assert one_plus.real.max() < best.real and one_plus.real.max() < table_one_plus.max()
 
 
+@pytest.mark.serial
+def test_committed_stress_complete_search_fine_mesh_L32():
+    """README "On a finer mesh", stress top, L = 32 (session 39, 17 min on 2 ranks): the finer
+    mesh's complete search (12 cells per unit, ny = 12, P2) of Re >= 0.125, |Im| <= 25 closes at
+    18 = 18; its fastest is the 0+ mode of the fine target search (the same 12 digits); the four
+    0+ pairs (|Im| < 10) are the table mesh's, each moved by 0.80 of the table mesh's P3
+    estimate (measured 0.799-0.801: 1 - (2/3)^4 on a mesh 1.5x finer); the five 1+ pairs
+    (|Im| near 19.2, table-mesh estimates 4.5e-4 to 9.2e-4) rise, from 0.1334 at most on the
+    table mesh to 0.1373 (at L = 16 they fell), and stay below the 0+ mode: the 0+ mode leads at
+    L = 32 on both meshes (0.14327 against 0.13725 here)."""
+    folder = os.path.join(REGULARISED, "stress_complete_fine_L32")
+    z = _spectrum_rows(folder, 32.0)
+    _, meta = _results(folder)
+    cert = meta["certificates"]["32"]
+    assert (meta["params"]["bc"], meta["params"]["alpha_pc"], meta["cells_per_unit"], meta["ny"],
+            meta["degree"], meta["search"]) == ("stress", 0.1, 12, 12, 2, "complete")
+    assert cert["box"] == [0.125, 0.4, -25.0, 25.0]
+    assert cert["closed"] and cert["found"] == cert["counted"] == len(z) == 18
+    assert np.allclose(np.sort_complex(z), np.sort_complex(z.conj()), rtol=1e-12, atol=0)
+    targets, _ = _results(os.path.join(REGULARISED, "stress_targets_fine"))
+    target = complex(float(targets[32.0]["re_lambda"]), float(targets[32.0]["im_lambda"]))
+    best = z[int(np.argmax(z.real))]
+    assert abs(best - (target if best.imag * target.imag > 0 else target.conjugate())) \
+        < 1e-10 * abs(best)
+    table = _spectrum_estimates(os.path.join(REGULARISED, "stress_complete_L32"), 32.0)
+    low = [(c, est) for c, est in table if abs(c.imag) < 10.0 and c.real > 0.125]
+    assert abs(best.imag) < 10.0 and len(low) == int(np.sum(np.abs(z.imag) < 10.0)) == 8
+    # measured 0.799-0.801: 1 - (2/3)^4
+    assert all(0.75 < r < 0.85 for r in _moved_by_estimate(z, low))
+    one_plus = z[np.abs(z.imag) > 10.0]
+    table_one_plus = np.array([c.real for c, _ in table if 10.0 < abs(c.imag) < 25.0])
+    assert one_plus.size == table_one_plus.size == 10
+    assert np.all(np.abs(np.abs(one_plus.imag) - 19.25) < 0.2)  # the 1+ mode
+    assert table_one_plus.max() < one_plus.real.max() < best.real - 0.005
+
+
 #: Velocity top, complete searches on the finer mesh (12 cells per unit, ny = 12) and the table
 #: mesh's at the same length: (fine folder, L, table folder, pairs above the fine box's floor).
 VELOCITY_FINE = [("velocity_complete_fine", 8.0, "velocity_complete", 3),

@@ -784,77 +784,56 @@ def test_committed_regularised_block_search_on_a_finer_mesh():
         * abs(best)
 
 
-@pytest.mark.serial
-def test_committed_stress_complete_search_at_l16_on_a_finer_mesh():
-    """README "The fastest mode over all thickness modes", stress top, L = 16 on the finer mesh
-    (12 cells per unit, ny = 12, P2; session 28), the table's box (Re >= 0.1, |Im| <= 125.67):
-    it closes (found = counted), its fastest is the 0+ mode of the fine target search, and the
-    low-frequency pairs (|Im| < 10, 0+ and 0- modes) are the table mesh's six, each moved by
-    0.80 of the table mesh's P3 estimate of it (measured 0.793-0.802: an O(h^4) error on a mesh
-    1.5x finer moves by 1 - (2/3)^4 = 0.80; the estimate is of the error's size, not a bound).
-    The 1+ pairs (|Im| near 19.2), which the table mesh does not resolve (P3 estimates 5.7e-4 to
-    6.1e-3), fall: 0.128, 0.127, 0.115, 0.114 there, 0.111, 0.109, 0.101 here (one below the
-    box's floor), so the 0+ mode leads at L = 16 by more than on the table mesh (measured
-    0.1403 against 0.1107)."""
-    folder = os.path.join(REGULARISED, "stress_complete_fine_L16")
-    z = _spectrum_rows(folder, 16.0)
-    _, meta = _results(folder)
-    cert = meta["certificates"]["16"]
-    assert (meta["params"]["bc"], meta["params"]["alpha_pc"], meta["cells_per_unit"], meta["ny"],
-            meta["degree"], meta["search"]) == ("stress", 0.1, 12, 12, 2, "complete")
-    assert cert["box"] == [0.1, 0.4, -125.67, 125.67]
-    assert cert["closed"] and cert["found"] == cert["counted"] == len(z) == 18
-    assert np.allclose(np.sort_complex(z), np.sort_complex(z.conj()), rtol=1e-12, atol=0)
-    targets, _ = _results(os.path.join(REGULARISED, "stress_targets_fine"))
-    target = complex(float(targets[16.0]["re_lambda"]), float(targets[16.0]["im_lambda"]))
-    best = z[int(np.argmax(z.real))]
-    assert abs(best - (target if best.imag * target.imag > 0 else target.conjugate())) \
-        < 1e-10 * abs(best)
-    table = _spectrum_estimates(os.path.join(REGULARISED, "stress_complete_L16"), 16.0)
-    low = [(c, est) for c, est in table if abs(c.imag) < 10.0]
-    assert len(low) == int(np.sum(np.abs(z.imag) < 10.0)) == 12
-    # measured 0.793-0.802: 1 - (2/3)^4
-    assert all(0.75 < r < 0.85 for r in _moved_by_estimate(z, low))
-    one_plus = z[np.abs(z.imag) > 10.0]
-    table_one_plus = np.array([c.real for c, _ in table if abs(c.imag) > 10.0])
-    assert np.all(np.abs(np.abs(one_plus.imag) - 19.25) < 0.2)  # the 1+ mode
-    assert one_plus.real.max() < best.real and one_plus.real.max() < table_one_plus.max()
+#: Stress top, complete searches on the finer mesh (12 cells per unit, ny = 12): (length, box,
+#: eigenvalues, 0+/0- pairs' eigenvalues with |Im| < 10 above the box's floor).
+STRESS_FINE = [(16.0, [0.1, 0.4, -125.67, 125.67], 18, 12),
+               (32.0, [0.125, 0.4, -25.0, 25.0], 18, 8)]
 
 
 @pytest.mark.serial
-def test_committed_stress_complete_search_fine_mesh_L32():
-    """README "On a finer mesh", stress top, L = 32 (session 39, 17 min on 2 ranks): the finer
-    mesh's complete search (12 cells per unit, ny = 12, P2) of Re >= 0.125, |Im| <= 25 closes at
-    18 = 18; its fastest is the 0+ mode of the fine target search (the same 12 digits); the four
-    0+ pairs (|Im| < 10) are the table mesh's, each moved by 0.80 of the table mesh's P3
-    estimate (measured 0.799-0.801: 1 - (2/3)^4 on a mesh 1.5x finer); the five 1+ pairs
-    (|Im| near 19.2, table-mesh estimates 4.5e-4 to 9.2e-4) rise, from 0.1334 at most on the
-    table mesh to 0.1373 (at L = 16 they fell), and stay below the 0+ mode: the 0+ mode leads at
-    L = 32 on both meshes (0.14327 against 0.13725 here)."""
-    folder = os.path.join(REGULARISED, "stress_complete_fine_L32")
-    z = _spectrum_rows(folder, 32.0)
+@pytest.mark.parametrize(("length", "box", "n", "n_low"), STRESS_FINE)
+def test_committed_stress_complete_search_on_a_finer_mesh(length, box, n, n_low):
+    """README "On a finer mesh", stress top, the complete searches on the finer mesh (12 cells
+    per unit, ny = 12, P2): L = 16 (session 28, the table's box Re >= 0.1, |Im| <= 125.67) and
+    L = 32 (session 39, Re >= 0.125, |Im| <= 25, 17 min on 2 ranks). Each closes (found =
+    counted), its fastest is the 0+ mode of the fine target search (the same 12 digits), and the
+    low-frequency pairs (|Im| < 10, 0+ and 0- modes) are the table mesh's, each moved by 0.80
+    of the table mesh's P3 estimate of it (measured 0.793-0.802 and 0.799-0.801: an O(h^4)
+    error on a mesh 1.5x finer moves by 1 - (2/3)^4 = 0.80; the estimate is of the error's
+    size, not a bound). The 1+ pairs (|Im| near 19.2), which the table mesh does not resolve
+    (P3 estimates 4.5e-4 to 6.1e-3), stay below the 0+ mode on both meshes: at L = 16 they fall
+    (0.128, 0.127, 0.115, 0.114 there, 0.111, 0.109, 0.101 here, one below the box's floor; the
+    0+ mode 0.1403), at L = 32 they rise (0.1334 at most there, 0.1373 here; the 0+ mode
+    0.14327)."""
+    folder = os.path.join(REGULARISED, f"stress_complete_fine_L{length:g}")
+    z = _spectrum_rows(folder, length)
     _, meta = _results(folder)
-    cert = meta["certificates"]["32"]
+    cert = meta["certificates"][f"{length:g}"]
     assert (meta["params"]["bc"], meta["params"]["alpha_pc"], meta["cells_per_unit"], meta["ny"],
             meta["degree"], meta["search"]) == ("stress", 0.1, 12, 12, 2, "complete")
-    assert cert["box"] == [0.125, 0.4, -25.0, 25.0]
-    assert cert["closed"] and cert["found"] == cert["counted"] == len(z) == 18
+    assert cert["box"] == box
+    assert cert["closed"] and cert["found"] == cert["counted"] == len(z) == n
     assert np.allclose(np.sort_complex(z), np.sort_complex(z.conj()), rtol=1e-12, atol=0)
     targets, _ = _results(os.path.join(REGULARISED, "stress_targets_fine"))
-    target = complex(float(targets[32.0]["re_lambda"]), float(targets[32.0]["im_lambda"]))
+    target = complex(float(targets[length]["re_lambda"]), float(targets[length]["im_lambda"]))
     best = z[int(np.argmax(z.real))]
     assert abs(best - (target if best.imag * target.imag > 0 else target.conjugate())) \
         < 1e-10 * abs(best)
-    table = _spectrum_estimates(os.path.join(REGULARISED, "stress_complete_L32"), 32.0)
-    low = [(c, est) for c, est in table if abs(c.imag) < 10.0 and c.real > 0.125]
-    assert abs(best.imag) < 10.0 and len(low) == int(np.sum(np.abs(z.imag) < 10.0)) == 8
-    # measured 0.799-0.801: 1 - (2/3)^4
+    table = _spectrum_estimates(os.path.join(REGULARISED, f"stress_complete_L{length:g}"),
+                                length)
+    low = [(c, est) for c, est in table if abs(c.imag) < 10.0 and c.real > box[0]]
+    assert abs(best.imag) < 10.0 and len(low) == int(np.sum(np.abs(z.imag) < 10.0)) == n_low
+    # measured 0.793-0.802 (L = 16), 0.799-0.801 (L = 32): 1 - (2/3)^4
     assert all(0.75 < r < 0.85 for r in _moved_by_estimate(z, low))
     one_plus = z[np.abs(z.imag) > 10.0]
-    table_one_plus = np.array([c.real for c, _ in table if 10.0 < abs(c.imag) < 25.0])
-    assert one_plus.size == table_one_plus.size == 10
+    table_one_plus = np.array([c.real for c, _ in table if 10.0 < abs(c.imag) < box[3]])
     assert np.all(np.abs(np.abs(one_plus.imag) - 19.25) < 0.2)  # the 1+ mode
-    assert table_one_plus.max() < one_plus.real.max() < best.real - 0.005
+    assert one_plus.real.max() < best.real - 0.005
+    if length == 16.0:  # they fall with the finer mesh
+        assert one_plus.real.max() < table_one_plus.max()
+    else:  # they rise
+        assert one_plus.size == table_one_plus.size == 10
+        assert table_one_plus.max() < one_plus.real.max()
 
 
 #: Velocity top, complete searches on the finer mesh (12 cells per unit, ny = 12) and the table

@@ -449,6 +449,20 @@ def follow_root(
                                        max_steps=max_steps, skip=skip), branch_answers(p))
 
 
+def _start_pair(Lambda0: complex, k0: float, k_a: float, sheet: str  # noqa: N803
+                ) -> Steps[tuple[Root, Root] | None]:
+    """``Lambda0`` polished at ``k0``, then that root at ``k_a`` (the secant's second point).
+
+    ``None`` unless both converge within ``1e-2`` (relative) of each other: no root near
+    ``Lambda0``. Step-wise (:func:`follow_root_steps`, :func:`trace_back_steps`).
+    """
+    r0 = yield from polish_steps(complex(Lambda0), ask=_asker((k0,), sheet))
+    r_a = yield from polish_steps(r0.value, ask=_asker((k_a,), sheet))
+    ok = r0.converged and r_a.converged and abs(r_a.value - r0.value) < 1e-2 * max(
+        1.0, abs(r0.value))
+    return (r0, r_a) if ok else None
+
+
 def follow_root_steps(
     p: Params,
     label: str,
@@ -464,15 +478,14 @@ def follow_root_steps(
     ks = np.unique(check_k(k_values))
     if dk_min is None:
         dk_min = 1e-6 * max(float(ks[-1]), 1.0 / p.H)
-    r0 = yield from polish_steps(complex(Lambda0), ask=_asker((k0,), "physical"))
     k_a = k0 * (1.0 - 1e-3)
-    r_a = yield from polish_steps(r0.value, ask=_asker((k_a,), "physical"))
+    pair = yield from _start_pair(Lambda0, k0, k_a, "physical")
     nan = np.full(ks.shape, np.nan + 0j)
-    if not (r0.converged and r_a.converged and abs(r_a.value - r0.value) < 1e-2 * max(
-            1.0, abs(r0.value))):
+    if pair is None:
         return BranchResult(label, -1, 0, ks, nan, np.full(ks.shape, np.nan),
                             np.full(ks.shape, np.nan), np.zeros(ks.shape, bool),
                             ["lost"] * ks.size, note=f"{label}: no root near {Lambda0} at k0")
+    r0, r_a = pair
     # requested k below k0 are lost; one equal to k0 is the polished start itself
     first = int(np.searchsorted(ks, k0))
     at_k0 = int(first < ks.size and ks[first] == k0)
@@ -507,12 +520,11 @@ def trace_back_steps(p: Params, k0: float, Lambda0: complex, k_targets: Sequence
     order = np.argsort(-kt, kind="stable")
     values = np.full(kt.shape, np.nan + 0j)
     flags = ["lost"] * kt.size
-    r0 = yield from polish_steps(complex(Lambda0), ask=_asker((k0,), branch_sheet(p)))
     k_a = k0 * (1.0 + 1e-3)
-    r_a = yield from polish_steps(r0.value, ask=_asker((k_a,), branch_sheet(p)))
-    if not (r0.converged and r_a.converged and abs(r_a.value - r0.value) < 1e-2 * max(
-            1.0, abs(r0.value))) or not kt.size:
+    pair = yield from _start_pair(Lambda0, k0, k_a, branch_sheet(p))
+    if pair is None or not kt.size:
         return values, flags
+    r0, r_a = pair
     dk_min = 1e-6 * max(k0, 1.0 / p.H)
     stepper = _BranchStepper(p, "trace", dk_min, good_h=k_a - k0)
     run = yield from march_steps(stepper, Path([k_a, k0], [r_a.value, r0.value]), kt[order],

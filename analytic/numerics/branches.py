@@ -11,7 +11,8 @@ A branch ``(n, sign)`` (label ``"0-"``, ``"1+"``, ...) starts at
    :func:`det_M`;
 3. accepts a step only if the corrector moved less than a quarter of the step's move ``dL``
    and the square centred between the old and the new root, of half-width
-   ``max(COUNT_MOVES * dL, 2 * corrector)`` (:data:`COUNT_MOVES` = 2), holds exactly one root
+   ``max((COUNT_MOVES + 1/2) dL, 2 * corrector)`` (:data:`COUNT_MOVES` = 2: it holds the disc
+   of radius ``COUNT_MOVES dL`` around the root at either end), holds exactly one root
    both at the new and at the old ``k`` (argument principle): otherwise another root is close
    and the step is halved ("halve the step on doubt"). A silent jump to a neighbouring root
    would need a predictor error above ~3/4 of the move, and a root passing ours during the step
@@ -547,6 +548,14 @@ ISOLATION = 10.0
 #: passing within 0.01 in between (``alpha_pc = alpha_ld = 1``, ``H = 1``, ``s4-`` from ``k =
 #: 2.98`` to 3.38), and a sparse and a dense list of ``k`` then gave different roots the same
 #: label at 23 of 135 points (``k = 5, 10``); with 2, at 1 (docs/design.md section 4).
+#: Since session 40 the square is centred between the two roots with half-width
+#: ``(COUNT_MOVES + 1/2) dL``, so that it holds the disc of ``COUNT_MOVES dL`` around the root at
+#: *either* end: centred with ``COUNT_MOVES dL`` it reached only ``1.5 dL`` beyond an end root
+#: along the step, and that one (``s18-``, same model, ``k = 7.43 -> 7.62``) missed by 0.0002 the
+#: other root, 0.038 from ours at the start and 4x as fast, which then crossed it within the step
+#: (an avoided crossing with a gap of 0.01): the lone list ``k = 5, 10`` ended on another root than
+#: lists of 200 and 2 000 points, both certain. Measured roots move up to 23x ``c_d`` in ``k``
+#: (real seeds, ``s11-`` there near ``k = 9.8``), so no bound on the other roots' speed sizes it.
 COUNT_MOVES = 2.0
 
 
@@ -592,12 +601,13 @@ class _BranchStepper:
         ok = r.converged and corr <= ratio * max(dL, 1e-12 * abs(L_cur))
         if ok:
             # Counting between steps: the square centred between the old and the new root,
-            # half-width max(COUNT_MOVES dL, 2 corr), must hold exactly one root at k_new *and*
-            # at k_cur. A jump to a neighbouring root would need a predictor error of ~3/4 of
-            # the move, and a root passing ours within the step is seen at one end or the other
-            # unless it moves much faster than ours (COUNT_MOVES).
+            # half-width max((COUNT_MOVES + 1/2) dL, 2 corr) (the disc of COUNT_MOVES dL around
+            # either end's root), must hold exactly one root at k_new *and* at k_cur. A jump to
+            # a neighbouring root would need a predictor error of ~3/4 of the move, and a root
+            # passing ours within the step is seen at one end or the other unless it moves
+            # much faster than ours (COUNT_MOVES).
             centre = 0.5 * (L_cur + r.value)
-            rad = max(2.0 * corr, COUNT_MOVES * dL, 1e-9 * abs(r.value))
+            rad = max(2.0 * corr, (COUNT_MOVES + 0.5) * dL, 1e-9 * abs(r.value))
             ok = (yield from _count_pair(self.p, k_new, path.k[-1], centre, rad)) == (1, 1)
         return Trial(k_new, r.value, ok, _Step(r, corr, dL), flag=self.doubt if ok else "")
 

@@ -16,8 +16,10 @@ different limit from k H -> infinity at fixed H) is drawn for comparison. Writes
 ``envelope.csv``, ``summary.json``, ``envelope.png``. ``--k`` accepts ``start:stop:count``
 (linear), ``start:stop:countlog`` (geometric) or a comma list. Exit code 1 if the root count
 failed at some k (each is reported, and left out of the maximum), and with ``--fe-check yes``
-where the FE's count did not close or its fastest eigenvalue is not the maximum's
-(``workflows/_points.py``).
+(each local maximum) or ``all`` (every sample with a root) where the FE's count did not close or
+its fastest eigenvalue is not the exact point's (``workflows/_points.py``): with ``all`` the
+envelope is found by the finite elements on their own at every sample, the exact roots its
+referee.
 """
 
 from __future__ import annotations
@@ -69,9 +71,9 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--dependence", action="store_true",
                     help="also follow the fastest sample at k H >= 5 (a plateau mode) in "
                     "alpha_pc, f gamma and H: dependence.png, summary.json plateau_dependence")
-    ap.add_argument("--fe-check", choices=("no", "yes"), default="no",
-                    help="yes: each local maximum found again by the finite elements at its k "
-                    "(summary.json fe_check)")
+    ap.add_argument("--fe-check", choices=("no", "yes", "all"), default="no",
+                    help="yes: each local maximum found again by the finite elements at its k; "
+                    "all: every sample with a root (summary.json fe_check)")
     ap.add_argument("--out", default=os.path.join("out", "envelope"), help="output folder")
     return ap
 
@@ -90,7 +92,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         raise _cli.ParameterError(f"--refine-rounds = {args.refine_rounds} is outside its "
                                   "allowed range 0 .. 50")
     region = _cli.region_from_args(args.c_max, args.re_min)
-    if args.fe_check == "yes":
+    if args.fe_check != "no":
         fe_ready()  # collective: PETSc's initialisation
     _cli.check_roots_region(p, float(k[-1]), region, "k or --c-max")
     config = {"params": p.as_dict(), "k": args.k, "region": region.as_dict(p),
@@ -115,9 +117,12 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         re = np.array([r[0].real if r[0] is not None else np.nan for r in rows])
         best = comm.bcast(envelope_maximum(p, region, ks, [r[0] for r in rows])
                           if comm.rank == 0 else None)
-        fe = [] if args.fe_check == "no" or best is None else fe_points(
-            comm, p, [(pk["k"], complex(pk["re_lambda"], pk["im_lambda"]))
-                      for pk in best["local_peaks"]], region)
+        peaks = [] if args.fe_check == "no" or best is None else [
+            (pk["k"], complex(pk["re_lambda"], pk["im_lambda"])) for pk in best["local_peaks"]]
+        if args.fe_check == "all" and peaks:  # every sample with a root, and the refined peaks
+            peaks = sorted(({kk: r[0] for kk, r in zip(ks, rows, strict=True)
+                             if r[0] is not None} | dict(peaks)).items())
+        fe = fe_points(comm, p, list(peaks), region) if peaks else []
         fe_line, fe_failed = fe_report(fe)
         if comm.rank == 0:
             hs = halfspace.max_growth("dilatational", p.replace(H=math.inf))
@@ -154,7 +159,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                                 config)
             with _cli.atomic_open(run.file("summary.json"), "w") as fh:
                 _cli.json_dump(summary, fh, indent=1)
-            plot(run.file("envelope.png"), p, np.array(ks), re, best, hs.growth, config)
+            plot(run.file("envelope.png"), p, np.array(ks), re, best, hs.growth, config, fe)
             if best is None:
                 _cli.say(f"no root in the region (Re Lambda >= {region.re_min:g}) at any k of "
                          f"[{ks[0]:g}, {ks[-1]:g}]")
@@ -174,8 +179,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
 
 
 def plot(path: str, p: object, k: np.ndarray, re: np.ndarray, best: dict | None, hs: float,
-         meta: dict) -> None:
-    """envelope.png: max Re Lambda against k H (log axis)."""
+         meta: dict, fe: list[dict] | None = None) -> None:
+    """envelope.png: max Re Lambda against k H (log axis); ``fe``: the FE's own points."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -183,6 +188,11 @@ def plot(path: str, p: object, k: np.ndarray, re: np.ndarray, best: dict | None,
 
     fig, ax = plt.subplots(figsize=(8, 4.5))
     ax.semilogx(k * p.H, re, "o-", ms=3, color="k", label="max Re Lambda over every mode in R")
+    fe_pts = [(r["k"] * p.H, r["fe_re_lambda"]) for r in fe or ()
+              if r.get("fe_re_lambda") is not None]
+    if fe_pts:
+        ax.plot(*zip(*fe_pts, strict=True), "x", ms=5, color="tab:red",
+                label=f"finite elements on their own ({len(fe_pts)} points)")
     if best is not None:
         ax.plot([best["kH"]], [best["re_lambda"]], "*", ms=15, color="gold", mec="k",
                 label=f"maximum: {best['re_lambda']:.5f} at k H = {best['kH']:.3g}")

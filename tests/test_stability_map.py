@@ -46,28 +46,60 @@ def test_committed_41_maps_fastest_point_found_by_the_fe(top):
     assert abs(z - complex(best["re_lambda"], best["im_lambda"])) < 1e-9 * abs(exact)
 
 
+def _fe_checked(fe: list[dict], rows: list[dict], top: str = "velocity") -> None:
+    """Each ``fe_check`` entry is its map point's fastest mode (``x`` = Delta, ``y`` = H), its
+    FE count closed, and an exact root polished from the FE value here."""
+    at = {(float(r["x"]), float(r["y"])): r for r in rows}
+    for r in fe:
+        row = at[(r["x"], r["y"])]
+        assert r["k"] == float(row["k"]) and r["fe_closed"]
+        z = complex(r["fe_re_lambda"], r["fe_im_lambda"])
+        exact = polish_root(Params(bc=top, Delta=r["x"], H=r["y"]), r["k"], z).value
+        # FE (P6, the 1e-8 rule) against exact: measured 6.9e-15 on the default map, at most
+        # 4.0e-12 over the committed 63-point maps
+        assert abs(z - exact) < 1e-9 * abs(exact)
+        point = complex(float(row["re_lambda"]), float(row["im_lambda"]))
+        assert abs(z - point) < 1e-9 * abs(exact)
+
+
 @pytest.mark.parametrize("nproc", [1, 2])
-def test_fe_check_finds_the_maps_fastest_point(tmp_path, nproc):
+@pytest.mark.parametrize("which", ["yes", "all"])
+def test_fe_check_finds_the_maps_fastest_point(tmp_path, which, nproc):
     """``--fe-check yes``: the map's fastest point is the FE's own fastest eigenvalue at its k
     (the sweep's FE path, no exact root consulted), set against an exact root polished from the
-    FE value here; the points themselves are those of a run without the check."""
+    FE value here; ``all``: every unstable point's; the points themselves are those of a run
+    without the check."""
     args = ["--x", "Delta:-1:1:2", "--y", "H:0.5:1:2", "--nk", "3", "--kH-max", "2"]
     out, plain = tmp_path / "m", tmp_path / "plain"
-    proc = run_workflow("stability_map.py", [*args, "--fe-check", "yes", "--out", str(out)],
+    proc = run_workflow("stability_map.py", [*args, "--fe-check", which, "--out", str(out)],
                         nproc=nproc)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert run_workflow("stability_map.py", [*args, "--out", str(plain)]).returncode == 0
-    assert _rows(out) == _rows(plain)
+    rows = _rows(out)
+    assert rows == _rows(plain)
     s = json.loads((out / "summary.json").read_text())
-    best, (fe,) = s["fastest_point"], s["fe_check"]
-    assert fe["k"] == best["k"] and fe["fe_closed"]
-    z = complex(fe["fe_re_lambda"], fe["fe_im_lambda"])
-    p = Params(Delta=best["x"], H=best["y"])
-    exact = polish_root(p, best["k"], z).value
-    # FE (P6, the 1e-8 rule) against exact: measured 6.9e-15 on the default map
-    assert abs(z - exact) < 1e-9 * abs(exact)
-    assert abs(z - complex(best["re_lambda"], best["im_lambda"])) < 1e-9 * abs(exact)
-    assert "FE check: 1 of 1 point(s) found again by the FE on its own" in proc.stdout
+    best, fe = s["fastest_point"], s["fe_check"]
+    unstable = [r for r in rows if r["re_lambda"]]
+    assert len(unstable) == 4
+    n = len(unstable) if which == "all" else 1
+    assert len(fe) == n and (fe[0]["x"], fe[0]["y"]) == (
+        (best["x"], best["y"]) if which == "yes" else (float(unstable[0]["x"]),
+                                                       float(unstable[0]["y"])))
+    _fe_checked(fe, rows)
+    assert f"FE check: {n} of {n} point(s) found again by the FE on its own" in proc.stdout
+
+
+@pytest.mark.parametrize("top", ["velocity", "stress"])
+def test_committed_63_point_maps_found_by_the_fe_at_every_point(top):
+    """README "Stability map", session 40: the committed 63-point maps with ``--fe-check all``:
+    at every point (all unstable) the fastest mode is the FE's own fastest eigenvalue at its k,
+    count closed, region proven by the FE's climb."""
+    path = Path(__file__).parent.parent / "workflows" / "results" / f"stability_map_{top}"
+    s = json.loads((path / "summary.json").read_text())
+    rows = _rows(path)
+    assert len(rows) == len(s["fe_check"]) == 63
+    assert all(r["fe_proven"] for r in s["fe_check"])
+    _fe_checked(s["fe_check"], rows, top)
 
 
 @pytest.mark.slow  # 25 s serial on a quiet machine, 80-90 s with 7 helpers running

@@ -72,12 +72,15 @@ def fe_points(comm: Any, params: Any, points: Sequence[tuple[float, complex]], r
               quiet: bool = False) -> list[dict]:
     """:func:`fe_point` at each ``(k, exact)`` of ``points``, shared over the ranks (collective).
 
+    ``params``: the parameters of every point, or a list of one per point (a map's points).
+
     Returns:
         One dict per point, ``k`` first, on every rank.
     """
+    each = list(params) if isinstance(params, list | tuple) else [params] * len(points)
     got = progress_mapper(comm, "FE checks", quiet, " points")(
-        [float(k) ** 1.5 for k, _ in points],
-        lambda i: fe_point(params, points[i][0], points[i][1], region))
+        [float(k * q.H) ** 1.5 for (k, _), q in zip(points, each, strict=True)],
+        lambda i: fe_point(each[i], points[i][0], points[i][1], region))
     return [{"k": float(points[i][0])} | got[i] for i in range(len(points))]
 
 

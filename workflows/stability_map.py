@@ -16,8 +16,10 @@ continues a run with the same parameters: the points there are not computed agai
 max Re Lambda = 0 and the closed-form k H -> infinity boundary of ``phase_diagram.py``).
 Exit code 1 if a root count failed somewhere (the point is then not called stable).
 ``--fe-check yes``: the map's fastest point handed to the certified FE sweep's own path at its
-``k`` (no exact root consulted; ``workflows/_points.py``): ``summary.json`` ``fe_check``; exit
-code 1 also where the FE's count did not close or its fastest eigenvalue is not that point.
+``k`` (no exact root consulted; ``workflows/_points.py``), ``all``: every unstable point's fastest
+mode: ``summary.json`` ``fe_check`` (with each point's ``x``, ``y``); exit code 1 also where the
+FE's count did not close or its fastest eigenvalue is not that point's. (A stable point is not
+checked: that would take the FE's count at every ``k`` of the grid.)
 """
 
 from __future__ import annotations
@@ -64,9 +66,10 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--re-min", type=float, default=1e-6,
                     help="region: smallest Re Lambda counted as unstable (> 0: the contour "
                     "stays off Lambda = 0)")
-    ap.add_argument("--fe-check", choices=("no", "yes"), default="no",
+    ap.add_argument("--fe-check", choices=("no", "yes", "all"), default="no",
                     help="yes: the map's fastest point found again by the finite elements at its "
-                    "k (summary.json fe_check; not a parameter of the points: --resume keeps them)")
+                    "k; all: every unstable point's (summary.json fe_check; not a parameter of "
+                    "the points: --resume keeps them)")
     ap.add_argument("--resume", action="store_true", help="continue a run with the same "
                     "parameters in --out")
     ap.add_argument("--out", default=os.path.join("out", "stability_map"), help="output folder")
@@ -99,7 +102,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
     """Compute the map (points shared over the ranks; each written as it is done)."""
     args, comm = _cli.start(build_parser(), argv, comm)
     base, x, y, khs, region = validate(args)
-    if args.fe_check == "yes":
+    if args.fe_check != "no":
         fe_ready()  # collective: PETSc's initialisation
     nx, ny = len(x[1]), len(y[1])
     config = {"params": base.as_dict(), "x": args.x, "y": args.y, "kH": [float(v) for v in khs],
@@ -129,9 +132,12 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         rows = [rows[i] for i in range(nx * ny)]
         unstable = [r for r in rows if r["re_lambda"] is not None]
         fastest = max(unstable, key=lambda r: r["re_lambda"]) if unstable else None
-        fe = [] if args.fe_check == "no" or fastest is None else fe_points(
-            comm, sm.point_params(base, (x[0], fastest["x"]), (y[0], fastest["y"])),
-            [(fastest["k"], complex(fastest["re_lambda"], fastest["im_lambda"]))], region)
+        checked = [] if args.fe_check == "no" or fastest is None else (
+            unstable if args.fe_check == "all" else [fastest])
+        fe = [{"x": r["x"], "y": r["y"]} | got for r, got in zip(checked, fe_points(
+            comm, [sm.point_params(base, (x[0], r["x"]), (y[0], r["y"])) for r in checked],
+            [(r["k"], complex(r["re_lambda"], r["im_lambda"])) for r in checked], region),
+            strict=True)] if checked else []
         fe_line, fe_failed = fe_report(fe)
         if comm.rank == 0:
             with _cli.atomic_open(run.file("stability_map.csv"), "w", newline="") as fh:

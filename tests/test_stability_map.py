@@ -45,8 +45,8 @@ def test_committed_41_maps_fastest_point_found_by_the_fe(top):
         rows = _rows(path)
         assert len(checked) == len(rows) == 1681 and all(r["fe_proven"] for r in checked)
         _fe_checked(checked, rows, top)
-    (fe,) = [r for r in checked if r["k"] == best["k"]]
-    assert fe["fe_closed"] and fe["fe_proven"]
+    (fe,) = [r for r in checked if (r["x"], r["y"]) == (best["x"], best["y"])]
+    assert fe["k"] == best["k"] and fe["fe_closed"] and fe["fe_proven"]
     z = complex(fe["fe_re_lambda"], fe["fe_im_lambda"])
     exact = polish_root(Params(bc=top, Delta=best["x"], H=best["y"]), best["k"], z).value
     assert abs(z - exact) < 1e-9 * abs(exact)

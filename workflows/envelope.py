@@ -117,12 +117,12 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         re = np.array([r[0].real if r[0] is not None else np.nan for r in rows])
         best = comm.bcast(envelope_maximum(p, region, ks, [r[0] for r in rows])
                           if comm.rank == 0 else None)
-        peaks = [] if args.fe_check == "no" or best is None else [
+        points = [] if args.fe_check == "no" or best is None else [
             (pk["k"], complex(pk["re_lambda"], pk["im_lambda"])) for pk in best["local_peaks"]]
-        if args.fe_check == "all" and peaks:  # every sample with a root, and the refined peaks
-            peaks = sorted(({kk: r[0] for kk, r in zip(ks, rows, strict=True)
-                             if r[0] is not None} | dict(peaks)).items())
-        fe = fe_points(comm, p, list(peaks), region) if peaks else []
+        if args.fe_check == "all" and points:  # every sample with a root, and the refined peaks
+            points = sorted(({kk: r[0] for kk, r in zip(ks, rows, strict=True)
+                              if r[0] is not None} | dict(points)).items())
+        fe = fe_points(comm, p, points, region) if points else []
         fe_line, fe_failed = fe_report(fe)
         if comm.rank == 0:
             hs = halfspace.max_growth("dilatational", p.replace(H=math.inf))

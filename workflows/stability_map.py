@@ -134,10 +134,11 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         fastest = max(unstable, key=lambda r: r["re_lambda"]) if unstable else None
         checked = [] if args.fe_check == "no" or fastest is None else (
             unstable if args.fe_check == "all" else [fastest])
-        fe = [{"x": r["x"], "y": r["y"]} | got for r, got in zip(checked, fe_points(
+        got = fe_points(
             comm, [sm.point_params(base, (x[0], r["x"]), (y[0], r["y"])) for r in checked],
-            [(r["k"], complex(r["re_lambda"], r["im_lambda"])) for r in checked], region),
-            strict=True)] if checked else []
+            [(r["k"], complex(r["re_lambda"], r["im_lambda"])) for r in checked],
+            region) if checked else []
+        fe = [{"x": r["x"], "y": r["y"]} | g for r, g in zip(checked, got, strict=True)]
         fe_line, fe_failed = fe_report(fe)
         if comm.rank == 0:
             with _cli.atomic_open(run.file("stability_map.csv"), "w", newline="") as fh:

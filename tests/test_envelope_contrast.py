@@ -115,6 +115,33 @@ def test_envelope_fe_check_finds_every_local_maximum(tmp_path, which, nproc):
         assert abs(z - want[r["k"]]) < 1e-9 * abs(exact)
     n = len(want)
     assert f"FE check: {n} of {n} point(s) found again by the FE on its own" in proc.stdout
+    if which == "all":
+        check_fe_maximum(s, Params())
+        assert "FE's own maximum: Re Lambda = " in proc.stdout
+
+
+def check_fe_maximum(s: dict, p: Params) -> None:
+    """``envelope.py --fe-check all``'s ``fe_maximum``, the FE's own maximum over k: the exact
+    envelope's refined maxima are its referee, and an exact root polished at the FE's k and
+    either side of it says independently that the FE's k is a maximum of that mode."""
+    fm, exact = s["fe_maximum"], s["global_max_on_grid"]
+    assert fm["agrees"] and fm["local_maxima_as_exact"]
+    assert len(fm["local_peaks"]) == len(exact["local_peaks"])
+    for g in fm["local_peaks"]:  # each FE peak is the exact refined peak of its interval
+        assert g["same_mode"] and g["fe_closed"] and g["fe_proven"] and g["lost"] == 0
+        ex = min(exact["local_peaks"], key=lambda q: abs(q["k"] - g["k"]))
+        # both Brent searches stop at 1e-8 of the interval's end in k; measured at most 1.4e-7
+        # (k = 1, 3, 6, 10) and 7.4e-8 (the committed envelopes, k to 100) apart
+        assert abs(g["k"] - ex["k"]) < 1e-6 * ex["k"]
+        # Re at a maximum is flat in k: measured at most 3.3e-9 of Re (stress, 1.7e-12 of
+        # |Lambda|; the FE error at the 1e-8 rule, as at every sample)
+        assert abs(g["fe_re_lambda"] - ex["re_lambda"]) < 1e-8 * ex["re_lambda"]
+    k, z = fm["k"], complex(fm["re_lambda"], fm["im_lambda"])
+    at = polish_root(p, k, z).value
+    assert abs(at - z) < 1e-9 * abs(z)  # the FE's error at the 1e-8 rule, as above
+    for side in (k * (1 - 1e-4), k * (1 + 1e-4)):  # a smooth maximum: lower on both sides
+        assert polish_root(p, side, at).value.real < at.real
+    assert fm["re_lambda"] == max(g["fe_re_lambda"] for g in fm["local_peaks"])
 
 
 @pytest.mark.parametrize("nproc", [1, 2])
@@ -196,13 +223,42 @@ def test_fe_report_says_what_was_found_run_and_not_run(rows, line, failed):
     assert fe_report(rows) == (line, failed)
 
 
+SAMPLE = {"k": 2.0, "fe_re_lambda": 0.3, "fe_im_lambda": -8.0, "fe_closed": True}
+PEAK = {"k": 1.8, "fe_re_lambda": 0.32, "fe_im_lambda": -7.0, "same_mode": True}
+
+
+@pytest.mark.parametrize(("samples", "peaks", "exact", "want"), [
+    ([SAMPLE], [PEAK], {"k": 1.8, "re_lambda": 0.32, "im_lambda": -7.0},
+     {"source": "refined peak", "agrees": True, "k_rel_diff": 0.0}),
+    # a peak whose certified fastest is not the mode refined does not count
+    ([SAMPLE], [PEAK | {"same_mode": False}], {"k": 1.8, "re_lambda": 0.32, "im_lambda": -7.0},
+     {"source": "sample", "agrees": False}),
+    # an unclosed sample does not count; nothing left but an exact maximum: disagreement
+    ([SAMPLE | {"fe_closed": False}], [], {"k": 2.0, "re_lambda": 0.3, "im_lambda": -8.0},
+     {"re_lambda": None, "agrees": False}),
+    ([{"k": 2.0, "fe_re_lambda": None}], [], None, {"re_lambda": None, "agrees": True}),
+    # another mode, 1e-5 away: not the same (SAME_MODE = 1e-6)
+    ([SAMPLE], [], {"k": 2.0, "re_lambda": 0.3, "im_lambda": -8.0 * (1 + 1e-5)},
+     {"source": "sample", "agrees": False}),
+])
+def test_fe_maximum_agrees_only_on_the_same_mode(samples, peaks, exact, want):
+    """``_points.fe_maximum``: the FE's largest value counts closed samples and peaks certified
+    as the mode refined, and agrees with the exact maximum only on the same mode."""
+    from _points import fe_maximum
+
+    got = fe_maximum(samples, peaks, exact)
+    assert {key: got[key] for key in want} == want
+
+
 @pytest.mark.parametrize("top", ["velocity", "stress"])
 def test_committed_envelope_found_by_the_fe_at_every_point(top):
     """README "Envelope", session 40: the committed ``envelope.py --fe-check all`` runs. At every
     sample (255 stress, 300 velocity; k up to 100) and each of the 6 refined local maxima the
     envelope's value is the FE's own fastest eigenvalue at that k, in a region the FE's own
     climb proves, counts closed (stress: 261 points, at most 8.7e-13 relative from the exact
-    point). Re-checked here against an exact root polished from each FE value."""
+    point). Re-checked here against an exact root polished from each FE value. Session 41:
+    the six largest local maxima of the FE's own samples refined along the FE's modes and
+    certified at their k (``fe_maximum``) are the exact refined maxima."""
     folder = os.path.join(os.path.dirname(__file__), "..", "workflows", "results",
                           f"envelope_{top}")
     with open(os.path.join(folder, "summary.json")) as fh:
@@ -222,6 +278,7 @@ def test_committed_envelope_found_by_the_fe_at_every_point(top):
         assert abs(z - want[r["k"]]) < 1e-9 * abs(z)
         exact = polish_root(p, r["k"], z).value
         assert abs(z - exact) < 1e-9 * abs(exact)
+    check_fe_maximum(s, p)  # session 41: the maximum, refined by the FE on its own
 
 
 def test_committed_contrast_points_found_by_the_fe():

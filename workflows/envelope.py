@@ -19,7 +19,12 @@ failed at some k (each is reported, and left out of the maximum), and with ``--f
 (each local maximum) or ``all`` (every sample with a root) where the FE's count did not close or
 its fastest eigenvalue is not the exact point's (``workflows/_points.py``): with ``all`` the
 envelope is found by the finite elements on their own at every sample, the exact roots its
-referee.
+referee, and so is its maximum: the largest local maxima of the FE's own samples are refined
+along their FE modes and certified at the ``k`` found (``forms.studies.peaks``), giving the FE's
+own maximum (``summary.json`` ``fe_maximum``, a red cross-shaped marker), set against the exact
+one (exit code 1 if it is another mode). The samples themselves are placed by the exact
+envelope's refinement; ``fe_maximum`` ``local_maxima_as_exact`` says whether the FE's values
+have their local maxima at the same samples.
 """
 
 from __future__ import annotations
@@ -32,7 +37,7 @@ import os
 import _cli
 import _plots
 import numpy as np
-from _points import fastest_on, fe_points, fe_ready, fe_report
+from _points import envelope_fe, fastest_on, fe_maximum_line, fe_ready
 
 from analytic.numerics.spectrum import Region
 from analytic.params import require_rigid
@@ -73,7 +78,8 @@ def build_parser() -> argparse.ArgumentParser:
                     "alpha_pc, f gamma and H: dependence.png, summary.json plateau_dependence")
     ap.add_argument("--fe-check", choices=("no", "yes", "all"), default="no",
                     help="yes: each local maximum found again by the finite elements at its k; "
-                    "all: every sample with a root (summary.json fe_check)")
+                    "all: every sample with a root (summary.json fe_check), and the maximum "
+                    "refined by the FE on its own (summary.json fe_maximum)")
     ap.add_argument("--out", default=os.path.join("out", "envelope"), help="output folder")
     return ap
 
@@ -117,13 +123,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         re = np.array([r[0].real if r[0] is not None else np.nan for r in rows])
         best = comm.bcast(envelope_maximum(p, region, ks, [r[0] for r in rows])
                           if comm.rank == 0 else None)
-        points = [] if args.fe_check == "no" or best is None else [
-            (pk["k"], complex(pk["re_lambda"], pk["im_lambda"])) for pk in best["local_peaks"]]
-        if args.fe_check == "all" and points:  # every sample with a root, and the refined peaks
-            points = sorted(({kk: r[0] for kk, r in zip(ks, rows, strict=True)
-                              if r[0] is not None} | dict(points)).items())
-        fe = fe_points(comm, p, points, region) if points else []
-        fe_line, fe_failed = fe_report(fe)
+        fe, fe_line, fe_failed, fe_best = envelope_fe(comm, p, region, args.fe_check, ks,
+                                                      [r[0] for r in rows], best, re)
         if comm.rank == 0:
             hs = halfspace.max_growth("dilatational", p.replace(H=math.inf))
             with _cli.atomic_open(run.file("envelope.csv"), "w", newline="") as fh:
@@ -150,6 +151,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                                         if re[j] <= min(re[j - 1], re[j + 1])],
                        "failed_counts_k": [ks[i] for i in failed],
                        **({"fe_check": fe} if fe else {}),
+                       **({"fe_maximum": fe_best} if fe_best else {}),
                        "versions": _cli.versions(), "command": _cli.command()}
             large = [i for i in range(len(ks)) if ks[i] * p.H >= 5 and np.isfinite(re[i])]
             if args.dependence and large:
@@ -159,7 +161,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                                 config)
             with _cli.atomic_open(run.file("summary.json"), "w") as fh:
                 _cli.json_dump(summary, fh, indent=1)
-            plot(run.file("envelope.png"), p, np.array(ks), re, best, hs.growth, config, fe)
+            plot(run.file("envelope.png"), p, np.array(ks), re, best, hs.growth, config, fe,
+                 fe_best)
             if best is None:
                 _cli.say(f"no root in the region (Re Lambda >= {region.re_min:g}) at any k of "
                          f"[{ks[0]:g}, {ks[-1]:g}]")
@@ -170,6 +173,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                          f"{ks[-1] * p.H:g}: {re[-1]:.6f}; {_cli.proof_clause(proven, with_root)}")
             if fe_line:
                 _cli.say(fe_line)
+            if fe_best:
+                _cli.say(fe_maximum_line(fe_best))
             if failed:
                 _cli.say(f"warning: the count failed at {len(failed)} of {len(ks)} k value(s) "
                          "(no value there; the maximum is over the others); see "
@@ -179,8 +184,8 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
 
 
 def plot(path: str, p: object, k: np.ndarray, re: np.ndarray, best: dict | None, hs: float,
-         meta: dict, fe: list[dict] | None = None) -> None:
-    """envelope.png: max Re Lambda against k H (log axis); ``fe``: the FE's own points."""
+         meta: dict, fe: list[dict] | None = None, fe_best: dict | None = None) -> None:
+    """envelope.png: max Re Lambda against k H (log axis); ``fe``, ``fe_best``: the FE's own."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -196,6 +201,10 @@ def plot(path: str, p: object, k: np.ndarray, re: np.ndarray, best: dict | None,
     if best is not None:
         ax.plot([best["kH"]], [best["re_lambda"]], "*", ms=15, color="gold", mec="k",
                 label=f"maximum: {best['re_lambda']:.5f} at k H = {best['kH']:.3g}")
+    if fe_best is not None and fe_best["re_lambda"] is not None:
+        ax.plot([fe_best["k"] * p.H], [fe_best["re_lambda"]], "P", ms=9, color="tab:red",
+                mec="k", label=f"FE's own maximum: {fe_best['re_lambda']:.5f} at k H = "
+                f"{fe_best['k'] * p.H:.3g}")
     ax.axhline(hs, color="tab:blue", ls="--", lw=1,
                label=f"half-space dilatational maximum {hs:.2g}")
     ax.axhline(0, color="0.5", lw=0.6)

@@ -27,12 +27,15 @@ from analytic.numerics.roots import ContourError
 from analytic.numerics.spectrum import Region, family_peak, fastest_mode
 from analytic.params import Params
 
+#: Local maxima of the sampled envelope refined along their family (:func:`refine_envelope`;
+#: ``envelope.py --fe-check all`` refines as many along the FE's modes).
+PEAKS_REFINED = 6
 #: What ``workflows/envelope.py`` reports about its refinement.
 REFINEMENT = ("the grid: geometric midpoints inserted on both sides of every local extremum of "
               "the samples (maxima and minima) and in every interval where the fastest root "
               "changes family, until neighbours there are within the stated ratio; "
-              "then each of the 6 largest local maxima of the samples: golden-section on its "
-              "root's family, checked to be the fastest in R")
+              f"then each of the {PEAKS_REFINED} largest local maxima of the samples: "
+              "golden-section on its root's family, checked to be the fastest in R")
 
 
 def local_extrema(re: Sequence[float]) -> list[int]:
@@ -44,6 +47,18 @@ def local_extrema(re: Sequence[float]) -> list[int]:
     v = np.asarray(re, dtype=float)
     return [j for j in range(1, len(v) - 1) if np.isfinite(v[j - 1:j + 2]).all()
             and (v[j] >= max(v[j - 1], v[j + 1]) or v[j] <= min(v[j - 1], v[j + 1]))]
+
+
+def local_maxima(re: Sequence[float], top: int = PEAKS_REFINED) -> list[int]:
+    """Indices of the ``top`` largest local maxima of sampled values, largest first.
+
+    A sample counts when it has a value (not NaN) and is ``>=`` each neighbour that has one; the
+    ends count against their one neighbour (a maximum at the grid's edge is refined towards it).
+    """
+    v = np.where(np.isfinite(np.asarray(re, dtype=float)), re, -np.inf)
+    peaks = [j for j in range(len(v)) if np.isfinite(v[j])
+             and v[j] >= v[max(j - 1, 0)] and v[j] >= v[min(j + 1, len(v) - 1)]]
+    return sorted(peaks, key=lambda i: -v[i])[:top]
 
 
 def same_family(p: Params, ka: float, za: complex, kb: float, zb: complex, dk: float = 0.05
@@ -122,7 +137,8 @@ def extremum_midpoints(ks: Sequence[float], re: Sequence[float], min_ratio: floa
     return sorted(new)
 
 
-def refine_envelope(p: Params, region: Region, ks: list[float], zs: list, top: int = 6) -> dict:
+def refine_envelope(p: Params, region: Region, ks: list[float], zs: list,
+                    top: int = PEAKS_REFINED) -> dict:
     """Refine the ``top`` largest local maxima of the sampled envelope.
 
     The envelope is a maximum over families (a new mode takes over as k grows): it has kinks
@@ -143,11 +159,9 @@ def refine_envelope(p: Params, region: Region, ks: list[float], zs: list, top: i
         that is the fastest in ``R``, and every refined peak.
     """
     re = np.array([z.real if z is not None else -np.inf for z in zs])
-    interior = [j for j in range(len(ks)) if np.isfinite(re[j])
-                and re[j] >= re[max(j - 1, 0)] and re[j] >= re[min(j + 1, len(ks) - 1)]]
     best = {"k": ks[int(np.argmax(re))], "Lambda": zs[int(np.argmax(re))], "fastest": True}
     peaks = []
-    for j in sorted(interior, key=lambda i: -re[i])[:top]:
+    for j in local_maxima(re, top):
         lo, hi = ks[max(j - 1, 0)], ks[min(j + 1, len(ks) - 1)]
         k, z = family_peak(p, ks[j], zs[j], lo, hi)
         try:

@@ -69,6 +69,78 @@ def _fe_checked(fe: list[dict], rows: list[dict], top: str = "velocity") -> None
         assert abs(z - point) < 1e-9 * abs(exact)
 
 
+def _fe_grid_checked(out: Path, rows: list[dict], point_params, kh_max: float) -> None:
+    """``--fe-check grid``: every point's value found by the FE alone (``fe_grid``), set against
+    the exact map (its referee) and, independently, against exact roots polished here from the
+    FE's own values; a stable point's FE zero counts against an exact count in a wider region
+    (Re Lambda >= 1e-6 up to 5, phase velocities up to 12 c_d) at every grid k."""
+    s = json.loads((out / "summary.json").read_text())
+    grid = s["fe_grid"]
+    with open(out / "fe_grid.csv") as fh:
+        samples = list(csv.DictReader(fh))
+    assert len(grid) == len(rows) and len(samples) == len(rows) * s["kH_grid"]["count"]
+    for q, r in zip(grid, rows, strict=True):
+        assert (q["x"], q["y"]) == (float(r["x"]), float(r["y"]))
+        assert q["agrees"] and q["counts_closed"] and q["stable_as_exact"]
+        assert q["fe_stable_on_grid"] == (r["stable_on_grid"] == "True")
+        if q["fe_stable_on_grid"]:
+            continue
+        p = point_params(r)
+        z = complex(q["re_lambda"], q["im_lambda"])
+        at = polish_root(p, q["k"], z).value
+        # the FE at the sweep's 1e-8 rule: measured at most 4.0e-12 relative (committed maps)
+        assert abs(at - z) < 1e-9 * abs(at)
+        # the FE's maximum is the exact point's growth rate: Re measured to 7e-12 relative
+        # (its k is a maximum's: flat, 2e-6 apart on the 3-sample SMALL map, so not compared)
+        assert abs(q["re_lambda"] - float(r["re_lambda"])) < 1e-9 * abs(at)
+        assert all(g["same_mode"] for g in q["peaks"])
+    wide = Region(1e-6, 5.0, 12.0)
+    for smp in samples:
+        p, k = point_params(smp), float(smp["k"])
+        assert smp["fe_closed"] == "True" and float(smp["kH"]) <= kh_max * (1 + 1e-12)
+        if smp["fe_re_lambda"] == "":  # the FE counted nothing in its region: nor does det_M
+            assert int(smp["fe_count"]) == 0
+            assert count_zeros(spectrum_function(p, k), wide.box(p, k)) == 0
+            continue
+        z = complex(float(smp["fe_re_lambda"]), float(smp["fe_im_lambda"]))
+        assert abs(polish_root(p, k, z).value - z) < 1e-9 * abs(z)
+
+
+@pytest.mark.parametrize("nproc", [1, 2])
+def test_fe_grid_finds_every_point_and_stability_on_its_own(tmp_path, nproc):
+    """``--fe-check grid`` on SMALL (2 stable and 7 unstable points): every point's value and
+    every stable point by the FE alone; the map itself is that of a run without the check."""
+    out = tmp_path / "m"
+    proc = run_workflow("stability_map.py", [*SMALL, "--fe-check", "grid", "--out", str(out)],
+                        nproc=nproc)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    rows = _rows(out)
+    assert sum(r["stable_on_grid"] == "True" for r in rows) == 2
+    _fe_grid_checked(out, rows, lambda r: Params(H=1.0, Delta=float(r["x"]),
+                                                 gamma=float(r["y"])), 1.0)
+    assert ("FE grid: at 9 of 9 point(s) the FE's own maximum over the k H grid, refined along "
+            "its modes, is the exact point's") in proc.stdout
+    assert "2 stable by the FE's own counts; 0 point(s) with a count not closed" in proc.stdout
+
+
+GOOD = {"agrees": True, "counts_closed": True, "stable_as_exact": True, "re_rel_diff": 1e-12,
+        "k_rel_diff": 1e-7, "fe_stable_on_grid": False}
+
+
+@pytest.mark.parametrize(("change", "failed"), [
+    ({}, 0), ({"agrees": False}, 1), ({"counts_closed": False}, 1),
+    ({"stable_as_exact": False}, 1),
+    ({"fe_stable_on_grid": True, "re_rel_diff": None, "k_rel_diff": None}, 0)])
+def test_fe_grid_line_counts_a_point_that_disagrees_as_failed(change, failed):
+    """``_points.map_fe_line``: a point whose FE value is another mode, whose count did not
+    close or whose stability differs from the exact point's is a failed point (exit code 1)."""
+    from _points import map_fe_line
+
+    line, n = map_fe_line([GOOD, GOOD | change])
+    assert n == failed
+    assert line.startswith(f"FE grid: at {2 - failed} of 2 point(s)")
+
+
 @pytest.mark.parametrize("nproc", [1, 2])
 @pytest.mark.parametrize("which", ["yes", "all"])
 def test_fe_check_finds_the_maps_fastest_point(tmp_path, which, nproc):
@@ -100,13 +172,18 @@ def test_fe_check_finds_the_maps_fastest_point(tmp_path, which, nproc):
 def test_committed_63_point_maps_found_by_the_fe_at_every_point(top):
     """README "Stability map", session 40: the committed 63-point maps with ``--fe-check all``:
     at every point (all unstable) the fastest mode is the FE's own fastest eigenvalue at its k,
-    count closed, region proven by the FE's climb."""
+    count closed, region proven by the FE's climb. Session 41 (``--fe-check grid``): every
+    point's value is also the FE's own maximum over the grid, its peaks refined along its
+    modes, and every one of the 1 008 FE samples is an exact root."""
     path = Path(__file__).parent.parent / "workflows" / "results" / f"stability_map_{top}"
     s = json.loads((path / "summary.json").read_text())
     rows = _rows(path)
     assert len(rows) == len(s["fe_check"]) == 63
     assert all(r["fe_proven"] for r in s["fe_check"])
     _fe_checked(s["fe_check"], rows, top)
+    # session 41, --fe-check grid: each point's value by the FE alone, over all 16 grid k
+    _fe_grid_checked(path, rows, lambda r: Params(bc=top, Delta=float(r["x"]), H=float(r["y"])),
+                     10.0)
 
 
 @pytest.mark.slow  # 25 s serial on a quiet machine, 80-90 s with 7 helpers running

@@ -18,8 +18,14 @@ Exit code 1 if a root count failed somewhere (the point is then not called stabl
 ``--fe-check yes``: the map's fastest point handed to the certified FE sweep's own path at its
 ``k`` (no exact root consulted; ``workflows/_points.py``), ``all``: every unstable point's fastest
 mode: ``summary.json`` ``fe_check`` (with each point's ``x``, ``y``); exit code 1 also where the
-FE's count did not close or its fastest eigenvalue is not that point's. (A stable point is not
-checked: that would take the FE's count at every ``k`` of the grid.)
+FE's count did not close or its fastest eigenvalue is not that point's (``all`` leaves a
+stable point unchecked). ``grid``: as ``all``,
+and every point's value found by the finite elements alone: the FE's own fastest eigenvalue
+(or its zero count: stable) at every ``k H`` of the grid, the largest local maxima of those
+refined along the FE's modes and certified at their ``k`` (``forms.studies.peaks``), the
+largest set against the exact point (``summary.json`` ``fe_grid``, every sample in
+``fe_grid.csv``; exit code 1 where a count did not close or the FE's value is not the exact
+point's mode or stability).
 """
 
 from __future__ import annotations
@@ -32,13 +38,13 @@ import os
 import _cli
 import _plots
 import numpy as np
-from _points import fe_points, fe_ready, fe_report
+from _points import GRID_COLUMNS, fe_points, fe_ready, fe_report, map_fe_grid, map_fe_line
 
 from analytic.studies import stability_map as sm
 
 PETSC_PREFIXES: tuple[str, ...] = ()
-OUTPUTS = ("stability_map.csv", "summary.json", "stability_map.png", "run.json", "run.lock",
-           "raw")
+OUTPUTS = ("stability_map.csv", "summary.json", "stability_map.png", "fe_grid.csv", "run.json",
+           "run.lock", "raw")
 COLUMNS = ("ix", "iy", "x", "y", "re_lambda", "im_lambda", "k", "kH", "phase_velocity_over_c_d",
            "stable_on_grid", "unstable_k_count", "failed_counts", "proven_k_count",
            "c_max_largest", "delta_closed_form")
@@ -66,10 +72,12 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--re-min", type=float, default=1e-6,
                     help="region: smallest Re Lambda counted as unstable (> 0: the contour "
                     "stays off Lambda = 0)")
-    ap.add_argument("--fe-check", choices=("no", "yes", "all"), default="no",
+    ap.add_argument("--fe-check", choices=("no", "yes", "all", "grid"), default="no",
                     help="yes: the map's fastest point found again by the finite elements at its "
-                    "k; all: every unstable point's (summary.json fe_check; not a parameter of "
-                    "the points: --resume keeps them)")
+                    "k; all: every unstable point's (summary.json fe_check); grid: as all, and "
+                    "every point's value found by the FE alone: its fastest eigenvalue at every "
+                    "k H of the grid, its peaks refined along its modes (summary.json fe_grid, "
+                    "fe_grid.csv); not a parameter of the points: --resume keeps them")
     ap.add_argument("--resume", action="store_true", help="continue a run with the same "
                     "parameters in --out")
     ap.add_argument("--out", default=os.path.join("out", "stability_map"), help="output folder")
@@ -133,18 +141,27 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
         unstable = [r for r in rows if r["re_lambda"] is not None]
         fastest = max(unstable, key=lambda r: r["re_lambda"]) if unstable else None
         checked = [] if args.fe_check == "no" or fastest is None else (
-            unstable if args.fe_check == "all" else [fastest])
+            [fastest] if args.fe_check == "yes" else unstable)
         got = fe_points(
             comm, [sm.point_params(base, (x[0], r["x"]), (y[0], r["y"])) for r in checked],
             [(r["k"], complex(r["re_lambda"], r["im_lambda"])) for r in checked],
             region) if checked else []
         fe = [{"x": r["x"], "y": r["y"]} | g for r, g in zip(checked, got, strict=True)]
         fe_line, fe_failed = fe_report(fe)
+        fe_grid, fe_samples = map_fe_grid(  # every point's value by the FE alone
+            comm, [sm.point_params(base, (x[0], r["x"]), (y[0], r["y"])) for r in rows], khs,
+            region, rows) if args.fe_check == "grid" else ([], [])
+        grid_line, grid_failed = map_fe_line(fe_grid) if fe_grid else (None, 0)
         if comm.rank == 0:
             with _cli.atomic_open(run.file("stability_map.csv"), "w", newline="") as fh:
                 w = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")
                 w.writeheader()
                 w.writerows(rows)
+            if fe_samples:
+                with _cli.atomic_open(run.file("fe_grid.csv"), "w", newline="") as fh:
+                    w = csv.DictWriter(fh, fieldnames=GRID_COLUMNS, extrasaction="ignore")
+                    w.writeheader()
+                    w.writerows(fe_samples)
             summary = {"parameters": base.as_dict(), "x": {"name": x[0], "spec": args.x},
                        "y": {"name": y[0], "spec": args.y}, "region": region.as_dict(base),
                        "kH_grid": {"min": args.kH_min, "max": args.kH_max, "count": args.nk,
@@ -152,6 +169,7 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                        "coverage": COVERAGE, "points": nx * ny,
                        "stable_on_grid": sum(bool(r["stable_on_grid"]) for r in rows),
                        "fastest_point": fastest, **({"fe_check": fe} if fe else {}),
+                       **({"fe_grid": fe_grid} if fe_grid else {}),
                        "failed_counts": failed,
                        "resumed": run.resumed, "mpi_ranks": comm.size,
                        "versions": _cli.versions(), "command": _cli.command()}
@@ -163,13 +181,14 @@ def main(comm: object = None, argv: list[str] | None = None) -> int:
                      f"(kH <= {args.kH_max:g}); fastest: " + ("none" if fastest is None else
                      f"Re Lambda = {fastest['re_lambda']:.5g} at {x[0]} = {fastest['x']:g}, "
                      f"{y[0]} = {fastest['y']:g}, k H = {fastest['kH']:.4g}; {proof}"))
-            if fe_line:
-                _cli.say(fe_line)
+            for line in (fe_line, grid_line):
+                if line:
+                    _cli.say(line)
             if failed:
                 _cli.say(f"warning: {failed} root count(s) failed (see failed_counts in "
                          "stability_map.csv)", err=True)
         comm.Barrier()  # a rank leaving with code 1 first would make mpirun stop rank 0's writing
-    return 1 if failed or fe_failed else 0
+    return 1 if failed or fe_failed or grid_failed else 0
 
 
 #: What summary.json says about the coverage in k.

@@ -80,7 +80,13 @@ def kh_grid(kh_min: float, kh_max: float, count: int) -> np.ndarray:
     return np.geomspace(kh_min, kh_max, count)
 
 
-def map_point(p: Params, khs: np.ndarray, region: Region, top: int = 2) -> dict:
+#: Local maxima of a point's samples over ``k H`` refined along their family (:func:`map_point`;
+#: ``stability_map.py --fe-check grid`` refines as many along the FE's modes).
+MAP_PEAKS_REFINED = 2
+
+
+def map_point(p: Params, khs: np.ndarray, region: Region, top: int = MAP_PEAKS_REFINED
+              ) -> dict:
     """The largest growth rate over every root in ``region`` and every ``k = khs / H``.
 
     Args:

@@ -65,12 +65,13 @@ def fe_own(params: Any, k: float, region: Any) -> dict:
 def fe_point(params: Any, k: float, exact: complex | None, region: Any) -> dict:
     """The FE's own fastest mode at ``k`` (:func:`fe_own`) set against the exact point ``exact``.
 
-    A point without a root is not run (``fe_note``).
+    A point without a root is not run (``fe_note``; a half-space substrate's note first, as
+    :func:`fe_own` gives it).
 
     Returns:
         :data:`FE_COLUMNS` (``fe_rel_diff``: ``|FE - exact| / |exact|``).
     """
-    if exact is None:
+    if exact is None and not (params.two_body and not math.isfinite(params.H2)):
         return dict.fromkeys(FE_COLUMNS) | {"fe_note": "no exact root to check"}
     out = fe_own(params, k, region)
     if out["fe_re_lambda"] is not None:

@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -980,43 +980,73 @@ def family_peak(p: Params, k0: float, z0: complex, lo: float, hi: float, *,
                 dk: float = 0.05) -> tuple[float, complex]:
     """Largest ``Re Lambda`` of the root family through ``(k0, z0)`` for ``k`` in ``[lo, hi]``.
 
-    Brent's bounded search on ``k`` (golden section and parabolic steps,
-    ``scipy.optimize.minimize_scalar``, to :data:`PEAK_XTOL` ``hi``); the root at each ``k``
-    is reached by polishing in steps of at most ``dk`` from the nearest ``k`` already on the
-    family (``k0`` or an earlier evaluation, each itself reached from ``(k0, z0)`` that way;
-    the family's growth rate is smooth, unlike the envelope, which jumps between families).
-    Starting from the nearest point instead of ``k0`` every time: 1-2 polishes per evaluation
-    once the search narrows. Measured on the stress 5 x 5 map: 597 evaluations for 50 peaks
-    (about 12 each) where the golden section alone took 2 100 (42).
+    :func:`peak_along` with a polish of ``det_M``'s root as its step (the family's growth rate
+    is smooth, unlike the envelope, which jumps between families). Starting each evaluation
+    from the nearest point instead of ``k0``: 1-2 polishes per evaluation once the search
+    narrows. Measured on the stress 5 x 5 map: 597 evaluations for 50 peaks (about 12 each)
+    where the golden section alone took 2 100 (42).
 
     Returns:
         ``(k, Lambda)`` at the largest value evaluated.
     """
-    from scipy.optimize import minimize_scalar
-
     from analytic.numerics.branches import polish_root
 
-    reached: dict[float, complex] = {float(k0): complex(z0)}
+    evaluated = peak_along(lambda k, guess, _: (polish_root(p, k, guess).value, None),
+                           k0, (complex(z0), None), lo, hi, dk)
+    k = max(evaluated, key=lambda q: evaluated[q].real)
+    return k, evaluated[k]
+
+
+def peak_along(step: Callable[[float, complex, Any], tuple[complex, Any] | None], k0: float,
+               start: tuple[complex, Any], lo: float, hi: float, dk: float
+               ) -> dict[float, complex]:
+    """Brent's bounded search on ``k`` for the largest ``Re Lambda`` of one mode in ``[lo, hi]``.
+
+    Golden section and parabolic steps (``scipy.optimize.minimize_scalar``, to
+    :data:`PEAK_XTOL` ``hi``); the mode at each ``k`` is reached by ``step`` in steps of at
+    most ``dk`` from the nearest ``k`` already reached (``k0`` with ``start``, or an earlier
+    evaluation, each itself reached from ``k0`` that way). The exact roots'
+    (:func:`family_peak`) and the finite elements' (``forms.studies.peaks``) searches.
+
+    Args:
+        step: ``(k, guess, state) -> (Lambda, state)`` at ``k`` from the predictor ``guess``
+            and the ``state`` of the point it starts from (e.g. an eigenvector), or ``None``
+            if it failed: the evaluation then tells the search ``-inf``.
+        k0: Where the mode is known.
+        start: Its ``(Lambda, state)`` there.
+        lo: Left end of the interval.
+        hi: Right end.
+        dk: Largest step.
+
+    Returns:
+        ``{k: Lambda}`` of every evaluation that reached its ``k``.
+    """
+    from scipy.optimize import minimize_scalar
+
+    reached: dict[float, tuple[complex, Any]] = {float(k0): start}
     evaluated: dict[float, complex] = {}
 
     def loss(k: float) -> float:
         k = float(k)
         ks = min(reached, key=lambda q: abs(q - k))
-        z = reached[ks]
+        z, state = reached[ks]
         n = max(1, int(math.ceil(abs(k - ks) / dk)))
         h = (k - ks) / n
-        # the nearest other point within dk of ks gives the family's slope: the first start is
+        # the nearest other point within dk of ks gives the mode's slope: the first start is
         # on its secant, each later one on the secant of the last two steps
         near = min((q for q in reached if q != ks), key=lambda q: abs(q - ks), default=None)
-        slope = (z - reached[near]) / (ks - near) \
+        slope = (z - reached[near][0]) / (ks - near) \
             if near is not None and abs(near - ks) <= dk else 0.0
         for i in range(1, n + 1):
-            w = polish_root(p, ks + h * i, z + slope * h).value
+            got = step(ks + h * i, z + slope * h, state)
+            if got is None:
+                return math.inf
+            w, state = got
             slope, z = (w - z) / h, w
-        evaluated[k] = reached[k] = z
+        reached[k] = (z, state)
+        evaluated[k] = z
         return -z.real
 
     minimize_scalar(loss, bounds=(lo, hi), method="bounded",
                     options={"xatol": PEAK_XTOL * abs(hi)})
-    k = max(evaluated, key=lambda q: evaluated[q].real)
-    return k, evaluated[k]
+    return evaluated

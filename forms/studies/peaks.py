@@ -5,8 +5,8 @@ A scene that samples the FE's fastest eigenvalue over ``k`` (``envelope.py --fe-
 refined by the finite elements alone: the FE mode at the sample is continued in ``k`` by
 Newton on the discrete problem (:meth:`forms.solvers.banded.BandedOperator.newton`, the
 eigenvector carried along) and its growth rate maximised over the neighbouring interval by
-Brent's bounded search (:func:`fe_mode_peak`: the exact roots'
-:func:`analytic.numerics.spectrum.family_peak` with the FE in place of ``det_M``); then
+Brent's bounded search (:func:`fe_mode_peak`: the exact roots' search,
+:func:`analytic.numerics.spectrum.peak_along`, with the FE in place of ``det_M``); then
 :func:`fe_fastest` certifies the result at the ``k`` found (its count, its climbed region), so
 that the scene can say whether the refined mode is the FE's fastest there (:func:`fe_peak`).
 No exact root is consulted: the exact refined maxima are the scene's referee.
@@ -14,10 +14,9 @@ No exact root is consulted: the exact refined maxima are the scene's referee.
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
-from analytic.numerics.spectrum import PEAK_XTOL, Region
+from analytic.numerics.spectrum import Region, peak_along
 from analytic.params import Params
 from forms.studies.sweep import RungSolvers, fe_fastest
 
@@ -30,13 +29,11 @@ def fe_mode_peak(banded: Any, k0: float, z0: complex, lo: float, hi: float,
                  dk: float = PEAK_DK) -> dict:
     """Largest ``Re Lambda`` of the FE mode through ``(k0, z0)`` for ``k`` in ``[lo, hi]``.
 
-    Brent's bounded search on ``k`` (``scipy.optimize.minimize_scalar``, to
-    :data:`analytic.numerics.spectrum.PEAK_XTOL` ``hi``); the mode at each ``k`` is reached by
-    Newton on the discrete problem in steps of at most ``dk`` from the nearest ``k`` already
-    reached (its value and eigenvector; the start on the secant of the last two steps), as
-    :func:`analytic.numerics.spectrum.family_peak` reaches an exact root. A step whose Newton
+    :func:`analytic.numerics.spectrum.peak_along` (Brent's bounded search, the exact roots'
+    :func:`analytic.numerics.spectrum.family_peak`) with Newton on the discrete problem as its
+    step, the eigenvector carried from the point each step starts from. A step whose Newton
     does not converge ends that evaluation (counted in ``lost``; the search is told the value
-    is ``-inf`` there).
+    is ``-inf`` there). The sample itself counts as an evaluation.
 
     Args:
         banded: The degree-``p`` banded model (:class:`forms.solvers.banded.BandedModel`).
@@ -47,50 +44,27 @@ def fe_mode_peak(banded: Any, k0: float, z0: complex, lo: float, hi: float,
         dk: Largest continuation step.
 
     Returns:
-        ``k``, ``value`` (the largest ``Re`` reached, with its ``Lambda``), ``evaluations``,
-        ``lost`` (evaluations whose continuation failed), ``factorizations``.
+        ``k``, ``value`` (the largest ``Re`` reached, with its ``Lambda``; ``None``: Newton
+        failed at the sample), ``evaluations``, ``lost`` (evaluations whose continuation
+        failed), ``factorizations``.
     """
-    from scipy.optimize import minimize_scalar
-
-    reached: dict[float, tuple[complex, Any]] = {}
-    evaluated: dict[float, complex] = {}
     count = {"lost": 0, "factorizations": 0}
 
     def newton(k: float, guess: complex, x: Any) -> tuple[complex, Any] | None:
         op = banded.operator(k)
         e = op.newton(guess, x)
         count["factorizations"] += op.factorizations
-        return (complex(e.value), e.vector) if e.converged else None
+        if not e.converged:
+            count["lost"] += 1
+            return None
+        return complex(e.value), e.vector
 
     start = newton(float(k0), complex(z0), None)
     if start is None:
-        return {"k": float(k0), "value": None, "evaluations": 0, "lost": 1,
-                "factorizations": count["factorizations"]}
-    reached[float(k0)] = start
-    evaluated[float(k0)] = start[0]
-
-    def loss(k: float) -> float:
-        k = float(k)
-        ks = min(reached, key=lambda q: abs(q - k))
-        z, x = reached[ks]
-        n = max(1, int(math.ceil(abs(k - ks) / dk)))
-        h = (k - ks) / n
-        near = min((q for q in reached if q != ks), key=lambda q: abs(q - ks), default=None)
-        slope = (z - reached[near][0]) / (ks - near) \
-            if near is not None and abs(near - ks) <= dk else 0.0
-        for i in range(1, n + 1):
-            got = newton(ks + h * i, z + slope * h, x)
-            if got is None:
-                count["lost"] += 1
-                return math.inf
-            slope, (z, x) = (got[0] - z) / h, got
-        reached[k] = (z, x)
-        evaluated[k] = z
-        return -z.real
-
+        return {"k": float(k0), "value": None, "evaluations": 0, **count}
+    evaluated = {float(k0): start[0]}
     if hi > lo:
-        minimize_scalar(loss, bounds=(lo, hi), method="bounded",
-                        options={"xatol": PEAK_XTOL * abs(hi)})
+        evaluated |= peak_along(newton, k0, start, lo, hi, dk)
     k = max(evaluated, key=lambda q: evaluated[q].real)
     return {"k": k, "value": evaluated[k], "evaluations": len(evaluated), **count}
 
